@@ -1,0 +1,165 @@
+package fgm
+
+import chisel3.util.log2Ceil
+import fixed.{FixedOps, Rounding}
+
+/** Everything the FGM generator needs: sizes, word widths (from the overflow bounds, Prop. 1 of 002, computed by
+  * the Python front end) and the quantised problem data that initialises the memories.
+  * Integers are fixed-point words with `fracBits` fraction bits.
+  *
+  * @param n      decision variables N*nu
+  * @param nu     inputs per stage (the warm start shifts by nu)
+  * @param nw     parameter words per solve: state x then reference r
+  * @param P      parallelism: row units working on rows p, p+P, p+2P, ...
+  * @param a      (I - H_n), n x n
+  * @param f      Phi_n, n x nw
+  */
+case class FgmParams(
+    name: String,
+    n: Int,
+    nu: Int,
+    nw: Int,
+    P: Int,
+    fracBits: Int,
+    latAdd: Int,
+    latMul: Int,
+    rounding: Rounding,
+    coefW: Int,
+    xW: Int,
+    yW: Int,
+    zW: Int,
+    sumW: Int,
+    tW: Int,
+    betaW: Int,
+    streamW: Int,
+    imaxDefault: Int,
+    warmDefault: Boolean,
+    outAllDefault: Boolean,
+    a: Seq[Seq[BigInt]],
+    f: Seq[Seq[BigInt]],
+    lo: Seq[BigInt],
+    hi: Seq[BigInt],
+    xlo: Seq[BigInt],
+    xhi: Seq[BigInt],
+    beta: BigInt,
+    onePlusBeta: BigInt) {
+
+  require(n >= 1, s"n must be >= 1, got n=$n")
+  require(nu >= 1 && n % nu == 0, s"nu must divide n: got nu=$nu, n=$n")
+  require(nw >= 1, s"nw (state + reference words) must be >= 1, got nw=$nw")
+  require(P >= 1, s"P must be >= 1: got P=$P")
+  require(P <= n, s"P must not exceed n (one row unit per variable at most): got P=$P, n=$n")
+  require(latAdd >= 0 && latMul >= 0, s"latencies must be >= 0: got lat_add=$latAdd, lat_mul=$latMul")
+  require(fracBits >= 1, s"frac_bits must be >= 1, got $fracBits")
+  for ((nm, w) <- Seq("coef" -> coefW, "x" -> xW, "z" -> zW, "beta" -> betaW))
+    require(w >= 2 && w <= 32, s"$nm width must be in [2, 32] (one AXI4-Lite word): got $w")
+  for ((nm, w) <- Seq("y" -> yW, "sum" -> sumW, "t" -> tW))
+    require(w >= 2 && w <= 64, s"$nm width must be in [2, 64]: got $w")
+  require(streamW % 8 == 0 && streamW >= math.max(xW, zW) && streamW <= 64,
+    s"stream width must be a multiple of 8 in [max(x, z width), 64]: got $streamW, x=$xW, z=$zW")
+  require(imaxDefault >= 1 && imaxDefault <= 65535, s"iterations must be in [1, 65535], got $imaxDefault")
+  require(a.length == n && a.forall(_.length == n), s"A must be $n x $n")
+  require(f.length == n && f.forall(_.length == nw), s"F must be $n x $nw")
+  require(lo.length == n && hi.length == n, s"lo/hi must have $n entries")
+  require(xlo.length == nw && xhi.length == nw, s"xlo/xhi must have $nw entries")
+  require(lo.zip(hi).forall { case (l, h) => l <= h }, "input bounds: lo <= hi required for every component")
+  require(xlo.zip(xhi).forall { case (l, h) => l <= h }, "state box: xlo <= xhi required for every component")
+
+  private def fits(v: BigInt, w: Int) = v >= FixedOps.minOf(w) && v <= FixedOps.maxOf(w)
+  require((a.flatten ++ f.flatten).forall(fits(_, coefW)), s"a matrix entry does not fit the coefficient width $coefW")
+  require((lo ++ hi).forall(fits(_, zW)), s"an input bound does not fit the z width $zW")
+  require((xlo ++ xhi).forall(fits(_, xW)), s"a state bound does not fit the x width $xW")
+  require(fits(beta, betaW) && fits(onePlusBeta, betaW), s"beta does not fit the beta width $betaW")
+
+  /** Rows per unit ceil(n/P). */
+  val K: Int = (n + P - 1) / P
+  /** Multipliers per dot product: the h = Phi_n x pass shares them, so max(n, nw). */
+  val m: Int = math.max(n, nw)
+  val depth: Int = log2Ceil(m)
+  /** Operand width: the multiplexer of Fig. 1 feeds y (iterations) or x (first pass). */
+  val opW: Int = math.max(xW, yW)
+  /** Stages from the matrix-row fetch: operands, tree sum, t, z, y (see FgmCore). */
+  val stageSum: Int = 1 + latMul + latAdd * depth
+  val stageT:   Int = stageSum + latAdd
+  val stageZ:   Int = stageT + latAdd
+  val stageY:   Int = stageZ + latMul + latAdd
+  /** Cycles per iteration, eq. (23) of 002 with ceil(log2 max(n, nw)) levels. */
+  val cyclesPerIteration: Int = K + latAdd * depth + 2 * latMul + 3 * latAdd + 1
+  val cyclesEq23: Int = K + latAdd * log2Ceil(n) + 2 * latMul + 3 * latAdd + 1
+  /** From the handshake of the last input word to the first output word valid: 2 + K + Imax * L. */
+  val solveOverhead: Int = 2 + K
+  def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * cyclesPerIteration
+  val multipliers: Int = P * m + 2 * P
+
+  val moduleName: String = s"FgmCore_${name}_n${n}_p${P}_b${fracBits}"
+
+  // ---- register map (word addresses; byte address = 4 * word) ----
+  val pBits: Int = log2Ceil(P)
+  val cBits: Int = log2Ceil(m)
+  val slots: Int = K << pBits
+  private def pow2(x: Int): Int = 1 << log2Ceil(math.max(1, x))
+  val regionSizes: Seq[(String, Int)] =
+    Seq("XBOX" -> pow2(2 * nw), "UBOX" -> pow2(2 * slots), "MAT_A" -> pow2(slots << cBits), "MAT_F" -> pow2(slots << cBits))
+  val regionBase: Map[String, Int] = {
+    var cur = 16
+    regionSizes.sortBy(-_._2).map { case (nm, sz) =>
+      val b = ((cur + sz - 1) / sz) * sz
+      cur = b + sz
+      nm -> b
+    }.toMap
+  }
+  val addrWords: Int = regionSizes.map { case (nm, sz) => regionBase(nm) + sz }.max
+  /** Byte-address width of the AXI4-Lite port. */
+  val axiAddrW: Int = log2Ceil(addrWords) + 2
+
+  /** Memory contents per row unit: rows 0..K-1 hold (I - H_n) rows kP+p, rows K..2K-1 the Phi_n rows. */
+  def matInit(p: Int): Seq[Seq[BigInt]] = {
+    val zero = Seq.fill(m)(BigInt(0))
+    def pad(r: Seq[BigInt]) = r ++ Seq.fill(m - r.length)(BigInt(0))
+    val rows = (0 until K).map(_ * P + p)
+    rows.map(r => if (r < n) pad(a(r)) else zero) ++ rows.map(r => if (r < n) pad(f(r)) else zero)
+  }
+  def boundInit(p: Int): Seq[Seq[BigInt]] =
+    (0 until K).map(_ * P + p).map(r => if (r < n) Seq(lo(r), hi(r)) else Seq(BigInt(0), BigInt(0)))
+}
+
+object FgmParams {
+  private def ints(v: ujson.Value): Seq[BigInt] = v.arr.toSeq.map(x => BigInt(x.num.toLong))
+  private def mat(v: ujson.Value): Seq[Seq[BigInt]] = v.arr.toSeq.map(ints)
+
+  /** Read the config.json written by the Python front end (verif/fgm/design.py). */
+  def fromJson(text: String): FgmParams = {
+    val j = ujson.read(text)
+    val w = j("widths")
+    FgmParams(
+      name = j("name").str,
+      n = j("n").num.toInt,
+      nu = j("nu").num.toInt,
+      nw = j("nw").num.toInt,
+      P = j("P").num.toInt,
+      fracBits = j("frac_bits").num.toInt,
+      latAdd = j("lat_add").num.toInt,
+      latMul = j("lat_mul").num.toInt,
+      rounding = Rounding(j("rounding").str),
+      coefW = w("coef").num.toInt,
+      xW = w("x").num.toInt,
+      yW = w("y").num.toInt,
+      zW = w("z").num.toInt,
+      sumW = w("sum").num.toInt,
+      tW = w("t").num.toInt,
+      betaW = w("beta").num.toInt,
+      streamW = w("stream").num.toInt,
+      imaxDefault = j("iterations").num.toInt,
+      warmDefault = j("warm_start").bool,
+      outAllDefault = j("output_all").bool,
+      a = mat(j("A")),
+      f = mat(j("F")),
+      lo = ints(j("lo")),
+      hi = ints(j("hi")),
+      xlo = ints(j("xlo")),
+      xhi = ints(j("xhi")),
+      beta = BigInt(j("beta").num.toLong),
+      onePlusBeta = BigInt(j("one_plus_beta").num.toLong)
+    )
+  }
+}

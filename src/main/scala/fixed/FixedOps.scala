@@ -1,0 +1,50 @@
+package fixed
+
+import chisel3._
+
+/** Named fixed-point operations on SInt. Every narrowing saturates and reports it: nothing wraps. */
+object FixedOps {
+  def maxOf(width: Int): BigInt = (BigInt(1) << (width - 1)) - 1
+  def minOf(width: Int): BigInt = -(BigInt(1) << (width - 1))
+
+  /** Signed bits needed to hold every integer in [-bound, bound]. */
+  def bitsFor(bound: BigInt): Int = (bound.abs + 1).bitLength + 1
+
+  /** x / 2^shift back to fewer fraction bits, by the given rounding. */
+  def shiftRound(x: SInt, shift: Int, mode: Rounding): SInt =
+    if (shift == 0) x
+    else
+      mode match {
+        case Rounding.Truncate => x >> shift
+        case Rounding.Nearest  => (x +& (BigInt(1) << (shift - 1)).S) >> shift
+      }
+
+  /** Clamp x into a `width`-bit signed word; the flag is high when the value had to be clamped. */
+  def saturate(x: SInt, width: Int): (SInt, Bool) =
+    if (x.getWidth <= width) (x.pad(width), false.B)
+    else {
+      val hi   = maxOf(width).S(x.getWidth.W)
+      val lo   = minOf(width).S(x.getWidth.W)
+      val over = x > hi
+      val unde = x < lo
+      val v    = Mux(over, hi, Mux(unde, lo, x))
+      (v(width - 1, 0).asSInt, over || unde)
+    }
+
+  /** a + b saturated to `width` bits. */
+  def satAdd(a: SInt, b: SInt, width: Int): (SInt, Bool) = saturate(a +& b, width)
+
+  /** a - b saturated to `width` bits. */
+  def satSub(a: SInt, b: SInt, width: Int): (SInt, Bool) = saturate(a -& b, width)
+
+  /** (a * b) / 2^shift, rounded, saturated to `width` bits. */
+  def mulRound(a: SInt, b: SInt, shift: Int, mode: Rounding, width: Int): (SInt, Bool) =
+    saturate(shiftRound(a * b, shift, mode), width)
+
+  /** min(max(x, lo), hi), in the width of x; the flag is high when x was outside [lo, hi]. */
+  def clamp(x: SInt, lo: SInt, hi: SInt): (SInt, Bool) = {
+    val below = x < lo
+    val above = x > hi
+    (Mux(below, lo, Mux(above, hi, x)), below || above)
+  }
+}

@@ -1,0 +1,75 @@
+package mem
+
+import chisel3._
+import chisel3.util._
+
+/** A RAM with one synchronous read port and one lane-masked write port, whose power-on contents are written
+  * into the emitted Verilog (no side files): Yosys and Vivado infer block or distributed RAM with the
+  * initial values from it. Contents survive reset, as block RAM does.
+  *
+  * @param name   Verilog module name (unique per instance: each carries its own contents)
+  * @param lanes  words per row; a write updates the lanes whose mask bit is set
+  * @param laneW  bits per lane
+  * @param init   init(row)(lane), signed; rows beyond init.length start at zero
+  */
+class InitRam(val ramName: String, val depth: Int, val lanes: Int, val laneW: Int, init: Seq[Seq[BigInt]])
+    extends BlackBox
+    with HasBlackBoxInline {
+  require(depth >= 1 && lanes >= 1 && laneW >= 1, s"InitRam $ramName: depth, lanes, laneW must be >= 1")
+  require(init.length <= depth, s"InitRam $ramName: ${init.length} init rows for depth $depth")
+  val addrW: Int = math.max(1, log2Ceil(depth))
+  val rowW:  Int = lanes * laneW
+  override def desiredName = ramName
+
+  val io = IO(new Bundle {
+    val clock = Input(Clock())
+    val raddr = Input(UInt(addrW.W))
+    val rdata = Output(UInt(rowW.W))
+    val wen   = Input(Bool())
+    val waddr = Input(UInt(addrW.W))
+    val wmask = Input(UInt(lanes.W))
+    val wdata = Input(UInt(rowW.W))
+  })
+
+  private def rowHex(row: Seq[BigInt]): String = {
+    require(row.length == lanes, s"InitRam $ramName: row of ${row.length} lanes, expected $lanes")
+    val mask = (BigInt(1) << laneW) - 1
+    val bits = row.zipWithIndex.foldLeft(BigInt(0)) { case (acc, (v, i)) =>
+      require(v >= -(BigInt(1) << (laneW - 1)) && v < (BigInt(1) << (laneW - 1)),
+        s"InitRam $ramName: value $v does not fit $laneW signed bits")
+      acc | ((v & mask) << (i * laneW))
+    }
+    s"$rowW'h${bits.toString(16)}"
+  }
+
+  private val initLines = init.zipWithIndex.map { case (row, i) => s"    mem[$i] = ${rowHex(row)};" }
+  private val zeroLines =
+    if (init.length < depth) Seq(s"    for (i = ${init.length}; i < $depth; i = i + 1) mem[i] = {$rowW{1'b0}};")
+    else Seq()
+
+  setInline(
+    s"$ramName.sv",
+    s"""// Initialised RAM: 1 synchronous read port (read-first), 1 lane-masked write port.
+       |module $ramName (
+       |  input                  clock,
+       |  input      [${addrW - 1}:0] raddr,
+       |  output reg [${rowW - 1}:0] rdata,
+       |  input                  wen,
+       |  input      [${addrW - 1}:0] waddr,
+       |  input      [${lanes - 1}:0] wmask,
+       |  input      [${rowW - 1}:0] wdata
+       |);
+       |  reg [${rowW - 1}:0] mem [0:${depth - 1}];
+       |  integer i;
+       |  initial begin
+       |${(initLines ++ zeroLines).mkString("\n")}
+       |  end
+       |  always @(posedge clock) begin
+       |    for (i = 0; i < $lanes; i = i + 1)
+       |      if (wen && wmask[i]) mem[waddr][i*$laneW +: $laneW] <= wdata[i*$laneW +: $laneW];
+       |    rdata <= mem[raddr];
+       |  end
+       |endmodule
+       |""".stripMargin
+  )
+}

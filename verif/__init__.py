@@ -1,0 +1,1 @@
+"""Python verification package for the MPC solver cores."""
