@@ -22,19 +22,34 @@ class SolveResult:
     iterates: list | None = None  # z_0..z_Imax words when recorded
 
 
+class CoreData:
+    """The numbers a core is built from: the generator's config.json (FgmDesign.config()), read back."""
+
+    def __init__(self, cfg: dict):
+        self.cfg = cfg
+        self.n, self.nu, self.nw = int(cfg["n"]), int(cfg["nu"]), int(cfg["nw"])
+        self.m = max(self.n, self.nw)
+        self.b = int(cfg["frac_bits"])
+        self.rounding = cfg["rounding"]
+        self.widths = dict(cfg["widths"])
+        self.iterations = int(cfg["iterations"])
+        self.warm_start = bool(cfg["warm_start"])
+
+
 class FgmFixed:
     """Bit-exact model of one core instance, including its warm-start state and run-time writable data."""
 
-    def __init__(self, d: FgmDesign):
-        self.d = d
-        self.A = d.A.astype(np.int64).copy()
-        self.F = d.F.astype(np.int64).copy()
-        self.lo = d.lo.astype(np.int64).copy()
-        self.hi = d.hi.astype(np.int64).copy()
-        self.xlo = d.xlo.astype(np.int64).copy()
-        self.xhi = d.xhi.astype(np.int64).copy()
-        self.beta = int(d.beta)
-        self.opb = int(d.one_plus_beta)
+    def __init__(self, d: FgmDesign | dict):
+        cfg = d.config() if isinstance(d, FgmDesign) else d
+        self.d = CoreData(cfg)
+        self.A = np.array(cfg["A"], dtype=np.int64).reshape(self.d.n, self.d.n)
+        self.F = np.array(cfg["F"], dtype=np.int64).reshape(self.d.n, self.d.nw)
+        self.lo = np.array(cfg["lo"], dtype=np.int64)
+        self.hi = np.array(cfg["hi"], dtype=np.int64)
+        self.xlo = np.array(cfg["xlo"], dtype=np.int64)
+        self.xhi = np.array(cfg["xhi"], dtype=np.int64)
+        self.beta = int(cfg["beta"])
+        self.opb = int(cfg["one_plus_beta"])
         self.z_prev: np.ndarray | None = None    # None: no valid warm start (after reset or a bounds write)
 
     def reset(self) -> None:

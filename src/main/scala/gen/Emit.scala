@@ -12,26 +12,36 @@ object Emit {
     "--lowering-options=disallowLocalVariables,disallowPackedArrays,locationInfoStyle=wrapInAtSquareBracket"
   )
 
-  /** Elaborate `gen` into `outDir`/`topName`.sv (blackbox sources appended, so one file holds the design). */
+  private val FileMarker = """(?m)^// ----- 8< ----- FILE "([^"]+)" ----- 8< -----$""".r
+  private val ModuleDecl = """(?m)^module\s+(\w+)""".r
+
+  /** Elaborate `gen` into `outDir`/`topName`.sv. Blackbox sources are kept in the same file (the file list is
+    * dropped) and every submodule is prefixed with the top name, so that several generated cores can be
+    * compiled together without duplicate module names.
+    */
   def systemVerilog(gen: => RawModule, outDir: String, topName: String): Path = {
+    val raw = ChiselStage.emitSystemVerilog(gen, firtoolOpts = firtoolOpts)
+    // split into (file name, text) sections and drop non-Verilog ones
+    val marks    = FileMarker.findAllMatchIn(raw).toSeq
+    val starts   = 0 +: marks.map(_.start)
+    val names    = "main.sv" +: marks.map(_.group(1))
+    val ends     = marks.map(_.start) :+ raw.length
+    val sections = names.zip(starts.zip(ends)).collect {
+      case (nm, (s, e)) if nm.endsWith(".sv") || nm.endsWith(".v") =>
+        FileMarker.replaceAllIn(raw.substring(s, e), "")
+    }
+    var text = sections.mkString("\n")
+    val subs = ModuleDecl.findAllMatchIn(text).map(_.group(1)).toSeq.distinct.filterNot(_.startsWith(topName))
+    for (s <- subs.sortBy(-_.length)) text = text.replaceAll(s"\\b$s\\b", s"${topName}_$s")
     val dir = Paths.get(outDir)
     Files.createDirectories(dir)
-    val tmp = dir.resolve(".chisel")
-    ChiselStage.emitSystemVerilogFile(gen, args = Array("--target-dir", tmp.toString), firtoolOpts = firtoolOpts)
-    val parts = Files.list(tmp).toArray.map(_.asInstanceOf[Path]).filter { f =>
-      val s = f.toString; s.endsWith(".sv") || s.endsWith(".v")
-    }.sortBy(f => if (f.getFileName.toString == s"$topName.sv") 0 else 1)
-    val text = parts.map(f => new String(Files.readAllBytes(f))).mkString("\n")
-    val out  = dir.resolve(s"$topName.sv")
+    val out = dir.resolve(s"$topName.sv")
     Files.write(out, text.getBytes)
-    parts.foreach(Files.delete)
-    Files.list(tmp).toArray.map(_.asInstanceOf[Path]).foreach(Files.delete)
-    Files.delete(tmp)
     out
   }
 
   def writeText(path: String, text: String): Unit = {
-    Files.createDirectories(Paths.get(path).getParent)
+    Files.createDirectories(Paths.get(path).toAbsolutePath.getParent)
     Files.write(Paths.get(path), text.getBytes)
   }
 }
