@@ -124,7 +124,7 @@ class FgmCore(val p: FgmParams) extends Module {
   val tokYsub = tokAt(p.stageZ + p.latMul)
 
   for (u <- 0 until P) {
-    matRam(u).io.raddr := Mux(hPhase, K.U + fetchK, fetchK)
+    matRam(u).io.raddr := Mux(hPhase, K.U +& fetchK, fetchK)
     bndRam(u).io.raddr := Mux(tok0.valid && tok0.h, tok0.k, tokBnd.k)
   }
 
@@ -352,7 +352,7 @@ class FgmCore(val p: FgmParams) extends Module {
       for (u <- 0 until P) {
         when(unit === u.U) {
           matRam(u).io.wen   := true.B
-          matRam(u).io.waddr := Mux(isF, k + K.U, k)
+          matRam(u).io.waddr := Mux(isF, k +& K.U, k)
           matRam(u).io.wmask := UIntToOH(col, m)
           matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
         }

@@ -1,0 +1,39 @@
+"""Byte addresses of an FGM core's AXI4-Lite registers and data memories, from its core.json (the same
+arithmetic as the macros of the generated C header)."""
+from __future__ import annotations
+
+
+class Regmap:
+    STATUS_BITS = {"BUSY": 0, "SAT": 1, "OVERFLOW": 2, "WRITE_REJECTED": 3, "TLAST_ERROR": 4, "WARM_VALID": 5}
+    CTRL_BITS = {"WARM_START": 0, "HOLD": 1, "OUT_ALL": 2}
+
+    def __init__(self, core: dict):
+        self.core = core
+        self.reg = {r["name"]: r["offset"] for r in core["registers"]}
+        self.base = {k: v["offset"] for k, v in core["regions"].items()}
+        self.P = core["P"]
+        self.pb = core["p_bits"]
+        self.cb = core["col_bits"]
+
+    def __getitem__(self, name: str) -> int:
+        return self.reg[name]
+
+    def slot(self, i: int) -> int:
+        return ((i // self.P) << self.pb) | (i % self.P)
+
+    def mat_a(self, i: int, j: int) -> int:
+        """(I - H_n)[i][j]"""
+        return self.base["MAT_A"] + (((self.slot(i) << self.cb) | j) << 2)
+
+    def mat_f(self, i: int, j: int) -> int:
+        """Phi_n[i][j]"""
+        return self.base["MAT_F"] + (((self.slot(i) << self.cb) | j) << 2)
+
+    def ubox(self, i: int, hi: bool) -> int:
+        return self.base["UBOX"] + (((self.slot(i) << 1) | int(hi)) << 2)
+
+    def xbox(self, j: int, hi: bool) -> int:
+        return self.base["XBOX"] + (((j << 1) | int(hi)) << 2)
+
+    def status(self, word: int) -> dict:
+        return {k: bool(word >> b & 1) for k, b in self.STATUS_BITS.items()}
