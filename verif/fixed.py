@@ -13,7 +13,7 @@ ROUNDING_MODES = ("truncate", "nearest")
 
 def bits_for(bound: int) -> int:
     """Signed width that holds every integer in [-bound, bound] (FixedOps.bitsFor)."""
-    return (abs(int(bound)) + 1).bit_length() + 1
+    return abs(int(bound)).bit_length() + 1
 
 
 def wmin(width: int) -> int:

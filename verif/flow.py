@@ -38,7 +38,7 @@ def run_generator(main: str, args: list[str]) -> str:
     p = subprocess.run(cmd, cwd=REPO, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                        text=True)
     if p.returncode != 0:
-        reasons = [ln for ln in p.stdout.splitlines() if "requirement failed" in ln or "Exception" in ln
+        reasons = [ln for ln in p.stdout.splitlines() if ln.startswith("REFUSED") or "Exception" in ln
                    or "[error]" in ln]
         raise GeneratorError(f"{main} failed:\n" + "\n".join(reasons[:20] or p.stdout.splitlines()[-30:]))
     return p.stdout

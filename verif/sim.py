@@ -34,7 +34,14 @@ def run_cocotb(sv: Path, toplevel: str, test_module: str, build_dir: Path, env: 
                  timescale=("1ns", "1ps"), log_file=str(build_dir / "build.log"))
     full_env = {"PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     full_env.update(env)
-    xml = runner.test(test_module=test_module, hdl_toplevel=toplevel, build_dir=str(build_dir),
-                      test_dir=str(build_dir), extra_env=full_env, testcase=testcase,
-                      results_xml=str(build_dir / "results.xml"), log_file=str(build_dir / "sim.log"))
+    xml = build_dir / "results.xml"
+    xml.unlink(missing_ok=True)
+    try:
+        runner.test(test_module=test_module, hdl_toplevel=toplevel, build_dir=str(build_dir),
+                    test_dir=str(build_dir), extra_env=full_env, testcase=testcase,
+                    results_xml=str(xml), log_file=str(build_dir / "sim.log"))
+    except SystemExit:
+        pass  # the runner exits on failed tests; the results file says which
+    if not xml.exists():
+        raise RuntimeError(f"the simulation wrote no results: see {build_dir / 'sim.log'}")
     return get_results(xml)

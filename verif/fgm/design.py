@@ -233,7 +233,7 @@ def _size_words(d: FgmDesign, int_bits, stream_width) -> None:
         "t": int(max(sy + sh for sy, sh in zip(s_y, s_h))),
         "beta": int(d.one_plus_beta),
     }
-    widths = {k: bits_for(v) for k, v in bounds.items()}
+    widths = {k: max(2, bits_for(v)) for k, v in bounds.items()}
     if int_bits is not None:
         req = {k: widths[k] - 1 - b for k in ("y", "sum", "t")}
         forced = int_bits if isinstance(int_bits, dict) else {k: int(int_bits) for k in req}

@@ -7,11 +7,20 @@ import java.nio.file.{Files, Paths}
   */
 object FgmMain extends App {
   require(args.length >= 2 && args.length % 2 == 0, "usage: fgm.FgmMain <config.json> <outDir> [...pairs]")
-  for (Array(cfg, out) <- args.grouped(2)) {
-    val p = FgmParams.fromJson(new String(Files.readAllBytes(Paths.get(cfg))))
-    gen.Emit.systemVerilog(new FgmCore(p), out, p.moduleName)
-    gen.Emit.writeText(s"$out/hw.json", hwJson(p))
+  // Each configuration is checked on its own: a refusal names the file and the rule, and the others still build.
+  val refused = args.grouped(2).toSeq.flatMap { case Array(cfg, out) =>
+    try {
+      val p = FgmParams.fromJson(new String(Files.readAllBytes(Paths.get(cfg))))
+      gen.Emit.systemVerilog(new FgmCore(p), out, p.moduleName)
+      gen.Emit.writeText(s"$out/hw.json", hwJson(p))
+      None
+    } catch {
+      case e: IllegalArgumentException =>
+        println(s"REFUSED $cfg: ${e.getMessage}")
+        Some(cfg)
+    }
   }
+  if (refused.nonEmpty) sys.exit(1)
 
   def hwJson(p: FgmParams): String = {
     val regs = Seq(

@@ -8,7 +8,7 @@ object FixedOps {
   def minOf(width: Int): BigInt = -(BigInt(1) << (width - 1))
 
   /** Signed bits needed to hold every integer in [-bound, bound]. */
-  def bitsFor(bound: BigInt): Int = (bound.abs + 1).bitLength + 1
+  def bitsFor(bound: BigInt): Int = bound.abs.bitLength + 1
 
   /** x / 2^shift back to fewer fraction bits, by the given rounding. */
   def shiftRound(x: SInt, shift: Int, mode: Rounding): SInt =
