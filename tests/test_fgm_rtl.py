@@ -6,63 +6,14 @@ runs every scenario of verif/fgm/tb.py on it.
 from __future__ import annotations
 
 import json
-from pathlib import Path
-
-import numpy as np
 import pytest
 
-from verif.fgm.design import design_fgm
-from verif.flow import REPO, GeneratorError, generate_fgm, run_generator
-from verif.problem import load_spec, problem_from_dict
+from conftest import CASES
+from verif.flow import GeneratorError, run_generator
 from verif.sim import run_cocotb
 
-BUILD = REPO / "build" / "tests" / "fgm"
 SCENARIOS = 8  # cocotb tests in verif/fgm/tb.py
 
-
-def random_problem(name: str, nx: int, nu: int, N: int, ny: int, seed: int):
-    """A random stabilisable plant with box bounds, tracking the first ny states."""
-    rng = np.random.default_rng(seed)
-    A = rng.standard_normal((nx, nx))
-    A *= 0.95 / max(abs(np.linalg.eigvals(A)))
-    B = rng.standard_normal((nx, nu))
-    d = {
-        "name": name,
-        "model": {"A": A.tolist(), "B": B.tolist()},
-        "cost": {"Q": 1.0, "R": 0.5},
-        "horizon": N,
-        "inputs": {"min": -1.0, "max": 0.8},
-        "states": {"min": -3.0, "max": 3.0},
-    }
-    if ny:
-        d["tracking"] = {"outputs": list(range(ny)), "min": -1.0, "max": 1.0}
-    return problem_from_dict(d, name)
-
-
-# id -> (problem factory, design overrides, random solves)
-CASES = {
-    "masses_p1_b16": (lambda: load_spec(REPO / "examples/masses.yaml"), dict(P=1, frac_bits=16), 40),
-    "masses_p3_b12_nearest": (lambda: load_spec(REPO / "examples/masses.yaml"),
-                              dict(P=3, frac_bits=12, rounding="nearest"), 25),
-    "masses_p40_b14_l23": (lambda: load_spec(REPO / "examples/masses.yaml"),
-                           dict(P=40, frac_bits=14, lat_add=2, lat_mul=3), 15),
-    "afm_p2_b16": (lambda: load_spec(REPO / "examples/afm_like.yaml"), dict(P=2, frac_bits=16), 25),
-    "rand_n4_p4_b10": (lambda: random_problem("r4", 3, 1, 4, 1, 1), dict(P=4, frac_bits=10), 40),
-    "rand_n7_p2_b14_nearest": (lambda: random_problem("r7", 4, 1, 7, 2, 2),
-                               dict(P=2, frac_bits=14, rounding="nearest"), 40),
-    "rand_n4_nw9_p1_b12": (lambda: random_problem("r4w", 7, 2, 2, 2, 3), dict(P=1, frac_bits=12), 40),
-    "rand_n24_p5_b12_l00": (lambda: random_problem("r24", 4, 2, 12, 1, 4),
-                            dict(P=5, frac_bits=12, lat_add=0, lat_mul=0), 30),
-}
-
-
-@pytest.fixture(scope="session")
-def cores():
-    jobs = []
-    for cid, (prob, ov, _) in CASES.items():
-        jobs.append((design_fgm(prob(), **ov), BUILD / cid))
-    generate_fgm(jobs)
-    return {cid: BUILD / cid for cid in CASES}
 
 
 @pytest.mark.parametrize("cid", list(CASES))

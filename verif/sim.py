@@ -28,7 +28,7 @@ def run_cocotb(sv: Path, toplevel: str, test_module: str, build_dir: Path, env: 
     from cocotb_tools.runner import get_results, get_runner
 
     runner = get_runner("verilator")
-    build_dir = Path(build_dir)
+    build_dir = Path(build_dir).resolve()
     runner.build(sources=[str(sv)], hdl_toplevel=toplevel, build_dir=str(build_dir), always=False,
                  build_args=["-Wno-fatal", "-O1", "--x-assign", "0", "--x-initial", "0"],
                  timescale=("1ns", "1ps"), log_file=str(build_dir / "build.log"))

@@ -1,0 +1,48 @@
+# User interface of the project: setup, verilog, design, test, demo, clean.
+PYTHON      ?= python3
+VENV        ?= .venv
+PY          := $(VENV)/bin/python
+SBT_VERSION := 1.11.7
+SBT_JAR     := $(HOME)/.m2/repository/org/scala-sbt/sbt-launch/$(SBT_VERSION)/sbt-launch-$(SBT_VERSION).jar
+
+CORE    ?= fgm
+PROBLEM ?= examples/masses.yaml
+P       ?=
+B       ?=
+OUT     ?=
+PYTEST_ARGS ?=
+
+GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT))
+
+.PHONY: setup verilog design test demo clean
+
+$(VENV)/.installed: requirements.txt
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q -r requirements.txt
+	touch $@
+
+$(SBT_JAR):
+	mvn -q dependency:get -Dartifact=org.scala-sbt:sbt-launch:$(SBT_VERSION) -Dtransitive=false
+
+## setup: Python environment (.venv, pinned requirements.txt) and the sbt launcher; sbt fetches Chisel on first use
+setup: $(VENV)/.installed $(SBT_JAR)
+
+## verilog: SystemVerilog, core.json and C header of CORE for PROBLEM into OUT (P, B override the spec)
+verilog: setup
+	$(PY) -m verif.cli verilog $(GEN_ARGS)
+
+## design: print the design report (widths, cycles, bounds) without generating hardware
+design: setup
+	$(PY) -m verif.cli design $(GEN_ARGS)
+
+## test: the verification suite (golden models, RTL against them in Verilator, refusals)
+test: setup
+	$(PY) -m pytest tests -q $(PYTEST_ARGS)
+
+## demo: generate the FGM core for PROBLEM and run it in a closed loop with the Verilator model
+demo: setup
+	$(PY) -m verif.cli demo --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B))
+
+## clean: remove build folders only
+clean:
+	rm -rf build target project/target project/project
