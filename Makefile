@@ -14,7 +14,7 @@ PYTEST_ARGS ?=
 
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT))
 
-.PHONY: setup verilog design test demo clean
+.PHONY: setup verilog design test test-slow demo clean
 
 $(VENV)/.installed: requirements.txt
 	$(PYTHON) -m venv $(VENV)
@@ -38,6 +38,10 @@ design: setup
 ## test: the verification suite (golden models, RTL against them in Verilator, refusals)
 test: setup
 	$(PY) -m pytest tests -q $(PYTEST_ARGS)
+
+## test-slow: the long sweeps (cycles per iteration of masses for P = 1, 2, 4, 8, 40)
+test-slow: setup
+	$(PY) -m pytest tests -q -s -m slow $(PYTEST_ARGS)
 
 ## demo: generate the FGM core for PROBLEM and run it in a closed loop with the Verilator model
 demo: setup

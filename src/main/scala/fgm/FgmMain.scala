@@ -28,7 +28,7 @@ object FgmMain extends App {
       ("CONFIG0", FgmRegs.CONFIG0, "RO", "[15:0] n, [31:16] P"),
       ("CONFIG1", FgmRegs.CONFIG1, "RO", "[15:0] nw, [23:16] frac_bits, [31:24] nu"),
       ("CTRL", FgmRegs.CTRL, "RW", "[0] WARM_START, [1] HOLD (finish the current solve, accept no new frame), [2] OUT_ALL (stream all n words of z, else u0)"),
-      ("IMAX", FgmRegs.IMAX, "RW", "iterations per solve, 1..65535 (0 or larger: SLVERR, ignored); read at the start of each solve"),
+      ("IMAX", FgmRegs.IMAX, "RW", "iterations per solve, 1..65535 (writing 0 or more than 65535: SLVERR, ignored); latched at the start of each solve"),
       ("STATUS", FgmRegs.STATUS, "RO/W1C", "[0] BUSY, [1] SAT (a state word was outside the box and saturated), [2] OVERFLOW (a datapath word saturated), [3] WRITE_REJECTED, [4] TLAST_ERROR, [5] WARM_VALID; write 1 to clear bits 1-4"),
       ("SOLVES", FgmRegs.SOLVES, "RO", "solves completed since reset"),
       ("LAST_CYCLES", FgmRegs.LAST_CYCLES, "RO", "cycles of the last solve, first pass to last iteration"),
