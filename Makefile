@@ -10,6 +10,7 @@ PROBLEM ?= examples/masses.yaml
 P       ?=
 B       ?=
 OUT     ?=
+TOL     ?=
 PYTEST_ARGS ?=
 
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT))
@@ -31,9 +32,9 @@ setup: $(VENV)/.installed $(SBT_JAR)
 verilog: setup
 	$(PY) -m verif.cli verilog $(GEN_ARGS)
 
-## design: print the design report (widths, cycles, bounds) without generating hardware
+## design: design report; with TOL, choose frac_bits and Imax with guarantees and write the spec for `make verilog`
 design: setup
-	$(PY) -m verif.cli design $(GEN_ARGS)
+	$(PY) -m verif.cli design $(GEN_ARGS) $(if $(TOL),--tol $(TOL))
 
 ## test: the verification suite (golden models, RTL against them in Verilator, refusals)
 test: setup

@@ -54,10 +54,20 @@ CASES = {
 }
 
 
+def _certified_masses(tol: float):
+    from verif.fgm.certify import design_for_tolerance
+
+    return design_for_tolerance(load_spec(REPO / "examples/masses.yaml"), tol)[0]
+
+
+# Cores with a certified design (make design TOL=...), for the guarantee checks on the RTL.
+CERTIFIED = {"masses_tol1e-2": lambda: _certified_masses(1e-2)}
+
+
 @pytest.fixture(scope="session")
 def cores():
-    jobs = []
-    for cid, (prob, ov, _) in CASES.items():
-        jobs.append((design_fgm(prob(), **ov), BUILD / cid))
+    """Every core of the suite, elaborated in one generator run."""
+    jobs = [(design_fgm(prob(), **ov), BUILD / cid) for cid, (prob, ov, _) in CASES.items()]
+    jobs += [(make(), BUILD / cid) for cid, make in CERTIFIED.items()]
     generate_fgm(jobs)
-    return {cid: BUILD / cid for cid in CASES}
+    return {cid: BUILD / cid for cid in list(CASES) + list(CERTIFIED)}

@@ -33,9 +33,38 @@ def _design(a):
 
 
 def cmd_design(a) -> None:
-    from verif.fgm.report import design_report
+    """Design report; with --tol, choose frac_bits and Imax with guarantees and write the spec `make verilog` takes."""
+    import yaml
 
-    print(design_report(_design(a)))
+    from verif.fgm.certify import certificate_report, certify, design_for_tolerance
+    from verif.fgm.design import DesignError
+    from verif.fgm.report import design_report
+    from verif.problem import SpecError, load_spec
+
+    if a.tol is None:
+        d = _design(a)
+        print(design_report(d))
+        print(certificate_report(d, certify(d, None)))
+        return
+    if a.core != "fgm":
+        sys.exit(f"error: CORE={a.core}: only 'fgm' is available in this version")
+    try:
+        p = load_spec(a.problem)
+        d, cert, log = design_for_tolerance(p, a.tol, **_overrides(a))
+    except (DesignError, SpecError) as e:
+        sys.exit(f"error: {e}")
+    print(design_report(d))
+    print(certificate_report(d, cert, log))
+    spec = yaml.safe_load(Path(a.problem).read_text())
+    spec.setdefault("name", p.name)
+    spec["solver"] = dict(spec.get("solver") or {}, frac_bits=d.b, iterations=d.iterations, P=d.P,
+                          lat_add=d.lat_add, lat_mul=d.lat_mul, rounding=d.rounding, tol=float(a.tol))
+    out = Path(a.out or f"build/design/{p.name}_tol{a.tol:g}.yaml")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    header = (f"# Designed by `make design TOL={a.tol:g}` from {a.problem}: frac_bits and iterations certified by\n"
+              f"# eq. (7) and eq. (20) of 002 for ||z_fixed - z*||_2 <= {a.tol:g} over the state box (cold start).\n")
+    out.write_text(header + yaml.safe_dump(spec, sort_keys=False))
+    print(f"wrote {out}  (next: make verilog PROBLEM={out})")
 
 
 def cmd_verilog(a) -> None:
@@ -148,6 +177,8 @@ def main(argv=None) -> None:
         s.add_argument("--rounding", choices=["truncate", "nearest"])
         s.add_argument("--iterations", type=int)
         s.add_argument("--out")
+        if name == "design":
+            s.add_argument("--tol", type=float, help="target ||z_fixed - z*||_2 over the state box")
         if name == "demo":
             s.add_argument("--steps", type=int, default=60)
             s.add_argument("--hold", type=int, default=20)

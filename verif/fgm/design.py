@@ -46,6 +46,7 @@ class FgmDesign:
     xhi: np.ndarray
     beta: int                 # beta^ word
     one_plus_beta: int
+    tol: float | None = None  # target solution error the design was certified for (make design TOL=...)
     widths: dict = field(default_factory=dict)
     bounds: dict = field(default_factory=dict)   # integer-word bounds per signal
     prop1: dict = field(default_factory=dict)    # Prop. 1 bounds in real units
@@ -138,7 +139,7 @@ def _solver_opt(problem: MpcProblem, overrides: dict, key: str, default):
 
 def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     """Build the FGM core description. Keyword overrides take precedence over the spec's `solver:` section:
-    frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all, c, int_bits, stream_width."""
+    frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all, c, int_bits, stream_width, tol."""
     opt = lambda k, d: _solver_opt(problem, overrides, k, d)  # noqa: E731
     b = int(opt("frac_bits", 16))
     P = int(opt("P", 1))
@@ -206,7 +207,8 @@ def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
 
     d = FgmDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
                   iterations=iterations, warm_start=warm_start, output_all=output_all, c=c, lam_max=lam_max,
-                  A=A, F=F, lo=lo, hi=hi, xlo=xlo, xhi=xhi, beta=beta, one_plus_beta=one + beta)
+                  A=A, F=F, lo=lo, hi=hi, xlo=xlo, xhi=xhi, beta=beta, one_plus_beta=one + beta,
+                  tol=None if opt("tol", None) is None else float(opt("tol", None)))
     _size_words(d, opt("int_bits", None), opt("stream_width", None))
     return d
 

@@ -29,8 +29,11 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
             continue
         signals[k] = {"width": w, "int_bits": w - 1 - b, "frac_bits": b, "bound": d.bounds[k] / one,
                       "what": descr[k]}
+    from verif.fgm.certify import certify
+
     sw = d.widths["stream"]
     eta = roundoff_bound(d, d.iterations)
+    cert = certify(d, d.tol)
     return {
         "core": "fgm",
         "name": d.name,
@@ -61,6 +64,7 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
         "normalisation": {"c": d.c, "lambda_max_HF": d.lam_max, "mu": d.mu,
                           "kappa": float(1 / d.mu), "beta": d.beta / one},
         "roundoff_bound_eq20": float(eta[-1]),
+        "certificate": {k: (None if isinstance(v, float) and v != v else v) for k, v in cert.as_dict().items()},
         "box": {"u_lo": (d.lo / one).tolist(), "u_hi": (d.hi / one).tolist(),
                 "w_lo": (d.xlo / one).tolist(), "w_hi": (d.xhi / one).tolist()},
         "axil_addr_width": hw["axil_addr_width"],
