@@ -48,6 +48,11 @@ test-slow: setup
 demo: setup
 	$(PY) -m verif.cli demo --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B))
 
+## table2: closed-loop cost tables (Table II(a) of 002, Table I of 000), Fig. 5/6 and the RTL subset into
+## build/reports (TABLE_ARGS, e.g. --no-rtl)
+table2: setup
+	$(PY) -m verif.tables $(TABLE_ARGS)
+
 ## clean: remove build folders only
 clean:
 	rm -rf build target project/target project/project

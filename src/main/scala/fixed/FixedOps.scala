@@ -19,16 +19,17 @@ object FixedOps {
         case Rounding.Nearest  => (x +& (BigInt(1) << (shift - 1)).S) >> shift
       }
 
-  /** Clamp x into a `width`-bit signed word; the flag is high when the value had to be clamped. */
+  /** Clamp x into a `width`-bit signed word; the flag is high when the value had to be clamped.
+    * x fits iff its bits above width-1 all equal bit width-1: a wide AND/OR, no comparator carry chain.
+    */
   def saturate(x: SInt, width: Int): (SInt, Bool) =
     if (x.getWidth <= width) (x.pad(width), false.B)
     else {
-      val hi   = maxOf(width).S(x.getWidth.W)
-      val lo   = minOf(width).S(x.getWidth.W)
-      val over = x > hi
-      val unde = x < lo
-      val v    = Mux(over, hi, Mux(unde, lo, x))
-      (v(width - 1, 0).asSInt, over || unde)
+      val top  = x.asUInt(x.getWidth - 1, width - 1)
+      val fits = top.andR || !top.orR
+      val neg  = x.asUInt(x.getWidth - 1)
+      val lim  = Mux(neg, minOf(width).S(width.W), maxOf(width).S(width.W))
+      (Mux(fits, x.asUInt(width - 1, 0).asSInt, lim), !fits)
     }
 
   /** a + b saturated to `width` bits. */
