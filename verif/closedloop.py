@@ -92,14 +92,30 @@ class Trajectory:
         return {"x": self.x.tolist(), "u": self.u.tolist(), "r": self.r.tolist(), "cost": self.cost}
 
 
-def reference_schedule(problem: MpcProblem, steps: int, hold: int, seed: int = 0) -> np.ndarray:
-    """Piecewise-constant references inside 80% of the reference box, changing every `hold` steps."""
+def reference_schedule(problem: MpcProblem, steps: int, hold: int, seed: int = 0, holdable: float = 0.9) -> np.ndarray:
+    """Piecewise-constant references inside 80% of the reference box, changing every `hold` steps.
+
+    With holdable > 0 each reference is drawn (by rejection) so that its steady-state input lies inside that
+    fraction of the input box: the plant can settle on it, the input limits bind during the transients only, and
+    the closed-loop cost is not dominated by an offset no controller can remove."""
+    from verif.problem import steady_state_maps
+
     rng = np.random.default_rng(seed)
     lo, hi = problem.rmin, problem.rmax
     mid, half = (lo + hi) / 2, (hi - lo) / 2 * 0.8
     R = np.zeros((steps, problem.ny))
+    if problem.ny == 0:
+        return R
+    _, Mu = steady_state_maps(problem)
+    umid, uhalf = (problem.umin + problem.umax) / 2, (problem.umax - problem.umin) / 2
     for k in range(0, steps, hold):
-        R[k: k + hold] = mid + half * rng.uniform(-1, 1, problem.ny)
+        for _ in range(10_000):
+            r = mid + half * rng.uniform(-1, 1, problem.ny)
+            if holdable <= 0 or np.all(np.abs(Mu @ r - umid) <= holdable * uhalf):
+                break
+        else:
+            raise ValueError(f"no reference in the box of {problem.name!r} can be held within {holdable:.0%} of the input box")
+        R[k: k + hold] = r
     return R
 
 
