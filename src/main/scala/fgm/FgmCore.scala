@@ -30,7 +30,6 @@ class FgmCore(val p: FgmParams) extends Module {
 
   import p.{K, P, m, n, nu, nw}
   val b = p.fracBits
-  private val nBits = math.max(1, log2Ceil(n))
 
   // ------------------------------------------------------------------ control and status registers
   val ctrlWarm   = RegInit(p.warmDefault.B)
@@ -100,19 +99,24 @@ class FgmCore(val p: FgmParams) extends Module {
   val yReg  = Reg(Vec(n, SInt(p.yW.W)))
   val yNext = Reg(Vec(n, SInt(p.yW.W)))
   val zReg  = Reg(Vec(n, SInt(p.zW.W)))
-  val hReg  = Seq.fill(P)(Reg(Vec(K, SInt(p.sumW.W))))
+  // Per row unit, in the order the unit visits its rows: h = Phi_n w and the previous iterate z. Each is a
+  // rotating FIFO (Fig. 1 of 002), read at its head, so no row needs a K-way multiplexer.
+  val hFifo = Seq.fill(P)(Reg(Vec(K, SInt(p.sumW.W))))
+  val zFifo = Seq.fill(P)(Reg(Vec(K, SInt(p.zW.W))))
 
   // Fetch: present a matrix row address; the token follows the row down the pipeline.
   val fetchValid = state === sRun && (hPhase || cnt < K.U)
   val fetchK     = cnt(math.max(1, log2Ceil(K)) - 1, 0)
   class Token extends Bundle {
     val valid = Bool()
-    val h     = Bool()
+    val h     = Bool() // first pass (h = Phi_n w)
+    val first = Bool() // row of the first iteration
     val k     = UInt(math.max(1, log2Ceil(K)).W)
   }
   val tok0 = Wire(new Token)
   tok0.valid := fetchValid
   tok0.h     := hPhase
+  tok0.first := !hPhase && iter === 0.U
   tok0.k     := fetchK
   def tokAt(stage: Int): Token = ShiftRegister(tok0, stage, 0.U.asTypeOf(new Token), true.B)
   val tok1   = tokAt(1)
@@ -135,26 +139,27 @@ class FgmCore(val p: FgmParams) extends Module {
   val dp = Module(new DotProductTree(DotProductParams(m, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding)))
   val unitY = Wire(Vec(P, SInt(p.yW.W)))
   val unitZ = Wire(Vec(P, SInt(p.zW.W)))
-  val unitZ0 = Wire(Vec(P, SInt(p.zW.W)))
+  val unitCold = Wire(Vec(P, SInt(p.zW.W)))
   val units = (0 until P).map { u =>
     val tree = if (u == 0) dp else Module(new DotProductTree(dp.p))
     tree.io.inValid := tok1.valid
     tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(m, SInt(p.coefW.W)))
     tree.io.op      := Mux(tok1.h, wPad, yPad)
 
-    // First pass: h = Phi_n w, one row per cycle, kept per unit.
-    when(tokSum.valid && tokSum.h) { hReg(u)(tokSum.k) := tree.io.sum }
+    // First pass: h = Phi_n w enters the FIFO one row per cycle; each iteration row reads the head and rotates.
+    val hHead = hFifo(u)(0)
+    when(tokSum.valid) {
+      for (i <- 0 until K - 1) hFifo(u)(i) := hFifo(u)(i + 1)
+      hFifo(u)(K - 1) := Mux(tokSum.h, tree.io.sum, hHead)
+    }
 
-    // First pass also loads z0 = y0: the shifted previous solution (Fig. 2b) or the projection of 0.
-    val row1  = tok1.k * P.U + u.U
-    val lo1   = bndRam(u).io.rdata(p.zW - 1, 0).asSInt
-    val hi1   = bndRam(u).io.rdata(2 * p.zW - 1, p.zW).asSInt
-    val cold  = Mux(lo1 > 0.S, lo1, Mux(hi1 < 0.S, hi1, 0.S))
-    val src   = Mux(row1 < (n - nu).U, row1 + nu.U, row1)
-    unitZ0(u) := Mux(warmL && warmValid, zReg(src(nBits - 1, 0)), cold)
+    // Cold start z0 = proj(0), from this row's bounds during the first pass.
+    val lo1 = bndRam(u).io.rdata(p.zW - 1, 0).asSInt
+    val hi1 = bndRam(u).io.rdata(2 * p.zW - 1, p.zW).asSInt
+    unitCold(u) := Mux(!lo1(p.zW - 1) && lo1 =/= 0.S, lo1, Mux(hi1(p.zW - 1), hi1, 0.S))
 
     // t = (I - H_n) y - h
-    val (t, ofT) = FixedOps.satSub(tree.io.sum, hReg(u)(tokSum.k), p.tW)
+    val (t, ofT) = FixedOps.satSub(tree.io.sum, hHead, p.tW)
     val tD       = ShiftRegister(t, p.latAdd)
     // z+ = proj(t) on [lo, hi] of this row
     val proj = Module(new BoxProjection(p.tW, p.zW, p.latAdd))
@@ -162,9 +167,18 @@ class FgmCore(val p: FgmParams) extends Module {
     proj.io.lo := bndRam(u).io.rdata(p.zW - 1, 0).asSInt
     proj.io.hi := bndRam(u).io.rdata(2 * p.zW - 1, p.zW).asSInt
     val z = proj.io.out
-    // y+ = (1 + beta) z+ - beta z, z the previous iterate of the same row
-    val rowZ      = tokZ.k * P.U + u.U
-    val zOld      = Mux(rowZ < n.U, zReg(rowZ(nBits - 1, 0)), 0.S)
+    // y+ = (1 + beta) z+ - beta z, z the previous iterate of the same row: the head of the z FIFO, which the
+    // first iteration loads from the z0 registers (rows u, u+P, ...) as it reads it.
+    val load = tok1.valid && tok1.first && tok1.k === 0.U
+    val zSrc = VecInit((0 until K).map { i =>
+      val r = i * P + u
+      Mux(load, if (r < n) zReg(r) else 0.S(p.zW.W), zFifo(u)(i))
+    })
+    val zOld = zSrc(0)
+    val rotZ = tokZ.valid && !tokZ.h
+    when(load || rotZ) {
+      for (i <- 0 until K) zFifo(u)(i) := Mux(rotZ, if (i < K - 1) zSrc(i + 1) else z, zSrc(i))
+    }
     val pa        = ShiftRegister((opbQ * z), p.latMul)
     val pb        = ShiftRegister((betaQ * zOld), p.latMul)
     val ra        = FixedOps.shiftRound(pa, b, p.rounding)
@@ -181,14 +195,21 @@ class FgmCore(val p: FgmParams) extends Module {
   }
   when(ovfNow.asUInt.orR) { stOvf := true.B }
 
-  // Register writes: y0/z0 in the first pass, y+/z+ at the end of each row's pipeline, the operand copy.
+  // Register writes: z0 = y0 at the start (warm: the previous solution shifted by one stage, the last stage
+  // repeated, Fig. 2b) or in the first pass (cold), y+/z+ at the end of each row's pipeline, the operand copy.
   val copyNow = state === sRun && !hPhase && cnt === 0.U && iter =/= 0.U
+  val startNow = state === sIdle && inFull
+  val warmNow  = ctrlWarm && warmValid
   for (r <- 0 until n) {
-    val u = r % P
-    val k = r / P
-    when(tok1.valid && tok1.h && tok1.k === k.U) {
-      yReg(r) := unitZ0(u).pad(p.yW)
-      zReg(r) := unitZ0(u)
+    val u   = r % P
+    val k   = r / P
+    val src = if (r < n - nu) r + nu else r
+    when(startNow && warmNow) {
+      yReg(r) := zReg(src).pad(p.yW)
+      zReg(r) := zReg(src)
+    }.elsewhen(tok1.valid && tok1.h && tok1.k === k.U && !warmL) {
+      yReg(r) := unitCold(u).pad(p.yW)
+      zReg(r) := unitCold(u)
     }.elsewhen(copyNow) {
       yReg(r) := yNext(r)
     }
@@ -209,7 +230,7 @@ class FgmCore(val p: FgmParams) extends Module {
         cnt     := 0.U
         iter    := 0.U
         imaxL   := imaxReg
-        warmL   := ctrlWarm
+        warmL   := warmNow
         outAllL := ctrlOutAll
         busyCyc := 0.U
       }
