@@ -445,3 +445,9 @@ def test_no_warm_start_design_always_cold():
     # warm=True overrides the design default
     c = model.solve(w2, 3, warm=True, record=True)
     assert np.array_equal(c.iterates[0], np.concatenate([a.z[d.nu:], a.z[d.n - d.nu:]]))
+
+
+def test_fgm_refuses_state_constrained_specs():
+    """Rate and soft/hard state constraints are beyond the FGM core: refused, not silently dropped."""
+    with pytest.raises(DesignError, match="input-constrained MPC only.*input_rate, soft_states"):
+        design_fgm(load_spec(Path(__file__).resolve().parents[1] / "examples/masses_rate_soft.yaml"))

@@ -8,6 +8,11 @@ and yields the box-constrained QP
     minimise 0.5 z'Hz + z'(Phi w)   subject to   lb <= z <= ub,
 
 with z = (u_0, ..., u_{N-1}) and w = (x0, r) the parameter vector.
+
+Optional sections for the state-constrained (ADMM) formulation of verif/admm/problem.py: `input_rate`
+(box on u_k - u_{k-1}, plus a weight on it), `soft_states` (|x_i - c_i| <= r_i + delta_i, penalty
+sigma1 1'delta + sigma2 ||delta||^2, eq. (2)-(3) of 002) and `hard_states` (x_min <= x_i <= x_max). The
+FGM design refuses specs that have them.
 """
 
 from __future__ import annotations
@@ -24,6 +29,44 @@ import scipy.linalg
 
 class SpecError(ValueError):
     """Invalid problem specification; the message names the offending field."""
+
+
+# Weight on (u_k - u_{k-1}) when `input_rate.weight` is absent: small next to R = I so that it barely moves the
+# optimum, nonzero so that every decision variable of the sparse form carries curvature.
+DU_WEIGHT_DEFAULT = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class InputRate:
+    """dumin <= u_k - u_{k-1} <= dumax, cost du' W du per stage."""
+    dumin: np.ndarray
+    dumax: np.ndarray
+    weight: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class SoftStates:
+    """|x_i - c_i| <= r_i + delta_i, delta_i >= 0 for i in indices; c = (min + max)/2, r = (max - min)/2."""
+    indices: tuple
+    xmin: np.ndarray
+    xmax: np.ndarray
+    sigma1: float
+    sigma2: float
+
+    @property
+    def center(self) -> np.ndarray:
+        return 0.5 * (self.xmin + self.xmax)
+
+    @property
+    def radius(self) -> np.ndarray:
+        return 0.5 * (self.xmax - self.xmin)
+
+
+@dataclass(frozen=True, eq=False)
+class HardStates:
+    indices: tuple
+    xmin: np.ndarray
+    xmax: np.ndarray
 
 
 # eq=False: element-wise array comparison makes generated __eq__/__hash__ unusable.
@@ -45,6 +88,9 @@ class MpcProblem:
     rmax: np.ndarray
     Ts: float | None
     solver: dict = field(default_factory=dict)
+    input_rate: InputRate | None = None
+    soft_states: SoftStates | None = None
+    hard_states: HardStates | None = None
 
     @property
     def nx(self) -> int:
@@ -265,10 +311,57 @@ def _parse_tracking(d, nx: int):
     return C, rmin, rmax
 
 
+def _state_indices(v, nx: int, fld: str) -> tuple:
+    if not isinstance(v, list) or not v or not all(isinstance(i, numbers.Integral) and not isinstance(i, bool) for i in v):
+        raise SpecError(f"{fld}: expected a non-empty list of state indices, got {v!r}")
+    bad = [i for i in v if not 0 <= i < nx]
+    if bad:
+        raise SpecError(f"{fld}: indices {bad} out of range 0..{nx - 1}")
+    if len(set(v)) != len(v):
+        raise SpecError(f"{fld}: duplicate indices in {v}")
+    return tuple(int(i) for i in v)
+
+
+def _positive(v, fld: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or v <= 0:
+        raise SpecError(f"{fld}: expected a positive number, got {v!r}")
+    return float(v)
+
+
+def _parse_input_rate(d, nu: int) -> InputRate:
+    d = _mapping(d, "input_rate", {"min", "max", "weight"}, {"min", "max"})
+    lo, hi = _box({"min": d["min"], "max": d["max"]}, nu, "input_rate")
+    bad = np.flatnonzero((lo > 0) | (hi < 0))
+    if bad.size:
+        i = int(bad[0])
+        raise SpecError(f"input_rate: the box must contain 0 (holding the input must stay feasible), "
+                        f"violated at index {i}: [{lo[i]:g}, {hi[i]:g}]")
+    W = _square_weight(d.get("weight", DU_WEIGHT_DEFAULT), nu, "input_rate.weight")
+    _check_psd(W, "input_rate.weight")
+    for a in (lo, hi, W):
+        a.setflags(write=False)
+    return InputRate(dumin=lo, dumax=hi, weight=W)
+
+
+def _parse_state_set(d, nx: int, fld: str, soft: bool):
+    keys = {"indices", "min", "max"} | ({"sigma1", "sigma2"} if soft else set())
+    d = _mapping(d, fld, keys, keys)
+    idx = _state_indices(d["indices"], nx, f"{fld}.indices")
+    lo, hi = _box({"min": d["min"], "max": d["max"]}, len(idx), fld)
+    lo.setflags(write=False)
+    hi.setflags(write=False)
+    if not soft:
+        return HardStates(indices=idx, xmin=lo, xmax=hi)
+    # sigma2 > 0: Remark 1 of 002, the quadratic slack penalty the fixed-point analysis relies on
+    return SoftStates(indices=idx, xmin=lo, xmax=hi, sigma1=_positive(d["sigma1"], f"{fld}.sigma1"),
+                      sigma2=_positive(d["sigma2"], f"{fld}.sigma2"))
+
+
 def problem_from_dict(d: dict, name: str = "problem") -> MpcProblem:
     d = _mapping(
         d, "spec",
-        {"name", "description", "model", "cost", "horizon", "inputs", "states", "tracking", "solver"},
+        {"name", "description", "model", "cost", "horizon", "inputs", "states", "tracking", "solver",
+         "input_rate", "soft_states", "hard_states"},
         {"model", "cost", "horizon", "inputs", "states"},
     )
     name = d.get("name", name)
@@ -309,11 +402,19 @@ def problem_from_dict(d: dict, name: str = "problem") -> MpcProblem:
     if not isinstance(solver, dict):
         raise SpecError(f"solver: expected a mapping, got {type(solver).__name__}")
 
+    input_rate = _parse_input_rate(d["input_rate"], nu) if d.get("input_rate") is not None else None
+    soft = _parse_state_set(d["soft_states"], nx, "soft_states", True) if d.get("soft_states") is not None else None
+    hard = _parse_state_set(d["hard_states"], nx, "hard_states", False) if d.get("hard_states") is not None else None
+    if soft is not None and hard is not None and set(soft.indices) & set(hard.indices):
+        raise SpecError(f"soft_states and hard_states: index sets must be disjoint (eq. (3) of 002), "
+                        f"both contain {sorted(set(soft.indices) & set(hard.indices))}")
+
     arrays = [A, B, Q, R, QN, umin, umax, xmin, xmax, rmin, rmax] + ([C] if C is not None else [])
     for a in arrays:
         a.setflags(write=False)
     return MpcProblem(name=name, A=A, B=B, Q=Q, R=R, QN=QN, N=N, umin=umin, umax=umax,
-                      xmin=xmin, xmax=xmax, C=C, rmin=rmin, rmax=rmax, Ts=Ts, solver=dict(solver))
+                      xmin=xmin, xmax=xmax, C=C, rmin=rmin, rmax=rmax, Ts=Ts, solver=dict(solver),
+                      input_rate=input_rate, soft_states=soft, hard_states=hard)
 
 
 def load_spec(path) -> MpcProblem:

@@ -149,6 +149,10 @@ def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     iterations = int(opt("iterations", 15))
     warm_start = bool(opt("warm_start", True))
     output_all = bool(opt("output_all", False))
+    extra = [k for k in ("input_rate", "soft_states", "hard_states") if getattr(problem, k, None) is not None]
+    if extra:
+        raise DesignError(f"the FGM core solves input-constrained MPC only (box on u): the spec also has "
+                          f"{', '.join(extra)}; use the ADMM formulation for those")
     qp = condense(problem)
     n, nw = qp.n, qp.nw
 
