@@ -1,6 +1,7 @@
 package fixed
 
 import chisel3._
+import chisel3.util.ShiftRegister
 
 /** Named fixed-point operations on SInt. Every narrowing saturates and reports it: nothing wraps. */
 object FixedOps {
@@ -31,6 +32,18 @@ object FixedOps {
       val lim  = Mux(neg, minOf(width).S(width.W), maxOf(width).S(width.W))
       (Mux(fits, x.asUInt(width - 1, 0).asSInt, lim), !fits)
     }
+
+  /** a * b after `lat` register stages. From two stages on, the first registers the operands, so that the
+    * multiplier block sits between registers (memory outputs and multiplexers no longer share its path).
+    */
+  def mulPipelined(a: SInt, b: SInt, lat: Int): SInt =
+    if (lat >= 2) {
+      val ra = Reg(chiselTypeOf(a))
+      val rb = Reg(chiselTypeOf(b))
+      ra := a
+      rb := b
+      ShiftRegister(ra * rb, lat - 1)
+    } else ShiftRegister(a * b, lat)
 
   /** a + b saturated to `width` bits. */
   def satAdd(a: SInt, b: SInt, width: Int): (SInt, Bool) = saturate(a +& b, width)

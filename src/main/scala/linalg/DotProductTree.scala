@@ -55,9 +55,9 @@ class DotProductTree(val p: DotProductParams) extends Module {
 
   private def delay[T <: Data](x: T, n: Int): T = ShiftRegister(x, n)
 
-  // Multipliers: the full product is registered l_M times, then rounded and narrowed.
+  // Multipliers (l_M stages, FixedOps.mulPipelined), then the product is rounded and narrowed.
   val level0 = (0 until p.m).map { j =>
-    val prod    = delay(io.coef(j) * io.op(j), p.latMul)
+    val prod    = FixedOps.mulPipelined(io.coef(j), io.op(j), p.latMul)
     val (v, of) = FixedOps.saturate(FixedOps.shiftRound(prod, p.fracBits, p.rounding), p.sumW)
     (v, of)
   }
