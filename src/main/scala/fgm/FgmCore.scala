@@ -47,10 +47,10 @@ class FgmCore(val p: FgmParams) extends Module {
   // ------------------------------------------------------------------ memories
   val kW = math.max(1, log2Ceil(2 * K))
   val matRam = (0 until P).map { u =>
-    Module(new InitRam(s"${p.moduleName}_mat$u", 2 * K, m, p.coefW, p.matInit(u)))
+    Module(new InitRam(s"${p.moduleName}_mat$u", 2 * K, m, p.coefW, p.matInit(u), outReg = true))
   }
   val bndRam = (0 until P).map { u =>
-    Module(new InitRam(s"${p.moduleName}_ubox$u", K, 2, p.zW, p.boundInit(u)))
+    Module(new InitRam(s"${p.moduleName}_ubox$u", K, 2, p.zW, p.boundInit(u), outReg = true))
   }
   val xboxRam = Module(new InitRam(s"${p.moduleName}_xbox", nw, 2, p.xW, p.xlo.zip(p.xhi).map { case (l, h) => Seq(l, h) }))
   val betaRam = Module(new InitRam(s"${p.moduleName}_beta", 1, 2, p.betaW, Seq(Seq(p.beta, p.onePlusBeta))))
@@ -104,32 +104,46 @@ class FgmCore(val p: FgmParams) extends Module {
   val hFifo = Seq.fill(P)(Reg(Vec(K, SInt(p.sumW.W))))
   val zFifo = Seq.fill(P)(Reg(Vec(K, SInt(p.zW.W))))
 
-  // Fetch: present a matrix row address; the token follows the row down the pipeline.
-  val fetchValid = state === sRun && (hPhase || cnt < K.U)
-  val fetchK     = cnt(math.max(1, log2Ceil(K)) - 1, 0)
+  // Fetch: a token per matrix row follows the row down the pipeline. tokN is the token of the next cycle, from
+  // the sequencer's next state: the row RAMs are addressed one cycle ahead and their outputs registered, so the
+  // block RAM clock-to-output delay stays off the datapath without adding cycles.
   class Token extends Bundle {
     val valid = Bool()
     val h     = Bool() // first pass (h = Phi_n w)
     val first = Bool() // row of the first iteration
     val k     = UInt(math.max(1, log2Ceil(K)).W)
   }
-  val tok0 = Wire(new Token)
-  tok0.valid := fetchValid
-  tok0.h     := hPhase
-  tok0.first := !hPhase && iter === 0.U
-  tok0.k     := fetchK
-  def tokAt(stage: Int): Token = ShiftRegister(tok0, stage, 0.U.asTypeOf(new Token), true.B)
-  val tok1   = tokAt(1)
-  val tokSum = tokAt(p.stageSum)
-  val tokT   = tokAt(p.stageT)
-  val tokZ   = tokAt(p.stageZ)
-  val tokY   = tokAt(p.stageY)
-  val tokBnd = tokAt(p.stageT - 1)
+  val kW0  = math.max(1, log2Ceil(K))
+  val tokN = Wire(new Token)
+  tokN       := 0.U.asTypeOf(new Token)
+  when(state === sIdle && inFull) {
+    tokN.valid := true.B
+    tokN.h     := true.B
+  }.elsewhen(state === sRun && hPhase) {
+    tokN.valid := true.B
+    tokN.h     := cnt =/= (K - 1).U
+    tokN.first := cnt === (K - 1).U
+    tokN.k     := Mux(cnt === (K - 1).U, 0.U, cnt + 1.U)
+  }.elsewhen(state === sRun) {
+    val wrap = cnt === (p.cyclesPerIteration - 1).U
+    tokN.valid := Mux(wrap, iter =/= imaxL - 1.U, cnt + 1.U < K.U)
+    tokN.first := iter === 0.U && !wrap
+    tokN.k     := Mux(wrap, 0.U, (cnt + 1.U)(kW0 - 1, 0))
+  }
+  val tok0 = RegNext(tokN, 0.U.asTypeOf(new Token))
+  def tokAt(stage: Int): Token =
+    if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(new Token), true.B)
+  val tok1    = tokAt(1)
+  val tokSum  = tokAt(p.stageSum)
+  val tokT    = tokAt(p.stageT)
+  val tokZ    = tokAt(p.stageZ)
+  val tokY    = tokAt(p.stageY)
+  val tokBnd  = tokAt(p.stageT - 2)
   val tokYsub = tokAt(p.stageZ + p.latMul)
 
   for (u <- 0 until P) {
-    matRam(u).io.raddr := Mux(hPhase, K.U +& fetchK, fetchK)
-    bndRam(u).io.raddr := Mux(tok0.valid && tok0.h, tok0.k, tokBnd.k)
+    matRam(u).io.raddr := Mux(tokN.h, K.U +& tokN.k, tokN.k)
+    bndRam(u).io.raddr := Mux(tokN.valid && tokN.h, tokN.k, tokBnd.k)
   }
 
   val yPad = VecInit((0 until m).map(j => if (j < n) yReg(j).pad(p.opW) else 0.S(p.opW.W)))

@@ -11,8 +11,15 @@ import chisel3.util._
   * @param lanes  words per row; a write updates the lanes whose mask bit is set
   * @param laneW  bits per lane
   * @param init   init(row)(lane), signed; rows beyond init.length start at zero
+  * @param outReg register the read data once more (read latency 2; maps to the block RAM output register)
   */
-class InitRam(val ramName: String, val depth: Int, val lanes: Int, val laneW: Int, init: Seq[Seq[BigInt]])
+class InitRam(
+    val ramName: String,
+    val depth: Int,
+    val lanes: Int,
+    val laneW: Int,
+    init: Seq[Seq[BigInt]],
+    val outReg: Boolean = false)
     extends BlackBox
     with HasBlackBoxInline {
   require(depth >= 1 && lanes >= 1 && laneW >= 1, s"InitRam $ramName: depth, lanes, laneW must be >= 1")
@@ -60,6 +67,7 @@ class InitRam(val ramName: String, val depth: Int, val lanes: Int, val laneW: In
        |  input      [${rowW - 1}:0] wdata
        |);
        |  reg [${rowW - 1}:0] mem [0:${depth - 1}];
+       |  reg [${rowW - 1}:0] rd;
        |  integer i;
        |  initial begin
        |${(initLines ++ zeroLines).mkString("\n")}
@@ -67,8 +75,10 @@ class InitRam(val ramName: String, val depth: Int, val lanes: Int, val laneW: In
        |  always @(posedge clock) begin
        |    for (i = 0; i < $lanes; i = i + 1)
        |      if (wen && wmask[i]) mem[waddr][i*$laneW +: $laneW] <= wdata[i*$laneW +: $laneW];
-       |    rdata <= mem[raddr];
+       |    rd <= mem[raddr];
+       |    ${if (outReg) "rdata <= rd;" else ""}
        |  end
+       |  ${if (outReg) "" else "always @(*) rdata = rd;"}
        |endmodule
        |""".stripMargin
   )
