@@ -211,14 +211,17 @@ class FgmCore(val p: FgmParams) extends Module {
 
   // Register writes: z0 = y0 at the start (warm: the previous solution shifted by one stage, the last stage
   // repeated, Fig. 2b) or in the first pass (cold), y+/z+ at the end of each row's pipeline, the operand copy.
-  val copyNow = state === sRun && !hPhase && cnt === 0.U && iter =/= 0.U
+  // Both decided a cycle ahead and registered: they fan out to every row register.
+  val copyNow  = RegNext(state === sRun && !hPhase && cnt === (p.cyclesPerIteration - 1).U && iter =/= imaxL - 1.U,
+    false.B)
   val startNow = state === sIdle && inFull
   val warmNow  = ctrlWarm && warmValid
+  val warmCopy = RegNext(startNow && warmNow, false.B)
   for (r <- 0 until n) {
     val u   = r % P
     val k   = r / P
     val src = if (r < n - nu) r + nu else r
-    when(startNow && warmNow) {
+    when(warmCopy) {
       yReg(r) := zReg(src).pad(p.yW)
       zReg(r) := zReg(src)
     }.elsewhen(tok1.valid && tok1.h && tok1.k === k.U && !warmL) {
