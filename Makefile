@@ -53,6 +53,17 @@ demo: setup
 table2: setup
 	$(PY) -m verif.tables $(TABLE_ARGS)
 
+## bench: benchmark report of the FGM core into BENCH (cycles, Yosys resources, nextpnr Fmax, latency against
+## 002, OSQP and numpy on this CPU); QUICK=1 for the short sweep (P = 1, 4; b = 16; no Xilinx synthesis)
+BENCH ?= build/bench
+.PHONY: bench
+$(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed
+	$(PY) -m pip install -q -r requirements-bench.txt
+	touch $@
+
+bench: setup $(VENV)/.bench-installed
+	$(PY) -m verif.bench --out $(BENCH) $(if $(QUICK),--quick)
+
 ## clean: remove build folders only
 clean:
 	rm -rf build target project/target project/project

@@ -1,0 +1,232 @@
+"""Parsers and arithmetic of the benchmark report (verif/bench.py) on canned tool output; no synthesis."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from verif import bench
+
+ECP5_STAT = """
+3. Printing statistics.
+
+=== FgmCore_masses_n40_p1_b16 ===
+
+        +----------Local Count, excluding submodules.
+        | 
+    16262 wires
+    29214 wire bits
+       29 ports
+      176 port bits
+    18038 cells
+        7   $scopeinfo
+     1321   CCU2C
+       21   DP16KD
+      332   L6MUX21
+     9437   LUT4
+       42   MULT18X18D
+     1204   PFUMX
+       10   TRELLIS_DPR16X4
+     5664   TRELLIS_FF
+"""
+
+# Hierarchical layout: per-module lists first, the design totals last, then the submodule list.
+XC7_STAT_HIER = """
+=== FgmCore_x_mat0 ===
+
+        +----------Local Count, excluding submodules.
+        | 
+       50 cells
+       40   LUT2
+       10   RAMB36E1
+
+=== design hierarchy ===
+
+        +----------Count including submodules.
+        | 
+    11314 FgmCore_x
+       50 FgmCore_x_mat0
+
+        +----------Count including submodules.
+        | 
+     8268 wires
+    11314 cells
+        1   BUFG
+      264   CARRY4
+       42   DSP48E1
+     3957   FDRE
+      743   FDSE
+       40   LUT1
+     1316   LUT2
+     1073   LUT3
+      755   LUT4
+     2044   LUT5
+      838   LUT6
+        8   RAM32M
+       12   RAM64M
+       10   RAMB36E1
+        2   RAMB18E1
+        1   SRL16E
+        1 submodules
+        1   FgmCore_x_mat0
+"""
+
+OLD_STAT = """
+=== top ===
+
+   Number of wires:                 12
+   Number of cells:                  5
+     LUT4                            3
+     TRELLIS_FF                      2
+"""
+
+
+def test_yosys_stat_recent_layout():
+    cells = bench.parse_yosys_stat(ECP5_STAT)
+    assert "$scopeinfo" not in cells
+    assert bench.ecp5_resources(cells) == {"MULT18X18D": 42, "LUT4": 9437, "CCU2C": 1321, "FF": 5664,
+                                           "DP16KD": 21, "LUTRAM": 10}
+
+
+def test_yosys_stat_hierarchy_takes_totals():
+    res = bench.xc7_resources(bench.parse_yosys_stat(XC7_STAT_HIER))
+    assert res["DSP48E1"] == 42
+    assert res["LUT"] == 40 + 1316 + 1073 + 755 + 2044 + 838
+    assert res["FF"] == 3957 + 743
+    assert res["RAMB36E1"] == 10 and res["RAMB18E1"] == 2 and res["RAMB"] == 11.0
+    assert res["LUTRAM"] == 8 + 12 + 1
+
+
+def test_yosys_stat_old_layout_and_empty():
+    assert bench.parse_yosys_stat(OLD_STAT) == {"LUT4": 3, "TRELLIS_FF": 2}
+    with pytest.raises(ValueError):
+        bench.parse_yosys_stat("nothing here\n")
+
+
+def test_memory_mapping():
+    log = """
+2.28. Executing MEMORY_LIBMAP pass (mapping memories to cells).
+using FF mapping for memory top.betaRam.mem
+mapping memory top.xboxRam.mem via $__TRELLIS_DPR16X4_
+mapping memory top.matRam_0.mem via $__PDPW16KD_
+"""
+    assert bench.parse_memory_mapping(log) == {"top.betaRam.mem": "FF", "top.xboxRam.mem": "TRELLIS_DPR16X4",
+                                               "top.matRam_0.mem": "PDPW16KD"}
+    assert bench._mem_name("top.matRam_0.mem", "top") == "matRam_0"
+    assert bench._mem_name("top_mat0.mem", "top") == "mat0"
+
+
+def _step(kind, delay, cell, port="F", net=None):
+    s = {"type": kind, "delay": delay, "from": {"cell": cell, "port": port}, "to": {"cell": cell, "port": port}}
+    if net:
+        s["net"] = net
+    return s
+
+
+CLK = "posedge $glbnet$clock$TRELLIS_IO_IN"
+REPORT = {
+    "fmax": {"$glbnet$clock$TRELLIS_IO_IN": {"achieved": 69.5, "constraint": 200}},
+    "utilization": {"MULT18X18D": {"available": 156, "used": 42}, "DCUA": {"available": 2, "used": 0}},
+    "critical_paths": [
+        {"from": "<async>", "to": CLK, "path": [_step("source", 0.0, "io")]},
+        {"from": CLK, "to": CLK, "path": [
+            _step("clk-to-q", 4.1, "bndRam_0.mem.0.0", "DOA13"),
+            _step("routing", 1.0, "bndRam_0.mem.0.0", "DOA13", net="n1"),
+            _step("logic", 0.18, "lut_a"),
+            _step("routing", 2.8, "lut_a", net="n2"),
+            _step("logic", 0.13, "mux_b"),
+            _step("routing", 0.1, "mux_b", net="n3"),
+            _step("setup", 0.0, "yReg_26_TRELLIS_FF_Q", "DI"),
+        ]},
+    ],
+}
+
+
+def test_nextpnr_report():
+    r = bench.parse_nextpnr_report(REPORT)
+    assert r["fmax_mhz"] == 69.5 and r["target_mhz"] == 200
+    assert r["utilisation"] == {"MULT18X18D": 42}
+    cp = r["critical_path"]
+    assert cp["from"] == "bndRam_0.mem.0.0.DOA13" and cp["to"] == "yReg_26_TRELLIS_FF_Q.DI"
+    assert cp["logic_levels"] == 2 and cp["cells"] == ["lut_a", "mux_b"]
+    assert cp["nets"] == ["n1", "n2", "n3"]
+    assert math.isclose(cp["total_ns"], 4.1 + 1.0 + 0.18 + 2.8 + 0.13 + 0.1)
+    assert math.isclose(cp["routing_ns"], 3.9) and math.isclose(cp["logic_ns"], 0.31)
+    assert cp["max_net"] == (2.8, "n2")
+    with pytest.raises(ValueError):
+        bench.parse_nextpnr_report({"fmax": {}})
+
+
+def test_nextpnr_log_takes_last_fmax():
+    log = """Info: Max frequency for clock '$glbnet$clk': 61.43 MHz (FAIL at 200.00 MHz)
+Info: Routing complete.
+ERROR: Max frequency for clock '$glbnet$clk': 69.57 MHz (FAIL at 200.00 MHz)
+"""
+    assert bench.parse_nextpnr_log(log) == {"clock": "$glbnet$clk", "fmax_mhz": 69.57, "target_mhz": 200.0,
+                                            "pass": False}
+    assert bench.parse_nextpnr_log("Info: Max frequency for clock 'c': 250.1 MHz (PASS at 200.00 MHz)")["pass"]
+    assert bench.parse_nextpnr_log("no timing here") is None
+
+
+def test_lpf_frequency():
+    assert bench.lpf_frequency('# one clock\nFREQUENCY PORT "clock" 200 MHZ;\n') == 200.0
+    assert bench.lpf_frequency('FREQUENCY PORT clock 87.5 MHz;') == 87.5
+    assert bench.lpf_frequency('LOCATE COMP "clock" SITE "P3";') is None
+
+
+def test_ecp5_fit():
+    res = {"MULT18X18D": 168, "DP16KD": 40, "LUT4": 30000, "CCU2C": 4000, "FF": 20000, "LUTRAM": 10}
+    assert bench.ecp5_fit(res) == ["168 MULT18X18D needed, 156 on the LFE5U-85F"]
+    assert bench.ecp5_fit(dict(res, MULT18X18D=156)) == []
+
+
+def test_cycle_formulas_match_table3():
+    # masses, n = 40, l_A = l_M = 1, Imax = 15: eq. (23) and Table III of 002 at 400 and 230 MHz
+    for P, (mult, v6, s6) in bench.PAPER_TABLE3.items():
+        cycles = 15 * bench.eq23(40, P, 1, 1)
+        assert bench.paper_multipliers(40, P) == mult
+        assert round(bench.latency_us(cycles, bench.F_V6_MHZ), 2) == pytest.approx(v6, abs=0.011)
+        assert round(bench.latency_us(cycles, bench.F_S6_MHZ), 2) == pytest.approx(s6, abs=0.011)
+    assert bench.eq23(40, 1, 1, 1) == 52
+
+
+def test_latency_and_ratio():
+    assert bench.latency_us(822, 69.57) == pytest.approx(11.815, abs=1e-3)
+    assert bench.latency_us(822, None) is None
+    assert bench.ratio(90.0, 11.8) == pytest.approx(7.627, abs=1e-3)
+    assert bench.ratio(None, 1.0) is None and bench.ratio(1.0, None) is None
+
+
+def test_mac_utilisation():
+    assert bench.useful_macs(40) == 1680
+    assert bench.mac_utilisation(40, 42, 52) == pytest.approx(1680 / 2184)
+    assert bench.mac_utilisation(40, 336, 18) == pytest.approx(1680 / 6048)
+    assert bench.mac_utilisation(1, 3, 1) == 1.0
+
+
+def test_rtl_names_from_netlist_names():
+    names = ["bndRam_0.mem.0.0", "bndRam_0.mem.0.0_DOA13[1]", "proj.io_out_r_TRELLIS_FF_Q_13_DI_PFUMX_Z_ALUT",
+             "tokY_h_LUT4_D_1_Z[3]", "warmL_LUT4_C_Z[4]", "yReg_26_TRELLIS_FF_Q_DI", "yReg_26_TRELLIS_FF_Q"]
+    assert bench.rtl_names(names) == ["bndRam_0", "proj.io_out_r", "tokY_h", "warmL", "yReg_26"]
+    assert bench.parse_nextpnr_report(REPORT)["critical_path"]["signals"] == ["bndRam_0", "n1", "n2", "n3",
+                                                                               "yReg_26"]
+
+
+def test_paper_memory_blocks():
+    assert bench.paper_memory_blocks(40, 8, 1) == (52, 40)
+    assert bench.paper_memory_blocks(40, 8, 3) == (156, 14)
+
+
+def test_step_kinds():
+    def st(kind, cell, fp, tp):
+        return {"type": kind, "delay": 0.1, "from": {"cell": cell, "port": fp}, "to": {"cell": cell, "port": tp}}
+
+    assert bench.step_kind(st("clk-to-q", "matRam_0.mem.0.4", "DOA8", "DOA8")) == "DP16KD read"
+    assert bench.step_kind(st("clk-to-q", "tokY_r_9_k_TRELLIS_FF_Q_1", "Q", "Q")) == "FF"
+    assert bench.step_kind(st("logic", "pb_DI_MULT18X18D_P26", "B15", "P22")) == "MULT18X18D"
+    assert bench.step_kind(st("logic", "x_CCU2C_S0$CCU2_COMB1", "FCI", "FCO")) == "CCU2C"
+    assert bench.step_kind(st("logic", "x_PFUMX_Z_BLUT_LUT4_Z", "M", "OFX")) == "PFUMX/L6MUX21"
+    assert bench.step_kind(st("logic", "x_LUT4_Z", "C", "F")) == "LUT4"
+    cp = bench.parse_nextpnr_report(REPORT)["critical_path"]
+    assert cp["source_kind"] == "DP16KD read"
+    assert cp["kinds"] == {"LUT4": 2}
