@@ -230,3 +230,18 @@ def test_step_kinds():
     cp = bench.parse_nextpnr_report(REPORT)["critical_path"]
     assert cp["source_kind"] == "DP16KD read"
     assert cp["kinds"] == {"LUT4": 2}
+
+
+def test_software_sessions_merge_and_best_median():
+    import numpy as np
+
+    def session(times, load):
+        r = bench.SwResult("OSQP tuned", "s", np.array(times, dtype=float), 1e-3, [5] * np.size(times))
+        return {"solvers": [r], "repeats": len(times), "load": load}
+
+    m = bench.merge_software(session([[30, 31, 90]], 2.5), session([[25, 26, 27], [40, 41, 42]], 0.1))
+    r = m["solvers"][0]
+    assert r.times_us.shape == (3, 3) and m["repeats"] == 3 and m["load"] == [2.5, 0.1]
+    assert r.median_us == 26.0
+    assert len(r.iters) == 9
+    assert bench.merge_software(None, m) is m

