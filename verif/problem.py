@@ -296,16 +296,7 @@ def _parse_tracking(d, nx: int):
         if C.ndim != 2 or C.size == 0 or C.shape[1] != nx:
             raise SpecError(f"tracking.C: expected ny x {nx} to match the {nx} states, got shape {_shape(C)}")
     else:
-        idx = d["outputs"]
-        if not isinstance(idx, list) or not idx or not all(
-            isinstance(i, numbers.Integral) and not isinstance(i, bool) for i in idx
-        ):
-            raise SpecError(f"tracking.outputs: expected a non-empty list of state indices, got {idx!r}")
-        bad = [i for i in idx if not 0 <= i < nx]
-        if bad:
-            raise SpecError(f"tracking.outputs: indices {bad} out of range 0..{nx - 1}")
-        if len(set(idx)) != len(idx):
-            raise SpecError(f"tracking.outputs: duplicate indices in {idx}")
+        idx = list(_state_indices(d["outputs"], nx, "tracking.outputs"))
         C = np.eye(nx)[idx]
     rmin, rmax = _box({"min": d["min"], "max": d["max"]}, C.shape[0], "tracking")
     return C, rmin, rmax
