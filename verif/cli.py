@@ -20,16 +20,31 @@ def _overrides(a) -> dict:
     return ov
 
 
+CORES = ("fgm", "admm")
+
+
 def _design(a):
+    from verif.admm.design import design_admm
     from verif.fgm.design import DesignError, design_fgm
     from verif.problem import SpecError, load_spec
 
-    if a.core != "fgm":
-        sys.exit(f"error: CORE={a.core}: only 'fgm' is available in this version")
+    if a.core not in CORES:
+        sys.exit(f"error: CORE={a.core}: the cores are {', '.join(CORES)}")
     try:
-        return design_fgm(load_spec(a.problem), **_overrides(a))
+        return (design_fgm if a.core == "fgm" else design_admm)(load_spec(a.problem), **_overrides(a))
     except (DesignError, SpecError) as e:
         sys.exit(f"error: {e}")
+
+
+def _flow(core: str):
+    """(generate, design_report) of a core."""
+    from verif import flow
+
+    if core == "admm":
+        from verif.admm.report import design_report
+        return flow.generate_admm, design_report
+    from verif.fgm.report import design_report
+    return flow.generate_fgm, design_report
 
 
 def cmd_design(a) -> None:
@@ -43,11 +58,15 @@ def cmd_design(a) -> None:
 
     if a.tol is None:
         d = _design(a)
+        if a.core == "admm":
+            print(_flow("admm")[1](d))
+            return
         print(design_report(d))
         print(certificate_report(d, certify(d, None)))
         return
     if a.core != "fgm":
-        sys.exit(f"error: CORE={a.core}: only 'fgm' is available in this version")
+        sys.exit(f"error: CORE={a.core}: TOL (certified design) is available for the FGM core only; 002 gives no "
+                 "bound on the ADMM multipliers (IV-C2): run `make design CORE=admm` without TOL")
     try:
         p = load_spec(a.problem)
         d, cert, log = design_for_tolerance(p, a.tol, **_overrides(a))
@@ -68,20 +87,21 @@ def cmd_design(a) -> None:
 
 
 def cmd_verilog(a) -> None:
-    from verif.fgm.report import design_report
-    from verif.flow import generate_fgm
-
     d = _design(a)
+    generate, design_report = _flow(a.core)
     out = Path(a.out or f"build/{a.core}_{d.name}_p{d.P}")
     try:
-        core = generate_fgm([(d, out)])[0]
+        core = generate([(d, out)])[0]
     except GeneratorError as e:
         sys.exit(f"error: {e}")
-    print(design_report(d))
+    print(design_report(d, core))
     print(f"wrote {out / core['sv']}, {out / 'core.json'}, {out / core['header']}")
 
 
 def cmd_demo(a) -> None:
+    if a.core != "fgm":
+        sys.exit(f"error: CORE={a.core}: the demo runs the FGM core; the ADMM closed loop in Verilator is in "
+                 "`make test` (tests/test_admm_rtl.py)")
     from verif.closedloop import FixedController, OsqpController, reference_schedule, run_closed_loop
     from verif.fgm.report import design_report
     from verif.flow import generate_fgm

@@ -44,18 +44,14 @@ def run_generator(main: str, args: list[str]) -> str:
     return p.stdout
 
 
-def generate_fgm(jobs: list[tuple[object, Path]]) -> list[dict]:
-    """Elaborate FGM cores: jobs are (FgmDesign, out_dir). Writes per out_dir: config.json, <module>.sv,
-    core.json and <module>.h. Returns the core.json dicts."""
-    from verif.fgm.report import c_header, core_json
-
+def _generate(main: str, jobs: list[tuple[object, Path]], core_json, c_header) -> list[dict]:
     args = []
     for d, out in jobs:
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         d.write_config(out / "config.json")
         args += [str((out / "config.json").resolve()), str(out.resolve())]
-    run_generator("fgm.FgmMain", args)
+    run_generator(main, args)
     cores = []
     for d, out in jobs:
         out = Path(out)
@@ -65,3 +61,18 @@ def generate_fgm(jobs: list[tuple[object, Path]]) -> list[dict]:
         (out / f"{core['module']}.h").write_text(c_header(core))
         cores.append(core)
     return cores
+
+
+def generate_fgm(jobs: list[tuple[object, Path]]) -> list[dict]:
+    """Elaborate FGM cores: jobs are (FgmDesign, out_dir). Writes per out_dir: config.json, <module>.sv,
+    core.json and <module>.h. Returns the core.json dicts."""
+    from verif.fgm.report import c_header, core_json
+
+    return _generate("fgm.FgmMain", jobs, core_json, c_header)
+
+
+def generate_admm(jobs: list[tuple[object, Path]]) -> list[dict]:
+    """Elaborate ADMM cores: jobs are (AdmmDesign, out_dir); the same files as generate_fgm."""
+    from verif.admm.report import c_header, core_json
+
+    return _generate("admm.AdmmMain", jobs, core_json, c_header)

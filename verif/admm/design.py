@@ -71,6 +71,7 @@ class AdmmDesign:
     wlo: np.ndarray            # accepted w words, containing the real box
     whi: np.ndarray
     safety: float
+    output_all: bool = False   # stream all of z (else du_0)
     assumption2: dict = field(default_factory=dict)
     widths: dict = field(default_factory=dict)
     bounds: dict = field(default_factory=dict)      # integer-word bounds per signal
@@ -133,6 +134,7 @@ class AdmmDesign:
             "widths": self.widths,
             "iterations": self.iterations,
             "warm_start": self.warm_start,
+            "output_all": self.output_all,
             "rho_log2": self.rho_log2,
             "shift": self.shift.tolist(),
             "M11": self.M11.tolist(), "G": self.G.tolist(),
@@ -199,6 +201,7 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     rounding = str(opt("rounding", "nearest"))
     iterations = int(opt("iterations", 40))
     warm_start = bool(opt("warm_start", True))
+    output_all = bool(opt("output_all", False))
     safety = float(opt("safety", SAFETY_DEFAULT))
     try:
         qp = build_admm_qp(problem)
@@ -262,7 +265,7 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     d = AdmmDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
                    iterations=iterations, warm_start=warm_start, rho_log2=k, shift=shift, M11f=M11f, Gf=Gf,
                    M11=M11, G=G, kind=qp.kind.copy(), lo=lo, hi=hi, soft_c=soft_c, soft_r=soft_r, wlo=wlo, whi=whi,
-                   safety=safety, assumption2=a2)
+                   safety=safety, output_all=output_all, assumption2=a2)
     _size_words(d, int(opt("sizing_solves", 48)), int(opt("sizing_seed", 0)))
     return d
 

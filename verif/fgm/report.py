@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 
+from verif import header
 from verif.fgm.design import FgmDesign, roundoff_bound
 
 
@@ -75,55 +76,23 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
 
 
 def c_header(core: dict) -> str:
-    m = core["module"]
-    pfx = m.upper()
-    L = []
-    a = L.append
-    a(f"/* {m}: register map and constants of a generated FGM core (input-constrained MPC, {core['name']}). */")
-    a(f"#ifndef {pfx}_H")
-    a(f"#define {pfx}_H")
-    a("")
-    a("#include <stdint.h>")
-    a("")
-    for k in ("n", "nu", "nw", "P", "frac_bits", "stream_width", "iterations", "cycles_per_iteration",
-              "solve_overhead_cycles", "cycles_per_solve"):
-        a(f"#define {pfx}_{k.upper():<24} {core[k]}u")
-    a(f"/* cycles per solve = {core['cycles_per_solve_formula']} (last input word to first output word) */")
-    a("")
-    a("/* Register byte offsets (32-bit words on AXI4-Lite). */")
-    for r in core["registers"]:
-        a(f"#define {pfx}_{r['name']:<24} 0x{r['offset']:04x}u /* {r['access']}: {r['desc']} */")
-    a("")
-    a("/* STATUS bits */")
-    for i, nm in enumerate(("BUSY", "SAT", "OVERFLOW", "WRITE_REJECTED", "TLAST_ERROR", "WARM_VALID")):
-        a(f"#define {pfx}_STATUS_{nm:<16} (1u << {i})")
-    a("/* CTRL bits */")
-    for i, nm in enumerate(("WARM_START", "HOLD", "OUT_ALL")):
-        a(f"#define {pfx}_CTRL_{nm:<18} (1u << {i})")
-    a("")
-    a("/* Data memories (write-only, only while STATUS.BUSY is 0: otherwise SLVERR and WRITE_REJECTED).")
-    a("   Row i of a matrix lives in row unit i % P at slot i / P. */")
-    for nm, r in core["regions"].items():
-        a(f"#define {pfx}_{nm}_BASE{'':<10} 0x{r['offset']:04x}u")
-    a(f"#define {pfx}_P_BITS{'':<18} {core['p_bits']}u")
-    a(f"#define {pfx}_COL_BITS{'':<16} {core['col_bits']}u")
+    pfx = core["module"].upper()
     P = f"{pfx}_P"
-    a(f"#define {pfx}_SLOT(i) ((((uint32_t)(i) / {P}) << {pfx}_P_BITS) | ((uint32_t)(i) % {P}))")
-    a(f"/* (I - H_n)[i][j] */")
-    a(f"#define {pfx}_MAT_A_ADDR(i, j) ({pfx}_MAT_A_BASE + ((({pfx}_SLOT(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))")
-    a(f"/* Phi_n[i][j], j over (x, r) */")
-    a(f"#define {pfx}_MAT_F_ADDR(i, j) ({pfx}_MAT_F_BASE + ((({pfx}_SLOT(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))")
-    a(f"/* bound of z_i: hi = 0 lower, 1 upper; a write clears the warm start */")
-    a(f"#define {pfx}_UBOX_ADDR(i, hi) ({pfx}_UBOX_BASE + ((({pfx}_SLOT(i) << 1) | (uint32_t)(hi)) << 2))")
-    a(f"/* box of the accepted input word j of (x, r) */")
-    a(f"#define {pfx}_XBOX_ADDR(j, hi) ({pfx}_XBOX_BASE + ((((uint32_t)(j) << 1) | (uint32_t)(hi)) << 2))")
-    a("")
-    a("/* Stream words: signed, frac_bits fraction bits, sign-extended to stream_width. */")
-    a(f"#define {pfx}_TO_FIXED(x) ((int32_t)((x) * (double)(1u << {pfx}_FRAC_BITS) + ((x) >= 0 ? 0.5 : -0.5)))")
-    a(f"#define {pfx}_TO_REAL(q)  ((double)(q) / (double)(1u << {pfx}_FRAC_BITS))")
-    a("")
-    a(f"#endif /* {pfx}_H */")
-    return "\n".join(L) + "\n"
+    mem = [
+        "/* Row i of a matrix lives in row unit i % P at slot i / P. */",
+        f"#define {pfx}_P_BITS{'':<18} {core['p_bits']}u",
+        f"#define {pfx}_COL_BITS{'':<16} {core['col_bits']}u",
+        f"#define {pfx}_SLOT(i) ((((uint32_t)(i) / {P}) << {pfx}_P_BITS) | ((uint32_t)(i) % {P}))",
+        "/* (I - H_n)[i][j] */",
+        f"#define {pfx}_MAT_A_ADDR(i, j) ({pfx}_MAT_A_BASE + ((({pfx}_SLOT(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
+        "/* Phi_n[i][j], j over (x, r) */",
+        f"#define {pfx}_MAT_F_ADDR(i, j) ({pfx}_MAT_F_BASE + ((({pfx}_SLOT(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
+        "/* bound of z_i: hi = 0 lower, 1 upper; a write clears the warm start */",
+        f"#define {pfx}_UBOX_ADDR(i, hi) ({pfx}_UBOX_BASE + ((({pfx}_SLOT(i) << 1) | (uint32_t)(hi)) << 2))",
+        "/* box of the accepted input word j of (x, r) */",
+        f"#define {pfx}_XBOX_ADDR(j, hi) ({pfx}_XBOX_BASE + ((((uint32_t)(j) << 1) | (uint32_t)(hi)) << 2))",
+    ]
+    return header.c_header(core, "FGM core (input-constrained MPC)", mem)
 
 
 def design_report(d: FgmDesign, core: dict | None = None) -> str:

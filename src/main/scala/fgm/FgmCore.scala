@@ -2,10 +2,12 @@ package fgm
 
 import chisel3._
 import chisel3.util._
-import bus.{AxiLiteIO, AxiLiteResp, AxiLiteSlave, AxiStreamIO}
+import bus.{AxiLiteIO, AxiStreamIO}
 import fixed.FixedOps
 import linalg.{DotProductParams, DotProductTree}
 import mem.InitRam
+import proj.BoxProjection
+import shell.{FrameIn, PassSequencer, RowToken, SolverRegs}
 
 /** Fixed-point fast gradient method (Algorithm 1 of 002) for input-constrained MPC, after Fig. 1/2 of 002.
   *
@@ -31,30 +33,33 @@ class FgmCore(val p: FgmParams) extends Module {
   import p.{K, P, m, n, nu, nw}
   val b = p.fracBits
 
-  // ------------------------------------------------------------------ control and status registers
-  val ctrlWarm   = RegInit(p.warmDefault.B)
-  val ctrlHold   = RegInit(false.B)
-  val ctrlOutAll = RegInit(p.outAllDefault.B)
-  val imaxReg    = RegInit(p.imaxDefault.U(16.W))
-  val stSat      = RegInit(false.B)
-  val stOvf      = RegInit(false.B)
-  val stRej      = RegInit(false.B)
-  val stTlast    = RegInit(false.B)
-  val warmValid  = RegInit(false.B)
-  val solves     = RegInit(0.U(32.W))
-  val lastCycles = RegInit(0.U(32.W))
+  // ------------------------------------------------------------------ registers, input frame, sequencer
+  val regs = new SolverRegs(s_axil, FgmRegs.IdValue, Cat(P.U(16.W), n.U(16.W)), Cat(nu.U(8.W), b.U(8.W), nw.U(16.W)),
+    p.cyclesPerIteration, p.imaxDefault, p.warmDefault, p.outAllDefault)
+  /** w = (x, r), saturated to the state box */
+  val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi)))
+  frameIn.io.s_axis <> s_axis
+  frameIn.io.hold := regs.ctrlHold
+  when(frameIn.io.sat) { regs.stSat := true.B }
+  when(frameIn.io.tlastErr) { regs.stTlast := true.B }
+  val seq = Module(new PassSequencer(K, K, p.cyclesPerIteration, copyAfterFirst = false, maxOut = n))
+  seq.io.frameReady := frameIn.io.full
+  seq.io.imax       := regs.imaxReg
+  seq.io.outLast    := Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)
+  seq.io.outFire    := m_axis.fire
+  frameIn.io.take   := seq.io.start
+  when(seq.io.done) { regs.solveDone(seq.io.runCycles) }
+  regs.busy := seq.io.running || seq.io.outValid || frameIn.io.full || frameIn.io.partial
 
   // ------------------------------------------------------------------ memories
-  val kW = math.max(1, log2Ceil(2 * K))
   val matRam = (0 until P).map { u =>
     Module(new InitRam(s"${p.moduleName}_mat$u", 2 * K, m, p.coefW, p.matInit(u), outReg = true))
   }
   val bndRam = (0 until P).map { u =>
     Module(new InitRam(s"${p.moduleName}_ubox$u", K, 2, p.zW, p.boundInit(u), outReg = true))
   }
-  val xboxRam = Module(new InitRam(s"${p.moduleName}_xbox", nw, 2, p.xW, p.xlo.zip(p.xhi).map { case (l, h) => Seq(l, h) }))
   val betaRam = Module(new InitRam(s"${p.moduleName}_beta", 1, 2, p.betaW, Seq(Seq(p.beta, p.onePlusBeta))))
-  for (r <- matRam ++ bndRam :+ xboxRam :+ betaRam) {
+  for (r <- matRam ++ bndRam :+ betaRam) {
     r.io.clock := clock
     r.io.wen   := false.B
     r.io.waddr := 0.U
@@ -65,36 +70,8 @@ class FgmCore(val p: FgmParams) extends Module {
   val betaQ = betaRam.io.rdata(p.betaW - 1, 0).asSInt
   val opbQ  = betaRam.io.rdata(2 * p.betaW - 1, p.betaW).asSInt
 
-  // ------------------------------------------------------------------ input stream: w, saturated to the box
-  val inBuf  = Reg(Vec(nw, SInt(p.xW.W)))
-  val inCnt  = RegInit(0.U(log2Ceil(nw + 1).W))
-  val inFull = RegInit(false.B)
-  s_axis.tready := !inFull && !(ctrlHold && inCnt === 0.U)
-  xboxRam.io.raddr := Mux(s_axis.fire && inCnt =/= (nw - 1).U, inCnt + 1.U, Mux(s_axis.fire, 0.U, inCnt))
-  val xlo = xboxRam.io.rdata(p.xW - 1, 0).asSInt
-  val xhi = xboxRam.io.rdata(2 * p.xW - 1, p.xW).asSInt
-  when(s_axis.fire) {
-    val (v, clamped) = FixedOps.clamp(s_axis.tdata.asSInt, xlo, xhi)
-    inBuf(inCnt) := v(p.xW - 1, 0).asSInt
-    when(clamped) { stSat := true.B }
-    val last = inCnt === (nw - 1).U
-    when(s_axis.tlast =/= last) { stTlast := true.B }
-    inCnt := Mux(last, 0.U, inCnt + 1.U)
-    when(last) { inFull := true.B }
-  }
-
   // ------------------------------------------------------------------ solver state
-  val sIdle :: sRun :: sOut :: Nil = Enum(3)
-  val state   = RegInit(sIdle)
-  val hPhase  = RegInit(false.B)
-  val cnt     = RegInit(0.U(log2Ceil(p.cyclesPerIteration + 1).W))
-  val iter    = RegInit(0.U(16.W))
-  val imaxL   = RegInit(1.U(16.W))
-  val warmL   = RegInit(false.B)
-  val outAllL = RegInit(false.B)
-  val outCnt  = RegInit(0.U(log2Ceil(n + 1).W))
-  val busyCyc = RegInit(0.U(32.W))
-
+  val warmL = RegInit(false.B)
   val wReg  = Reg(Vec(nw, SInt(p.xW.W)))
   val yReg  = Reg(Vec(n, SInt(p.yW.W)))
   val yNext = Reg(Vec(n, SInt(p.yW.W)))
@@ -107,32 +84,11 @@ class FgmCore(val p: FgmParams) extends Module {
   // Fetch: a token per matrix row follows the row down the pipeline. tokN is the token of the next cycle, from
   // the sequencer's next state: the row RAMs are addressed one cycle ahead and their outputs registered, so the
   // block RAM clock-to-output delay stays off the datapath without adding cycles.
-  class Token extends Bundle {
-    val valid = Bool()
-    val h     = Bool() // first pass (h = Phi_n w)
-    val first = Bool() // row of the first iteration
-    val k     = UInt(math.max(1, log2Ceil(K)).W)
-  }
-  val kW0  = math.max(1, log2Ceil(K))
-  val tokN = Wire(new Token)
-  tokN       := 0.U.asTypeOf(new Token)
-  when(state === sIdle && inFull) {
-    tokN.valid := true.B
-    tokN.h     := true.B
-  }.elsewhen(state === sRun && hPhase) {
-    tokN.valid := true.B
-    tokN.h     := cnt =/= (K - 1).U
-    tokN.first := cnt === (K - 1).U
-    tokN.k     := Mux(cnt === (K - 1).U, 0.U, cnt + 1.U)
-  }.elsewhen(state === sRun) {
-    val wrap = cnt === (p.cyclesPerIteration - 1).U
-    tokN.valid := Mux(wrap, iter =/= imaxL - 1.U, cnt + 1.U < K.U)
-    tokN.first := iter === 0.U && !wrap
-    tokN.k     := Mux(wrap, 0.U, (cnt + 1.U)(kW0 - 1, 0))
-  }
-  val tok0 = RegNext(tokN, 0.U.asTypeOf(new Token))
+  type Token = RowToken
+  val tokN = seq.io.tokN
+  val tok0 = RegNext(tokN, 0.U.asTypeOf(tokN))
   def tokAt(stage: Int): Token =
-    if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(new Token), true.B)
+    if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(tokN), true.B)
   val tok1    = tokAt(1)
   val tokSum  = tokAt(p.stageSum)
   val tokT    = tokAt(p.stageT)
@@ -142,8 +98,8 @@ class FgmCore(val p: FgmParams) extends Module {
   val tokYsub = tokAt(p.stageZ + p.latMul)
 
   for (u <- 0 until P) {
-    matRam(u).io.raddr := Mux(tokN.h, K.U +& tokN.k, tokN.k)
-    bndRam(u).io.raddr := Mux(tokN.valid && tokN.h, tokN.k, tokBnd.k)
+    matRam(u).io.raddr := Mux(tokN.pass0, K.U +& tokN.k, tokN.k)
+    bndRam(u).io.raddr := Mux(tokN.valid && tokN.pass0, tokN.k, tokBnd.k)
   }
 
   val yPad = VecInit((0 until m).map(j => if (j < n) yReg(j).pad(p.opW) else 0.S(p.opW.W)))
@@ -158,13 +114,13 @@ class FgmCore(val p: FgmParams) extends Module {
     val tree = if (u == 0) dp else Module(new DotProductTree(dp.p))
     tree.io.inValid := tok1.valid
     tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(m, SInt(p.coefW.W)))
-    tree.io.op      := Mux(tok1.h, wPad, yPad)
+    tree.io.op      := Mux(tok1.pass0, wPad, yPad)
 
     // First pass: h = Phi_n w enters the FIFO one row per cycle; each iteration row reads the head and rotates.
     val hHead = hFifo(u)(0)
     when(tokSum.valid) {
       for (i <- 0 until K - 1) hFifo(u)(i) := hFifo(u)(i + 1)
-      hFifo(u)(K - 1) := Mux(tokSum.h, tree.io.sum, hHead)
+      hFifo(u)(K - 1) := Mux(tokSum.pass0, tree.io.sum, hHead)
     }
 
     // Cold start z0 = proj(0), from this row's bounds during the first pass.
@@ -189,7 +145,7 @@ class FgmCore(val p: FgmParams) extends Module {
       Mux(load, if (r < n) zReg(r) else 0.S(p.zW.W), zFifo(u)(i))
     })
     val zOld = zSrc(0)
-    val rotZ = tokZ.valid && !tokZ.h
+    val rotZ = tokZ.valid && !tokZ.pass0
     when(load || rotZ) {
       for (i <- 0 until K) zFifo(u)(i) := Mux(rotZ, if (i < K - 1) zSrc(i + 1) else z, zSrc(i))
     }
@@ -203,20 +159,22 @@ class FgmCore(val p: FgmParams) extends Module {
 
     // Saturation anywhere in a live row sets the sticky overflow flag.
     val ofTree = tree.io.outValid && tree.io.overflow
-    val ofTs   = tokSum.valid && !tokSum.h && ofT
-    val ofYs   = tokYsub.valid && !tokYsub.h && ofY
+    val ofTs   = tokSum.valid && !tokSum.pass0 && ofT
+    val ofYs   = tokYsub.valid && !tokYsub.pass0 && ofY
     ovfNow(u) := ofTree || ofTs || ofYs
   }
-  when(ovfNow.asUInt.orR) { stOvf := true.B }
+  when(ovfNow.asUInt.orR) { regs.stOvf := true.B }
 
   // Register writes: z0 = y0 at the start (warm: the previous solution shifted by one stage, the last stage
   // repeated, Fig. 2b) or in the first pass (cold), y+/z+ at the end of each row's pipeline, the operand copy.
   // Both decided a cycle ahead and registered: they fan out to every row register.
-  val copyNow  = RegNext(state === sRun && !hPhase && cnt === (p.cyclesPerIteration - 1).U && iter =/= imaxL - 1.U,
-    false.B)
-  val startNow = state === sIdle && inFull
-  val warmNow  = ctrlWarm && warmValid
-  val warmCopy = RegNext(startNow && warmNow, false.B)
+  val copyNow  = seq.io.copyNow
+  val warmNow  = regs.ctrlWarm && regs.warmValid
+  val warmCopy = RegNext(seq.io.start && warmNow, false.B)
+  when(seq.io.start) {
+    wReg  := frameIn.io.frame
+    warmL := warmNow
+  }
   for (r <- 0 until n) {
     val u   = r % P
     val k   = r / P
@@ -224,196 +182,91 @@ class FgmCore(val p: FgmParams) extends Module {
     when(warmCopy) {
       yReg(r) := zReg(src).pad(p.yW)
       zReg(r) := zReg(src)
-    }.elsewhen(tok1.valid && tok1.h && tok1.k === k.U && !warmL) {
+    }.elsewhen(tok1.valid && tok1.pass0 && tok1.k === k.U && !warmL) {
       yReg(r) := unitCold(u).pad(p.yW)
       zReg(r) := unitCold(u)
     }.elsewhen(copyNow) {
       yReg(r) := yNext(r)
     }
-    when(tokY.valid && !tokY.h && tokY.k === k.U) {
+    when(tokY.valid && !tokY.pass0 && tokY.k === k.U) {
       yNext(r) := unitY(u)
       zReg(r)  := unitZ(u)
     }
   }
 
-  // ------------------------------------------------------------------ sequencer
-  switch(state) {
-    is(sIdle) {
-      when(inFull) {
-        inFull  := false.B
-        wReg    := inBuf
-        state   := sRun
-        hPhase  := true.B
-        cnt     := 0.U
-        iter    := 0.U
-        imaxL   := imaxReg
-        warmL   := warmNow
-        outAllL := ctrlOutAll
-        busyCyc := 0.U
+  // ------------------------------------------------------------------ output: u0 or all of z
+  m_axis.tvalid := seq.io.outValid
+  m_axis.tdata  := zReg(seq.io.outIndex).pad(p.streamW).asUInt
+  m_axis.tlast  := seq.io.outIsLast
+
+  // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
+  import regs.{dataWrite, wA, wD}
+  def inRegion(nm: String): Bool = regs.inRegion(p.regionBase(nm), p.regionSizes.toMap.apply(nm))
+  // Default: no write this cycle.
+  frameIn.io.boxWen  := false.B
+  frameIn.io.boxWord := 0.U
+  frameIn.io.boxHi   := false.B
+  frameIn.io.boxData := 0.S
+  regs.writes(
+    (wA === FgmRegs.BETA.U || wA === FgmRegs.ONE_PLUS_BETA.U) -> { () =>
+      dataWrite(p.betaW, true.B) {
+        betaRam.io.wen   := true.B
+        betaRam.io.wmask := Mux(wA === FgmRegs.BETA.U, 1.U, 2.U)
+        betaRam.io.wdata := Fill(2, wD(p.betaW - 1, 0))
       }
-    }
-    is(sRun) {
-      busyCyc := busyCyc + 1.U
-      when(hPhase) {
-        when(cnt === (K - 1).U) {
-          hPhase := false.B
-          cnt    := 0.U
-        }.otherwise { cnt := cnt + 1.U }
-      }.otherwise {
-        when(cnt === (p.cyclesPerIteration - 1).U) {
-          cnt  := 0.U
-          iter := iter + 1.U
-          when(iter === imaxL - 1.U) {
-            state  := sOut
-            outCnt := 0.U
+    },
+    inRegion("XBOX") -> { () =>
+      val off = wA - p.regionBase("XBOX").U
+      val j   = off >> 1
+      dataWrite(p.xW, j < nw.U) {
+        frameIn.io.boxWen  := true.B
+        frameIn.io.boxWord := j
+        frameIn.io.boxHi   := off(0)
+        frameIn.io.boxData := wD(p.xW - 1, 0).asSInt
+      }
+    },
+    inRegion("UBOX") -> { () =>
+      val off  = wA - p.regionBase("UBOX").U
+      val slot = off >> 1
+      val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
+      val k    = slot >> p.pBits
+      dataWrite(p.zW, unit < P.U && (k * P.U + unit) < n.U) {
+        for (u <- 0 until P) {
+          when(unit === u.U) {
+            bndRam(u).io.wen   := true.B
+            bndRam(u).io.waddr := k
+            bndRam(u).io.wmask := UIntToOH(off(0), 2)
+            bndRam(u).io.wdata := Fill(2, wD(p.zW - 1, 0))
           }
-        }.otherwise { cnt := cnt + 1.U }
+        }
+        regs.warmValid := false.B
       }
-    }
-    is(sOut) {
-      when(m_axis.fire) {
-        val last = outCnt === Mux(outAllL, (n - 1).U, (nu - 1).U)
-        outCnt := outCnt + 1.U
-        when(last) {
-          state      := sIdle
-          solves     := solves + 1.U
-          lastCycles := busyCyc
-          warmValid  := true.B
+    },
+    (inRegion("MAT_A") || inRegion("MAT_F")) -> { () =>
+      val isF  = inRegion("MAT_F")
+      val off  = wA - Mux(isF, p.regionBase("MAT_F").U, p.regionBase("MAT_A").U)
+      val col  = if (p.cBits == 0) 0.U else off(p.cBits - 1, 0)
+      val slot = off >> p.cBits
+      val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
+      val k    = slot >> p.pBits
+      val cols = Mux(isF, nw.U, n.U)
+      dataWrite(p.coefW, unit < P.U && (k * P.U + unit) < n.U && col < cols) {
+        for (u <- 0 until P) {
+          when(unit === u.U) {
+            matRam(u).io.wen   := true.B
+            matRam(u).io.waddr := Mux(isF, k +& K.U, k)
+            matRam(u).io.wmask := UIntToOH(col, m)
+            matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
+          }
         }
       }
     }
-  }
-  m_axis.tvalid := state === sOut
-  m_axis.tdata  := zReg(outCnt).pad(p.streamW).asUInt
-  m_axis.tlast  := outCnt === Mux(outAllL, (n - 1).U, (nu - 1).U)
-
-  // ------------------------------------------------------------------ AXI4-Lite register file
-  val axil = Module(new AxiLiteSlave(p.axiAddrW))
-  axil.axi <> s_axil
-  val busy     = state =/= sIdle || inFull || inCnt =/= 0.U
-  val statusW  = Cat(warmValid, stTlast, stRej, stOvf, stSat, busy)
-  val rdA      = axil.rd.addr
-  axil.rd.resp := AxiLiteResp.OKAY
-  axil.rd.data := 0.U
-  switch(rdA) {
-    is(FgmRegs.ID.U) { axil.rd.data := FgmRegs.IdValue.U }
-    is(FgmRegs.CONFIG0.U) { axil.rd.data := Cat(P.U(16.W), n.U(16.W)) }
-    is(FgmRegs.CONFIG1.U) { axil.rd.data := Cat(nu.U(8.W), b.U(8.W), nw.U(16.W)) }
-    is(FgmRegs.CTRL.U) { axil.rd.data := Cat(ctrlOutAll, ctrlHold, ctrlWarm) }
-    is(FgmRegs.IMAX.U) { axil.rd.data := imaxReg }
-    is(FgmRegs.STATUS.U) { axil.rd.data := statusW }
-    is(FgmRegs.SOLVES.U) { axil.rd.data := solves }
-    is(FgmRegs.LAST_CYCLES.U) { axil.rd.data := lastCycles }
-    is(FgmRegs.CYCLES_PER_ITER.U) { axil.rd.data := p.cyclesPerIteration.U }
-  }
-  // The data memories are write-only.
-  when(rdA >= FgmRegs.BETA.U) { axil.rd.resp := AxiLiteResp.DECERR }
-
-  val wA   = axil.wr.addr
-  val wD   = axil.wr.data
-  val wSig = wD.asSInt
-  axil.wr.resp := AxiLiteResp.OKAY
-  def fitsS(w: Int): Bool = wSig >= FixedOps.minOf(w).S(32.W) && wSig <= FixedOps.maxOf(w).S(32.W)
-  def inRegion(nm: String): Bool = wA >= p.regionBase(nm).U && wA < (p.regionBase(nm) + p.regionSizes.toMap.apply(nm)).U
-
-  def dataWrite(fitW: Int, ok: Bool)(body: => Unit): Unit = {
-    when(busy) {
-      axil.wr.resp := AxiLiteResp.SLVERR
-      when(axil.wr.valid) { stRej := true.B }
-    }.elsewhen(!ok) {
-      axil.wr.resp := AxiLiteResp.DECERR
-    }.elsewhen(!fitsS(fitW)) {
-      axil.wr.resp := AxiLiteResp.SLVERR
-      when(axil.wr.valid) { stRej := true.B }
-    }.otherwise {
-      when(axil.wr.valid) { body }
-    }
-  }
-
-  when(wA === FgmRegs.CTRL.U) {
-    when(axil.wr.valid) {
-      ctrlWarm   := wD(0)
-      ctrlHold   := wD(1)
-      ctrlOutAll := wD(2)
-    }
-  }.elsewhen(wA === FgmRegs.IMAX.U) {
-    when(wD === 0.U || wD > 65535.U) {
-      axil.wr.resp := AxiLiteResp.SLVERR
-    }.elsewhen(axil.wr.valid) { imaxReg := wD }
-  }.elsewhen(wA === FgmRegs.STATUS.U) {
-    when(axil.wr.valid) {
-      when(wD(1)) { stSat := false.B }
-      when(wD(2)) { stOvf := false.B }
-      when(wD(3)) { stRej := false.B }
-      when(wD(4)) { stTlast := false.B }
-    }
-  }.elsewhen(wA === FgmRegs.BETA.U || wA === FgmRegs.ONE_PLUS_BETA.U) {
-    dataWrite(p.betaW, true.B) {
-      betaRam.io.wen   := true.B
-      betaRam.io.wmask := Mux(wA === FgmRegs.BETA.U, 1.U, 2.U)
-      betaRam.io.wdata := Fill(2, wD(p.betaW - 1, 0))
-    }
-  }.elsewhen(inRegion("XBOX")) {
-    val off = wA - p.regionBase("XBOX").U
-    val j   = off >> 1
-    dataWrite(p.xW, j < nw.U) {
-      xboxRam.io.wen   := true.B
-      xboxRam.io.waddr := j
-      xboxRam.io.wmask := UIntToOH(off(0), 2)
-      xboxRam.io.wdata := Fill(2, wD(p.xW - 1, 0))
-    }
-  }.elsewhen(inRegion("UBOX")) {
-    val off  = wA - p.regionBase("UBOX").U
-    val slot = off >> 1
-    val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
-    val k    = slot >> p.pBits
-    dataWrite(p.zW, unit < P.U && (k * P.U + unit) < n.U) {
-      for (u <- 0 until P) {
-        when(unit === u.U) {
-          bndRam(u).io.wen   := true.B
-          bndRam(u).io.waddr := k
-          bndRam(u).io.wmask := UIntToOH(off(0), 2)
-          bndRam(u).io.wdata := Fill(2, wD(p.zW - 1, 0))
-        }
-      }
-      warmValid := false.B
-    }
-  }.elsewhen(inRegion("MAT_A") || inRegion("MAT_F")) {
-    val isF  = inRegion("MAT_F")
-    val off  = wA - Mux(isF, p.regionBase("MAT_F").U, p.regionBase("MAT_A").U)
-    val col  = if (p.cBits == 0) 0.U else off(p.cBits - 1, 0)
-    val slot = off >> p.cBits
-    val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
-    val k    = slot >> p.pBits
-    val cols = Mux(isF, nw.U, n.U)
-    dataWrite(p.coefW, unit < P.U && (k * P.U + unit) < n.U && col < cols) {
-      for (u <- 0 until P) {
-        when(unit === u.U) {
-          matRam(u).io.wen   := true.B
-          matRam(u).io.waddr := Mux(isF, k +& K.U, k)
-          matRam(u).io.wmask := UIntToOH(col, m)
-          matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
-        }
-      }
-    }
-  }.otherwise {
-    axil.wr.resp := AxiLiteResp.DECERR
-  }
+  )
 }
 
-/** Register word addresses (byte address = 4 x word address). */
+/** Register word addresses (byte address = 4 x word address): the shared ones of shell.SolverRegs, then beta. */
 object FgmRegs {
-  val IdValue         = 0x46474d31L // "FGM1"
-  val ID              = 0
-  val CONFIG0         = 1
-  val CONFIG1         = 2
-  val CTRL            = 3
-  val IMAX            = 4
-  val STATUS          = 5
-  val SOLVES          = 6
-  val LAST_CYCLES     = 7
-  val CYCLES_PER_ITER = 8
-  val BETA            = 9
-  val ONE_PLUS_BETA   = 10
-  val Reserved        = 11
+  val IdValue       = 0x46474d31L // "FGM1"
+  val BETA          = shell.SolverRegs.FirstCoreReg
+  val ONE_PLUS_BETA = BETA + 1
 }

@@ -97,18 +97,8 @@ case class FgmParams(
   val pBits: Int = log2Ceil(P)
   val cBits: Int = log2Ceil(m)
   val slots: Int = K << pBits
-  private def pow2(x: Int): Int = 1 << log2Ceil(math.max(1, x))
-  val regionSizes: Seq[(String, Int)] =
-    Seq("XBOX" -> pow2(2 * nw), "UBOX" -> pow2(2 * slots), "MAT_A" -> pow2(slots << cBits), "MAT_F" -> pow2(slots << cBits))
-  val regionBase: Map[String, Int] = {
-    var cur = 16
-    regionSizes.sortBy(-_._2).map { case (nm, sz) =>
-      val b = ((cur + sz - 1) / sz) * sz
-      cur = b + sz
-      nm -> b
-    }.toMap
-  }
-  val addrWords: Int = regionSizes.map { case (nm, sz) => regionBase(nm) + sz }.max
+  val (regionSizes: Seq[(String, Int)], regionBase: Map[String, Int], addrWords: Int) =
+    shell.SolverRegs.layout(Seq("XBOX" -> 2 * nw, "UBOX" -> 2 * slots, "MAT_A" -> (slots << cBits), "MAT_F" -> (slots << cBits)))
   /** Byte-address width of the AXI4-Lite port. */
   val axiAddrW: Int = log2Ceil(addrWords) + 2
 

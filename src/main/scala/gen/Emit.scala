@@ -45,3 +45,30 @@ object Emit {
     Files.write(Paths.get(path), text.getBytes)
   }
 }
+
+/** Command line of a core generator: pairs `<config.json> <outDir>`, each elaborated on its own. A refusal prints
+  * "REFUSED <config>: <rule>" and the others still build; the exit code is 1 if any was refused.
+  */
+object CoreMain {
+  def run(args: Array[String], usage: String)(build: (String, String) => Unit): Unit = {
+    require(args.length >= 2 && args.length % 2 == 0, s"usage: $usage <config.json> <outDir> [...pairs]")
+    val refused = args.grouped(2).toSeq.flatMap { case Array(cfg, out) =>
+      try {
+        build(new String(Files.readAllBytes(Paths.get(cfg))), out)
+        None
+      } catch {
+        case e: IllegalArgumentException =>
+          println(s"REFUSED $cfg: ${e.getMessage}")
+          Some(cfg)
+      }
+    }
+    if (refused.nonEmpty) sys.exit(1)
+  }
+
+  /** The register list and regions of hw.json. */
+  def registerJson(regs: Seq[(String, Int, String, String)], sizes: Seq[(String, Int)], base: Map[String, Int]): (ujson.Arr, ujson.Obj) = {
+    val r = regs.map { case (nm, a, acc, d) => ujson.Obj("name" -> nm, "offset" -> 4 * a, "access" -> acc, "desc" -> d) }
+    val g = sizes.map { case (nm, sz) => nm -> ujson.Obj("offset" -> 4 * base(nm), "bytes" -> 4 * sz) }
+    (ujson.Arr(r: _*), ujson.Obj.from(g))
+  }
+}

@@ -1,4 +1,4 @@
-package fgm
+package proj
 
 import chisel3._
 import chisel3.util._

@@ -1,0 +1,304 @@
+package admm
+
+import chisel3._
+import chisel3.util._
+import bus.{AxiLiteIO, AxiStreamIO}
+import fixed.FixedOps
+import linalg.{DotProductParams, DotProductTree}
+import mem.InitRam
+import proj.{BoxProjection, SoftProjection}
+import shell.{FrameIn, PassSequencer, RowToken, SolverRegs}
+
+/** Fixed-point ADMM (Algorithm 2 of 002) for MPC with input, input-rate and soft state constraints, after Fig. 1
+  * and 3 of 002. verif/admm/model.py (AdmmFixed) is its bit-exact model.
+  *
+  * One solve: receive w = (x, u_prev, r) on s_axis (saturated to its box); a first pass computes G~ (w, 1) and
+  * the start iterate (cold: z = proj(0), nu = 0; warm: the previous (z, nu) shifted by one stage); then Imax
+  * iterations, each in L = K + 1 + l_M + l_A ceil(log2 max(n_A, nw + 1)) + 6 l_A cycles (5 l_A without soft
+  * constraints) of
+  *   y = M11 v + G~ (w, 1),  z+ = proj(y + nu / rho),  nu+ = nu + rho (y - z+),  v+ = rho z+ - nu+,
+  * every multiplication by rho_j = 2^k_j a shift; then send du_0 (or all of z) on m_axis.
+  *
+  * P row units share the operand vector v; each works through its K rows, one per cycle. A row's dot product, the
+  * y, q, projection, d = y - z and nu updates form a pipeline; z and nu go to their registers at its end, and in
+  * the cycle after an iteration's last row the whole of v = rho z - nu is formed at once (n_A subtractors, the
+  * shifts are wiring). A soft pair's state row runs one slot ahead of its slack row on the same unit; the soft
+  * projection waits for the slack and the state's d and nu updates run beside the slack's ("partner" lane).
+  */
+class AdmmCore(val p: AdmmParams) extends Module {
+  override def desiredName = p.moduleName
+
+  /** w = (x, u_prev, r), one signed word with frac_bits fraction bits per beat, tlast on the last */
+  val s_axis = IO(Flipped(new AxiStreamIO(p.streamW)))
+  /** du_0 (nu words) or z (n_A words), same word format, tlast on the last */
+  val m_axis = IO(new AxiStreamIO(p.streamW))
+  /** configuration, status and the data memories */
+  val s_axil = IO(Flipped(new AxiLiteIO(p.axiAddrW)))
+
+  import AdmmParams._
+  import p.{K, P, m, n, nu, nw}
+  val b = p.fracBits
+  val L = p.cyclesPerIteration
+
+  // ------------------------------------------------------------------ registers, input frame, sequencer
+  val regs = new SolverRegs(s_axil, AdmmRegs.IdValue, Cat(P.U(16.W), n.U(16.W)), Cat(nu.U(8.W), b.U(8.W), nw.U(16.W)),
+    L, p.imaxDefault, p.warmDefault, p.outAllDefault)
+  val frameIn = Module(new FrameIn(p.moduleName + "_w", nw, p.wW, p.streamW, p.wlo.zip(p.whi)))
+  frameIn.io.s_axis <> s_axis
+  frameIn.io.hold := regs.ctrlHold
+  when(frameIn.io.sat) { regs.stSat := true.B }
+  when(frameIn.io.tlastErr) { regs.stTlast := true.B }
+  val seq = Module(new PassSequencer(K, L, L, copyAfterFirst = true, maxOut = n))
+  seq.io.frameReady := frameIn.io.full
+  seq.io.imax       := regs.imaxReg
+  seq.io.outLast    := Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)
+  seq.io.outFire    := m_axis.fire
+  frameIn.io.take   := seq.io.start
+  when(seq.io.done) { regs.solveDone(seq.io.runCycles) }
+  regs.busy := seq.io.running || seq.io.outValid || frameIn.io.full || frameIn.io.partial
+
+  // ------------------------------------------------------------------ memories
+  val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * K, m, p.coefW, p.matInit(u), outReg = true)))
+  val bndRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_bnd$u", K, 2, p.zW, p.boundInit(u), outReg = true)))
+  val gwRam  = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_gw$u", K, 1, p.sumW, Seq(), outReg = true)))
+  for (r <- matRam ++ bndRam ++ gwRam) {
+    r.io.clock := clock
+    r.io.wen   := false.B
+    r.io.waddr := 0.U
+    r.io.wmask := 0.U
+    r.io.wdata := 0.U
+  }
+
+  // ------------------------------------------------------------------ solver state
+  val warmL = RegInit(false.B)
+  val wReg  = Reg(Vec(nw, SInt(p.wW.W)))
+  val zReg  = Reg(Vec(n, SInt(p.zW.W)))
+  val nuReg = Reg(Vec(n, SInt(p.nuW.W)))
+  val vReg  = Reg(Vec(n, SInt(p.vW.W)))
+
+  /** a 2^k, right shifts rounded like products (the model's shift_by) */
+  def shiftBy(a: SInt, k: Int): SInt = if (k >= 0) (a << k).asSInt else FixedOps.shiftRound(a, -k, p.rounding)
+  /** a 2^k_c for the shift code c of the row: a multiplexer over the few distinct shifts */
+  def shiftByCode(a: SInt, code: UInt, neg: Boolean): SInt = {
+    val opts = p.shifts.map(k => shiftBy(a, if (neg) -k else k))
+    val w    = opts.map(_.getWidth).max
+    VecInit(opts.map(_.pad(w)))(code)
+  }
+
+  // Row tokens: tokN is the next cycle's, so the row memories are addressed a cycle ahead (outputs registered).
+  val tokN = seq.io.tokN
+  val tok0 = RegNext(tokN, 0.U.asTypeOf(tokN))
+  def tokAt(stage: Int): RowToken = if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(tokN), true.B)
+  val tok1   = tokAt(1)
+  val tokSum = tokAt(p.stageSum)
+  val tokQ   = tokAt(p.stageQ)
+  val tokZ   = tokAt(p.stageZ)
+  val tokNu  = tokAt(p.stageN)
+  val tokW   = tokAt(p.stageW)
+
+  val wPad = VecInit((0 until m).map { j =>
+    if (j < nw) wReg(j).pad(p.opW) else if (j == nw) (BigInt(1) << b).S(p.opW.W) else 0.S(p.opW.W)
+  })
+  val vPad = VecInit((0 until m).map(j => if (j < n) vReg(j).pad(p.opW) else 0.S(p.opW.W)))
+
+  val ovfNow = Wire(Vec(P, Bool()))
+  val codeW  = math.max(1, log2Ceil(p.shifts.length))
+  class Lane extends Bundle {
+    val z  = SInt(p.zW.W)
+    val nu = SInt(p.nuW.W)
+  }
+  val laneA = Wire(Vec(P, new Lane)) // the row in the slot
+  val laneB = Wire(Vec(P, new Lane)) // the soft state before a slack row
+  val dp = Module(new DotProductTree(DotProductParams(m, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding)))
+
+  for (u <- 0 until P) {
+    val tree = if (u == 0) dp else Module(new DotProductTree(dp.p))
+    matRam(u).io.raddr := Mux(tokN.pass0, K.U +& tokN.k, tokN.k)
+    tree.io.inValid := tok1.valid
+    tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(m, SInt(p.coefW.W)))
+    tree.io.op      := Mux(tok1.pass0, wPad, vPad)
+
+    // Per-row constants and nu, picked at the fetch and carried to the q step.
+    val kindRom = VecInit((0 until K).map(k => p.kindAt(u, k).U(2.W)))
+    val codeRom = VecInit((0 until K).map(k => p.codeAt(u, k).U(codeW.W)))
+    val nuRow   = VecInit((0 until K).map(k => p.rows(u)(k).map(j => nuReg(j)).getOrElse(0.S(p.nuW.W))))
+    val toQ     = p.stageQ - 1
+    val kindQ   = ShiftRegister(kindRom(tok1.k), toQ)
+    val codeQ   = ShiftRegister(codeRom(tok1.k), toQ)
+    val nuQ     = ShiftRegister(nuRow(tok1.k), toQ)
+
+    // y = M11 v + G~ (w, 1); the first pass stores G~ (w, 1) row by row.
+    gwRam(u).io.raddr := tokAt(p.stageSum - 2).k
+    val gw = gwRam(u).io.rdata.asSInt
+    when(tokSum.valid && tokSum.pass0) {
+      gwRam(u).io.wen   := true.B
+      gwRam(u).io.waddr := tokSum.k
+      gwRam(u).io.wmask := 1.U
+      gwRam(u).io.wdata := tree.io.sum.asUInt
+    }
+    val (y, ofY) = FixedOps.satAdd(tree.io.sum, gw, p.yW)
+    val yQ = ShiftRegister(y, p.latAdd)
+    // q = y + nu / rho (0 in the first pass: the cold start projects 0)
+    val (q, ofQ) = FixedOps.satAdd(yQ, shiftByCode(nuQ, codeQ, neg = true), p.qW)
+    val qP    = ShiftRegister(Mux(tokQ.pass0, 0.S(p.qW.W), q), p.latAdd)
+    val yP    = ShiftRegister(yQ, p.latAdd)
+    val nuP   = ShiftRegister(nuQ, p.latAdd)
+    val kindP = ShiftRegister(kindQ, p.latAdd)
+    val codeP = ShiftRegister(codeQ, p.latAdd)
+
+    // z = proj(q): box (a free row's box is the z word range) or, on a slack row, the soft pair with the state
+    // row of the previous slot.
+    bndRam(u).io.raddr := tokAt(p.stageP - 2).k
+    val bLo = bndRam(u).io.rdata(p.zW - 1, 0).asSInt
+    val bHi = bndRam(u).io.rdata(2 * p.zW - 1, p.zW).asSInt
+    val box = Module(new BoxProjection(p.qW, p.zW, p.latAdd))
+    box.io.in := qP
+    box.io.lo := bLo
+    box.io.hi := bHi
+    val ofFree = kindP === Free.U && (qP < FixedOps.minOf(p.zW).S || qP > FixedOps.maxOf(p.zW).S)
+    val zBox   = ShiftRegister(box.io.out, p.projLat - p.latAdd)
+    // the previous slot's row (a soft pair's state when this is its slack)
+    def prev[T <: Data](x: T): T = { val r = Reg(chiselTypeOf(x)); r := x; r }
+    val prevQ  = prev(qP)
+    val prevY  = prev(yP)
+    val prevNu = prev(nuP)
+    val kindZ  = ShiftRegister(kindP, p.projLat)
+    val codeZ  = ShiftRegister(codeP, p.projLat)
+    val (zA, zB, ofZ) = if (p.hasSoft) {
+      val soft = Module(new SoftProjection(p.qW, p.zW, p.latAdd, p.rounding))
+      soft.io.x := prevQ
+      soft.io.d := qP
+      soft.io.c := bLo
+      soft.io.r := bHi
+      val isD = kindZ === SoftD.U
+      (Mux(isD, soft.io.dOut, zBox), soft.io.xOut, ShiftRegister(ofFree, p.projLat) || isD && (soft.io.xOvf || soft.io.dOvf))
+    } else (zBox, zBox, ShiftRegister(ofFree, p.projLat))
+    val yZ  = ShiftRegister(yP, p.projLat)
+    val nuZ = ShiftRegister(nuP, p.projLat)
+    val yZB = ShiftRegister(prevY, p.projLat)
+    val nuZB = ShiftRegister(prevNu, p.projLat)
+
+    // nu+ = nu + rho (y - z+), for the row and its partner
+    val (dA, ofDA) = FixedOps.satSub(yZ, zA, p.dW)
+    val (dB, ofDB) = FixedOps.satSub(yZB, zB, p.dW)
+    val dAN  = ShiftRegister(dA, p.latAdd)
+    val dBN  = ShiftRegister(dB, p.latAdd)
+    val nuAN = ShiftRegister(nuZ, p.latAdd)
+    val nuBN = ShiftRegister(nuZB, p.latAdd)
+    val codeN = ShiftRegister(codeZ, p.latAdd)
+    val kindN = ShiftRegister(kindZ, p.latAdd)
+    val (nuA, ofNA) = FixedOps.satAdd(nuAN, shiftByCode(dAN, codeN, neg = false), p.nuW)
+    val (nuB, ofNB) = FixedOps.satAdd(nuBN, shiftByCode(dBN, codeN, neg = false), p.nuW)
+    val first = tokNu.pass0 // the first pass writes the cold start: z = proj(0), nu = 0
+    laneA(u).z  := ShiftRegister(ShiftRegister(zA, p.latAdd), p.latAdd)
+    laneA(u).nu := ShiftRegister(Mux(first, 0.S, nuA), p.latAdd)
+    laneB(u).z  := ShiftRegister(ShiftRegister(zB, p.latAdd), p.latAdd)
+    laneB(u).nu := ShiftRegister(Mux(first, 0.S, nuB), p.latAdd)
+
+    // Saturation in a live row of an iteration sets the sticky overflow flag (the first pass: the tree only).
+    val kindZs = kindZ
+    val liveA  = kindZs =/= SoftX.U // a state row of a soft pair finishes in its slack's slot
+    val ofTree = tree.io.outValid && tree.io.overflow
+    val ofYQ   = tokSum.valid && !tokSum.pass0 && ofY || tokQ.valid && !tokQ.pass0 && ofQ
+    val ofZD   = tokZ.valid && !tokZ.pass0 && (ofZ || liveA && ofDA || kindZs === SoftD.U && ofDB)
+    val ofN    = tokNu.valid && !tokNu.pass0 && (kindN =/= SoftX.U && ofNA || kindN === SoftD.U && ofNB)
+    ovfNow(u) := ofTree || ofYQ || ofZD || ofN
+  }
+
+  // ------------------------------------------------------------------ register writes
+  val warmNow  = regs.ctrlWarm && regs.warmValid
+  val warmCopy = RegNext(seq.io.start && warmNow, false.B)
+  when(seq.io.start) {
+    wReg  := frameIn.io.frame
+    warmL := warmNow
+  }
+  val writeOk = tokW.valid && !(tokW.pass0 && warmL)
+  val ofV     = Wire(Vec(n, Bool()))
+  for (j <- 0 until n) {
+    val u = p.unitOf(j)
+    val k = p.slotOf(j)
+    // the row's own slot, or (soft state) the slot of its slack, one later on the same unit
+    val (slot, lane) = if (p.kind(j) == SoftX) (k + 1, laneB(u)) else (k, laneA(u))
+    val src = p.warmSource(j)
+    when(warmCopy) {
+      zReg(j)  := zReg(src)
+      nuReg(j) := nuReg(src)
+    }.elsewhen(writeOk && tokW.k === slot.U) {
+      zReg(j)  := lane.z
+      nuReg(j) := lane.nu
+    }
+    // v = rho z - nu, for the whole vector in the cycle after an iteration's last write
+    val (v, of) = FixedOps.satSub(shiftBy(zReg(j), p.shift(j)), nuReg(j), p.vW)
+    ofV(j) := of
+    when(seq.io.copyNow) { vReg(j) := v }
+  }
+  when(ovfNow.asUInt.orR || seq.io.copyNow && ofV.asUInt.orR) { regs.stOvf := true.B }
+
+  // ------------------------------------------------------------------ output: du_0 or all of z
+  m_axis.tvalid := seq.io.outValid
+  m_axis.tdata  := zReg(seq.io.outIndex).pad(p.streamW).asUInt
+  m_axis.tlast  := seq.io.outIsLast
+
+  // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
+  import regs.{dataWrite, wA, wD}
+  def region(nm: String): Bool = regs.inRegion(p.regionBase(nm), p.regionSizes.toMap.apply(nm))
+  val rowW   = math.max(1, log2Ceil(n))
+  val unitRom = VecInit((0 until n).map(j => p.unitOf(j).U(math.max(1, log2Ceil(P)).W)))
+  val slotRom = VecInit((0 until n).map(j => p.slotOf(j).U(math.max(1, log2Ceil(K)).W)))
+  // bounds live in the slot of a box row or of a soft pair's slack
+  val bndOkRom = VecInit((0 until n).map(j => (p.kind(j) == Box || p.kind(j) == SoftD).B))
+  frameIn.io.boxWen  := false.B
+  frameIn.io.boxWord := 0.U
+  frameIn.io.boxHi   := false.B
+  frameIn.io.boxData := 0.S
+  regs.writes(
+    region("WBOX") -> { () =>
+      val off = wA - p.regionBase("WBOX").U
+      val j   = off >> 1
+      dataWrite(p.wW, j < nw.U) {
+        frameIn.io.boxWen  := true.B
+        frameIn.io.boxWord := j
+        frameIn.io.boxHi   := off(0)
+        frameIn.io.boxData := wD(p.wW - 1, 0).asSInt
+      }
+    },
+    region("BND") -> { () =>
+      val off = wA - p.regionBase("BND").U
+      val j   = (off >> 1)(rowW - 1, 0)
+      val ok  = (off >> 1) < n.U && bndOkRom(j)
+      dataWrite(p.zW, ok) {
+        for (u <- 0 until P) {
+          when(unitRom(j) === u.U) {
+            bndRam(u).io.wen   := true.B
+            bndRam(u).io.waddr := slotRom(j)
+            bndRam(u).io.wmask := UIntToOH(off(0), 2)
+            bndRam(u).io.wdata := Fill(2, wD(p.zW - 1, 0))
+          }
+        }
+        regs.warmValid := false.B
+      }
+    },
+    (region("MAT_M") || region("MAT_G")) -> { () =>
+      val isG = region("MAT_G")
+      val off = wA - Mux(isG, p.regionBase("MAT_G").U, p.regionBase("MAT_M").U)
+      val col = if (p.cBits == 0) 0.U else off(p.cBits - 1, 0)
+      val row = off >> p.cBits
+      val j   = row(rowW - 1, 0)
+      dataWrite(p.coefW, row < n.U && col < Mux(isG, (nw + 1).U, n.U)) {
+        for (u <- 0 until P) {
+          when(unitRom(j) === u.U) {
+            matRam(u).io.wen   := true.B
+            matRam(u).io.waddr := Mux(isG, slotRom(j) +& K.U, slotRom(j))
+            matRam(u).io.wmask := UIntToOH(col, m)
+            matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
+          }
+        }
+      }
+    }
+  )
+}
+
+/** ADMM core identity (the registers are the shared ones of shell.SolverRegs). */
+object AdmmRegs {
+  val IdValue = 0x41444d31L // "ADM1"
+}

@@ -1,0 +1,39 @@
+package admm
+
+/** Generator entry point: `runMain admm.AdmmMain <config.json> <outDir> [<config.json> <outDir> ...]`.
+  * Writes <outDir>/<module>.sv and <outDir>/hw.json (module name, cycle counts, register map, row placement).
+  */
+object AdmmMain extends App {
+  gen.CoreMain.run(args, "admm.AdmmMain") { (cfg, out) =>
+    val p = AdmmParams.fromJson(cfg)
+    gen.Emit.systemVerilog(new AdmmCore(p), out, p.moduleName)
+    gen.Emit.writeText(s"$out/hw.json", hwJson(p))
+  }
+
+  def hwJson(p: AdmmParams): String = {
+    val regs = shell.SolverRegs.descriptions("0x41444D31 ('ADM1')", "[15:0] n_A, [31:16] P",
+      "[15:0] nw, [23:16] frac_bits, [31:24] nu", "du_0")
+    val (regJson, regions) = gen.CoreMain.registerJson(regs, p.regionSizes, p.regionBase)
+    val o = ujson.Obj(
+      "module" -> p.moduleName,
+      "n" -> p.n,
+      "P" -> p.P,
+      "K" -> p.K,
+      "tree_inputs" -> p.m,
+      "tree_depth" -> p.depth,
+      "cycles_per_iteration" -> p.cyclesPerIteration,
+      "cycles_eq24" -> p.cyclesEq24,
+      "solve_overhead_cycles" -> p.solveOverhead,
+      "cycles_per_solve" -> p.cyclesPerSolve(p.imaxDefault),
+      "multipliers" -> p.multipliers,
+      "shifts" -> ujson.Arr(p.shifts.map(ujson.Num(_)): _*),
+      "row_units" -> ujson.Arr(p.rows.map(r => ujson.Arr(r.map(_.map(ujson.Num(_)).getOrElse(ujson.Null)): _*)): _*),
+      "axil_addr_width" -> p.axiAddrW,
+      "stream_width" -> p.streamW,
+      "col_bits" -> p.cBits,
+      "registers" -> regJson,
+      "regions" -> regions
+    )
+    ujson.write(o, indent = 2)
+  }
+}

@@ -1,0 +1,217 @@
+package admm
+
+import chisel3.util.log2Ceil
+import fixed.{FixedOps, Rounding}
+
+/** Everything the ADMM generator needs (Algorithm 2 of 002, verif/admm/design.py writes it): sizes, word widths,
+  * the penalty shifts rho_j = 2^k_j and the quantised data. Integers are words with `fracBits` fraction bits.
+  *
+  * Components are numbered as in the sparse form (8) of 002: z = (du_0..du_{N-1}, x~_0, delta_0, ..., x~_N,
+  * delta_N). `kind` says how each is projected: 0 free, 1 box [lo, hi], 2 the state and 3 the slack of a soft pair
+  * (softX(i), softD(i)) with centre softC(i) and radius softR(i).
+  *
+  * Rows are placed on P row units, K per unit (`slots`): a soft pair sits on one unit in consecutive slots, state
+  * first, so that its projection sees both (the pair's results leave with the slack row).
+  */
+case class AdmmParams(
+    name: String,
+    n: Int,
+    nu: Int,
+    N: Int,
+    nw: Int,
+    P: Int,
+    fracBits: Int,
+    latAdd: Int,
+    latMul: Int,
+    rounding: Rounding,
+    widths: Map[String, Int],
+    imaxDefault: Int,
+    warmDefault: Boolean,
+    outAllDefault: Boolean,
+    shift: Seq[Int],
+    m11: Seq[Seq[BigInt]],
+    g: Seq[Seq[BigInt]],
+    kind: Seq[Int],
+    lo: Seq[BigInt],
+    hi: Seq[BigInt],
+    softX: Seq[Int],
+    softD: Seq[Int],
+    softC: Seq[BigInt],
+    softR: Seq[BigInt],
+    wlo: Seq[BigInt],
+    whi: Seq[BigInt]) {
+  import AdmmParams._
+
+  require(n >= 1, s"n_A must be >= 1, got $n")
+  require(nu >= 1 && N >= 1 && N * nu < n, s"need nu >= 1, N >= 1 and N*nu < n_A: got nu=$nu, N=$N, n_A=$n")
+  require((n - N * nu) % (N + 1) == 0, s"the state part of z (n_A - N*nu = ${n - N * nu}) must split into N+1 = ${N + 1} stages")
+  require(nw >= 1, s"nw must be >= 1, got $nw")
+  require(P >= 1 && P <= n, s"P must be in [1, n_A] (one row unit per variable at most): got P=$P, n_A=$n")
+  require(latAdd >= 0 && latMul >= 0, s"latencies must be >= 0: got lat_add=$latAdd, lat_mul=$latMul")
+  require(fracBits >= 1, s"frac_bits must be >= 1, got $fracBits")
+  for (k <- Seq("v", "y", "q", "z", "d", "nu", "sum", "coef", "w", "stream"))
+    require(widths.contains(k), s"widths.$k missing")
+  val Seq(vW, yW, qW, zW, dW, nuW, sumW, coefW, wW, streamW) =
+    Seq("v", "y", "q", "z", "d", "nu", "sum", "coef", "w", "stream").map(widths)
+  for ((nm, w) <- Seq("coef" -> coefW, "w" -> wW, "z" -> zW))
+    require(w >= 2 && w <= 32, s"$nm width must be in [2, 32] (one AXI4-Lite word): got $w")
+  for ((nm, w) <- Seq("v" -> vW, "y" -> yW, "q" -> qW, "d" -> dW, "nu" -> nuW, "sum" -> sumW))
+    require(w >= 2 && w <= 64, s"$nm width must be in [2, 64]: got $w")
+  require(streamW % 8 == 0 && streamW >= math.max(wW, zW) && streamW <= 64,
+    s"stream width must be a multiple of 8 in [max(w, z width), 64]: got $streamW, w=$wW, z=$zW")
+  require(imaxDefault >= 1 && imaxDefault <= 65535, s"iterations must be in [1, 65535], got $imaxDefault")
+  require(shift.length == n && shift.forall(k => k >= -fracBits && k <= 16),
+    s"penalty shifts k_j (rho_j = 2^k_j) must number n_A=$n and lie in [-frac_bits, 16] = [${-fracBits}, 16]")
+  require(m11.length == n && m11.forall(_.length == n), s"M11 must be $n x $n")
+  require(g.length == n && g.forall(_.length == nw + 1), s"G must be $n x ${nw + 1}")
+  require(kind.length == n && kind.forall(k => k >= Free && k <= SoftD), s"kind must hold $n entries in 0..3")
+  require(lo.length == n && hi.length == n, s"lo/hi must have $n entries")
+  require(wlo.length == nw && whi.length == nw, s"wlo/whi must have $nw entries")
+  require(Seq(softX, softD, softC, softR).forall(_.length == softX.length), "soft_x, soft_d, soft_c, soft_r must have equal lengths")
+  require(softX.forall(kind(_) == SoftX) && softD.forall(kind(_) == SoftD) && kind.count(_ == SoftX) == softX.length &&
+    kind.count(_ == SoftD) == softD.length, "soft pairs must list every soft state (kind 2) and slack (kind 3) once")
+  require(softX.zip(softD).forall { case (x, d) => shift(x) == shift(d) },
+    "both members of a soft pair must share their penalty shift (the projection onto the cone stays Euclidean)")
+  require((0 until n).forall(j => kind(j) != Box || lo(j) <= hi(j)), "box bounds: lo <= hi required for every box component")
+  require(wlo.zip(whi).forall { case (l, h) => l <= h }, "parameter box: wlo <= whi required for every word")
+  require(softR.forall(_ > 0), "soft-constraint radii must be > 0")
+
+  private def fits(v: BigInt, w: Int) = v >= FixedOps.minOf(w) && v <= FixedOps.maxOf(w)
+  require((m11.flatten ++ g.flatten).forall(fits(_, coefW)), s"a matrix entry does not fit the coefficient width $coefW")
+  require((0 until n).filter(kind(_) == Box).forall(j => fits(lo(j), zW) && fits(hi(j), zW)), s"a box bound does not fit the z width $zW")
+  require((softC ++ softR).forall(fits(_, zW)), s"a soft centre or radius does not fit the z width $zW")
+  require((wlo ++ whi).forall(fits(_, wW)), s"a parameter bound does not fit the w width $wW")
+  require(fits(BigInt(1) << fracBits, wW), s"the constant word 2^frac_bits must fit the w width $wW")
+
+  /** Multipliers per dot product: the G~ (w, 1) pass shares them, so max(n_A, nw + 1). */
+  val m: Int     = math.max(n, nw + 1)
+  val depth: Int = log2Ceil(m)
+  val opW: Int   = math.max(vW, wW)
+  val hasSoft: Boolean = softX.nonEmpty
+
+  /** Distinct penalty shifts, and each component's index among them (a row unit selects its row's shift). */
+  val shifts: Seq[Int]    = shift.distinct.sorted
+  val shiftCode: Seq[Int] = shift.map(shifts.indexOf(_))
+
+  /** Row placement: rows(u)(k) = component in slot k of unit u (None: an idle slot). */
+  val rows: Seq[Seq[Option[Int]]] = place(n, P, softX.zip(softD))
+  val K: Int = rows.head.length
+  val unitOf: Map[Int, Int] = (for (u <- 0 until P; (Some(j), _) <- rows(u).zipWithIndex) yield j -> u).toMap
+  val slotOf: Map[Int, Int] = (for (u <- 0 until P; (Some(j), k) <- rows(u).zipWithIndex) yield j -> k).toMap
+  /** soft state placed in the slot before each slack */
+  val partnerOf: Map[Int, Int] = softD.zip(softX).toMap
+
+  // ---- pipeline stages from the row fetch (see AdmmCore) and the cycle contract
+  val projLat: Int  = if (hasSoft) 2 * latAdd else latAdd
+  val stageSum: Int = 1 + latMul + latAdd * depth
+  val stageQ: Int   = stageSum + latAdd
+  val stageP: Int   = stageQ + latAdd
+  val stageZ: Int   = stageP + projLat
+  val stageN: Int   = stageZ + latAdd
+  val stageW: Int   = stageN + latAdd
+  /** Cycles per iteration: the last row's write, then the operand update v = rho z - nu in the next cycle. */
+  val cyclesPerIteration: Int = K + stageW
+  /** L_A of eq. (24) of 002. */
+  val cyclesEq24: Int = (n + P - 1) / P + latAdd * log2Ceil(n) + latMul + 6 * latAdd + 2
+  /** From the handshake of the last input word to the first output word: 2 + (Imax + 1) L (the first pass,
+    * G~ (w, 1) and the start iterate, takes one iteration's time). */
+  val solveOverhead: Int = 2 + cyclesPerIteration
+  def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * cyclesPerIteration
+  val multipliers: Int = P * m
+
+  val moduleName: String = s"AdmmCore_${name}_n${n}_p${P}_b${fracBits}"
+
+  // ---- register map: data regions addressed by component index
+  val cBits: Int = log2Ceil(m)
+  val (regionSizes: Seq[(String, Int)], regionBase: Map[String, Int], addrWords: Int) =
+    shell.SolverRegs.layout(Seq("WBOX" -> 2 * nw, "BND" -> 2 * n, "MAT_M" -> (n << cBits), "MAT_G" -> (n << cBits)))
+  val axiAddrW: Int = log2Ceil(addrWords) + 2
+
+  private def pad(r: Seq[BigInt]) = r ++ Seq.fill(m - r.length)(BigInt(0))
+  /** Per row unit: slots 0..K-1 hold the M11 rows, K..2K-1 the G~ rows. */
+  def matInit(u: Int): Seq[Seq[BigInt]] = {
+    val zero = Seq.fill(m)(BigInt(0))
+    rows(u).map(_.map(j => pad(m11(j))).getOrElse(zero)) ++ rows(u).map(_.map(j => pad(g(j))).getOrElse(zero))
+  }
+  /** Per row unit: (lo, hi) of a box row, (c, r) of a slack row, the z word range for a free row. */
+  def boundInit(u: Int): Seq[Seq[BigInt]] = rows(u).map {
+    case Some(j) if kind(j) == Box   => Seq(lo(j), hi(j))
+    case Some(j) if kind(j) == SoftD => val i = softD.indexOf(j); Seq(softC(i), softR(i))
+    case _                           => Seq(FixedOps.minOf(zW), FixedOps.maxOf(zW))
+  }
+  def kindAt(u: Int, k: Int): Int = rows(u)(k).map(kind).getOrElse(Free)
+  def codeAt(u: Int, k: Int): Int = rows(u)(k).map(shiftCode).getOrElse(0)
+
+  /** Warm start: z and nu shifted by one stage, the last stage repeated (Fig. 2b of 002). */
+  def warmSource(j: Int): Int = {
+    val du = N * nu
+    val stage = (n - du) / (N + 1)
+    if (j < du) (if (j < du - nu) j + nu else j) else (if (j < n - stage) j + stage else j)
+  }
+}
+
+object AdmmParams {
+  val Free = 0
+  val Box = 1
+  val SoftX = 2
+  val SoftD = 3
+
+  /** Place the rows on P units of K slots, K the smallest >= ceil(n/P) that works: units are filled in turn with
+    * soft pairs (two consecutive slots) while two slots remain, then with single rows; a slot left at a unit's
+    * end stays idle only when no single row is left for it. */
+  def place(n: Int, P: Int, pairs: Seq[(Int, Int)]): Seq[Seq[Option[Int]]] = {
+    val inPair  = pairs.flatMap { case (x, d) => Seq(x, d) }.toSet
+    val singles = (0 until n).filterNot(inPair)
+    def attempt(K: Int): Option[Seq[Seq[Option[Int]]]] = {
+      var ps = pairs.toList
+      var ss = singles.toList
+      val units = (0 until P).map { _ =>
+        val slots = scala.collection.mutable.ArrayBuffer[Option[Int]]()
+        while (ps.nonEmpty && K - slots.length >= 2) { slots += Some(ps.head._1); slots += Some(ps.head._2); ps = ps.tail }
+        while (ss.nonEmpty && slots.length < K) { slots += Some(ss.head); ss = ss.tail }
+        slots ++= Seq.fill(K - slots.length)(None)
+        slots.toSeq
+      }
+      if (ps.isEmpty && ss.isEmpty) Some(units) else None
+    }
+    Iterator.from((n + P - 1) / P).map(attempt).collectFirst { case Some(u) => u }.get
+  }
+
+  private def ints(v: ujson.Value): Seq[BigInt] = v.arr.toSeq.map(x => BigInt(x.num.toLong))
+  private def mat(v: ujson.Value): Seq[Seq[BigInt]] = v.arr.toSeq.map(ints)
+  private def small(v: ujson.Value): Seq[Int] = v.arr.toSeq.map(_.num.toInt)
+
+  /** Read the config.json written by the Python front end (verif/admm/design.py). */
+  def fromJson(text: String): AdmmParams = {
+    val j = ujson.read(text)
+    require(j("core").str == "admm", s"not an ADMM configuration: core=${j("core").str}")
+    AdmmParams(
+      name = j("name").str,
+      n = j("n").num.toInt,
+      nu = j("nu").num.toInt,
+      N = j("N").num.toInt,
+      nw = j("nw").num.toInt,
+      P = j("P").num.toInt,
+      fracBits = j("frac_bits").num.toInt,
+      latAdd = j("lat_add").num.toInt,
+      latMul = j("lat_mul").num.toInt,
+      rounding = Rounding(j("rounding").str),
+      widths = j("widths").obj.map { case (k, v) => k -> v.num.toInt }.toMap,
+      imaxDefault = j("iterations").num.toInt,
+      warmDefault = j("warm_start").bool,
+      outAllDefault = j.obj.get("output_all").exists(_.bool),
+      shift = small(j("shift")),
+      m11 = mat(j("M11")),
+      g = mat(j("G")),
+      kind = small(j("kind")),
+      lo = ints(j("lo")),
+      hi = ints(j("hi")),
+      softX = small(j("soft_x")),
+      softD = small(j("soft_d")),
+      softC = ints(j("soft_c")),
+      softR = ints(j("soft_r")),
+      wlo = ints(j("wlo")),
+      whi = ints(j("whi"))
+    )
+  }
+}

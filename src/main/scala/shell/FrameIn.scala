@@ -1,0 +1,69 @@
+package shell
+
+import chisel3._
+import chisel3.util._
+import bus.AxiStreamIO
+import fixed.FixedOps
+import mem.InitRam
+
+/** Input frame of a solver core: `words` signed words on s_axis, each saturated to its box [lo_j, hi_j] (held in
+  * a small rewritable RAM), collected until the core takes the frame. Frames are counted in words: a tlast in
+  * the wrong place sets `tlastErr` and loses nothing.
+  *
+  * @param name   prefix of the box RAM's module name
+  * @param words  words per frame
+  * @param wordW  width of the saturated words
+  * @param box    (lo, hi) per word, the power-on contents of the box RAM
+  */
+class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigInt, BigInt)]) extends Module {
+  require(box.length == words, s"FrameIn: ${box.length} boxes for $words words")
+  val io = IO(new Bundle {
+    val s_axis = Flipped(new AxiStreamIO(streamW))
+    /** accept no new frame (words of a frame already begun are still taken) */
+    val hold = Input(Bool())
+    /** the core takes the complete frame this cycle */
+    val take  = Input(Bool())
+    val full  = Output(Bool())
+    val frame = Output(Vec(words, SInt(wordW.W)))
+    /** some words of a frame have arrived */
+    val partial = Output(Bool())
+    /** pulses: a word saturated; a tlast was misplaced */
+    val sat      = Output(Bool())
+    val tlastErr = Output(Bool())
+    /** box rewrite: word j, bound hi (else lo) */
+    val boxWen  = Input(Bool())
+    val boxWord = Input(UInt(math.max(1, log2Ceil(words)).W))
+    val boxHi   = Input(Bool())
+    val boxData = Input(SInt(wordW.W))
+  })
+
+  val boxRam = Module(new InitRam(s"${name}_box", words, 2, wordW, box.map { case (l, h) => Seq(l, h) }))
+  boxRam.io.clock := clock
+  boxRam.io.wen   := io.boxWen
+  boxRam.io.waddr := io.boxWord
+  boxRam.io.wmask := UIntToOH(io.boxHi, 2)
+  boxRam.io.wdata := Fill(2, io.boxData.asUInt)
+
+  val buf  = Reg(Vec(words, SInt(wordW.W)))
+  val cnt  = RegInit(0.U(log2Ceil(words + 1).W))
+  val full = RegInit(false.B)
+  io.s_axis.tready := !full && !(io.hold && cnt === 0.U)
+  val fire = io.s_axis.fire
+  val last = cnt === (words - 1).U
+  // The box of the next word is read a cycle ahead.
+  boxRam.io.raddr := Mux(fire, Mux(last, 0.U, cnt + 1.U), cnt)
+  val lo = boxRam.io.rdata(wordW - 1, 0).asSInt
+  val hi = boxRam.io.rdata(2 * wordW - 1, wordW).asSInt
+  val (v, clamped) = FixedOps.clamp(io.s_axis.tdata.asSInt, lo, hi)
+  io.sat      := fire && clamped
+  io.tlastErr := fire && (io.s_axis.tlast =/= last)
+  when(fire) {
+    buf(cnt) := v(wordW - 1, 0).asSInt
+    cnt      := Mux(last, 0.U, cnt + 1.U)
+    when(last) { full := true.B }
+  }
+  when(io.take) { full := false.B }
+  io.full    := full
+  io.frame   := buf
+  io.partial := cnt =/= 0.U
+}
