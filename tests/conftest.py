@@ -6,8 +6,9 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from verif.admm.design import design_admm  # noqa: E402
 from verif.fgm.design import design_fgm  # noqa: E402
-from verif.flow import REPO, generate_fgm  # noqa: E402
+from verif.flow import REPO, generate_admm, generate_fgm  # noqa: E402
 from verif.problem import load_spec, problem_from_dict  # noqa: E402
 
 BUILD = REPO / "build" / "tests" / "fgm"
@@ -18,8 +19,9 @@ def pytest_addoption(parser):
                      help="random solves per core in the bit-exact RTL test (default: per case)")
 
 
-def random_problem(name: str, nx: int, nu: int, N: int, ny: int, seed: int):
-    """A random stabilisable plant with box bounds, tracking the first ny states."""
+def random_problem(name: str, nx: int, nu: int, N: int, ny: int, seed: int, **extra):
+    """A random stabilisable plant with box bounds, tracking the first ny states; `extra` adds spec sections
+    (input_rate, soft_states, hard_states)."""
     rng = np.random.default_rng(seed)
     A = rng.standard_normal((nx, nx))
     A *= 0.95 / max(abs(np.linalg.eigvals(A)))
@@ -34,6 +36,7 @@ def random_problem(name: str, nx: int, nu: int, N: int, ny: int, seed: int):
     }
     if ny:
         d["tracking"] = {"outputs": list(range(ny)), "min": -1.0, "max": 1.0}
+    d.update(extra)
     return problem_from_dict(d, name)
 
 
@@ -71,3 +74,33 @@ def cores():
     jobs += [(make(), BUILD / cid) for cid, make in CERTIFIED.items()]
     generate_fgm(jobs)
     return {cid: BUILD / cid for cid in list(CASES) + list(CERTIFIED)}
+
+
+ADMM_BUILD = REPO / "build" / "tests" / "admm"
+RATE = {"min": -0.3, "max": 0.3, "weight": 0.1}
+SOFT1 = {"indices": [0], "min": -0.5, "max": 0.5, "sigma1": 8, "sigma2": 1}
+SOFT2 = {"indices": [0, 1], "min": -0.8, "max": 0.6, "sigma1": 8, "sigma2": 2}
+MASSES_SOFT = REPO / "examples/masses_rate_soft.yaml"
+
+# ADMM cores: id -> (problem factory, design overrides, random solves)
+ADMM_CASES = {
+    # the example (n_A = 216, 44 soft pairs), P = 4, round to nearest (the design flow's default)
+    "masses_soft_p4_b18": (lambda: load_spec(MASSES_SOFT), dict(P=4, iterations=30), 12),
+    # n_A = 19, P = 3 (a soft pair can straddle two units' fill), truncation, no pipeline registers
+    "rand_soft_n19_p3_l00_trunc": (lambda: random_problem("ra19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
+                                   dict(P=3, frac_bits=16, rounding="truncate", lat_add=0, lat_mul=0), 40),
+    # n_A = 26, two soft states, P = 2, deeper pipeline
+    "rand_soft_n26_p2_l23": (lambda: random_problem("ra26", 3, 1, 3, 2, 6, input_rate=RATE, soft_states=SOFT2),
+                             dict(P=2, frac_bits=16, lat_add=2, lat_mul=3), 30),
+    # no soft states (box projection only), P = 5 does not divide n_A = 19
+    "rand_rate_n19_p5": (lambda: random_problem("rr19", 3, 1, 4, 1, 7, input_rate=RATE),
+                         dict(P=5, frac_bits=15), 40),
+}
+
+
+@pytest.fixture(scope="session")
+def admm_cores():
+    """Every ADMM core of the suite, elaborated in one generator run."""
+    jobs = [(design_admm(prob(), **ov), ADMM_BUILD / cid) for cid, (prob, ov, _) in ADMM_CASES.items()]
+    generate_admm(jobs)
+    return {cid: ADMM_BUILD / cid for cid in ADMM_CASES}

@@ -12,7 +12,7 @@ from conftest import CASES
 from verif.flow import GeneratorError, run_generator
 from verif.sim import run_cocotb
 
-SCENARIOS = 8  # cocotb tests in verif/fgm/tb.py
+SCENARIOS = 8  # cocotb tests in verif/fgm/tb.py (the shared ones of verif/tb.py and axil_rewrite)
 
 
 
@@ -24,7 +24,7 @@ def test_rtl_matches_golden_model(cid, cores, request):
     measure.unlink(missing_ok=True)
     solves = request.config.getoption("--random-solves") or CASES[cid][2]
     tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.fgm.tb", out / "sim",
-                               {"FGM_OUT": str(out), "FGM_RANDOM": str(solves), "FGM_MEASURE": str(measure)})
+                               {"CORE_OUT": str(out), "CORE_RANDOM": str(solves), "CORE_MEASURE": str(measure)})
     assert tests == SCENARIOS, f"{tests} cocotb tests ran, expected {SCENARIOS}"
     assert failed == 0, f"{failed} of {tests} scenarios failed: see {out / 'sim' / 'sim.log'}"
     rec = [json.loads(ln) for ln in measure.read_text().splitlines()]

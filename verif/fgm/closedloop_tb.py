@@ -10,7 +10,7 @@ import cocotb
 import numpy as np
 
 from verif.closedloop import RtlController, closed_loop, reference_schedule
-from verif.fgm.tb import TB, TIMEOUT_MS
+from verif.tb import TB, TIMEOUT_MS
 from verif.problem import load_spec
 
 

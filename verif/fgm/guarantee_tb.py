@@ -13,7 +13,7 @@ import osqp
 import scipy.sparse as sp
 
 from verif.fgm.model import fgm_float
-from verif.fgm.tb import TB, TIMEOUT_MS
+from verif.tb import TB, TIMEOUT_MS
 
 
 def _optimum(H, q, lo, hi) -> np.ndarray:

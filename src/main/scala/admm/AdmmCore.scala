@@ -165,13 +165,13 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val kindZ  = ShiftRegister(kindP, p.projLat)
     val codeZ  = ShiftRegister(codeP, p.projLat)
     val (zA, zB, ofZ) = if (p.hasSoft) {
-      val soft = Module(new SoftProjection(p.qW, p.zW, p.latAdd, p.rounding))
-      soft.io.x := prevQ
-      soft.io.d := qP
-      soft.io.c := bLo
-      soft.io.r := bHi
+      val softProj = Module(new SoftProjection(p.qW, p.zW, p.latAdd, p.rounding))
+      softProj.io.x := prevQ
+      softProj.io.d := qP
+      softProj.io.c := bLo
+      softProj.io.r := bHi
       val isD = kindZ === SoftD.U
-      (Mux(isD, soft.io.dOut, zBox), soft.io.xOut, ShiftRegister(ofFree, p.projLat) || isD && (soft.io.xOvf || soft.io.dOvf))
+      (Mux(isD, softProj.io.dOut, zBox), softProj.io.xOut, ShiftRegister(ofFree, p.projLat) || isD && (softProj.io.xOvf || softProj.io.dOvf))
     } else (zBox, zBox, ShiftRegister(ofFree, p.projLat))
     val yZ  = ShiftRegister(yP, p.projLat)
     val nuZ = ShiftRegister(nuP, p.projLat)

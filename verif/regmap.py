@@ -1,5 +1,5 @@
-"""Byte addresses of an FGM core's AXI4-Lite registers and data memories, from its core.json (the same
-arithmetic as the macros of the generated C header)."""
+"""Byte addresses of a core's AXI4-Lite registers and data memories, from its core.json (the same arithmetic as
+the macros of the generated C header)."""
 from __future__ import annotations
 
 
@@ -12,7 +12,7 @@ class Regmap:
         self.reg = {r["name"]: r["offset"] for r in core["registers"]}
         self.base = {k: v["offset"] for k, v in core["regions"].items()}
         self.P = core["P"]
-        self.pb = core["p_bits"]
+        self.pb = core.get("p_bits", 0)
         self.cb = core["col_bits"]
 
     def __getitem__(self, name: str) -> int:
@@ -34,6 +34,25 @@ class Regmap:
 
     def xbox(self, j: int, hi: bool) -> int:
         return self.base["XBOX"] + (((j << 1) | int(hi)) << 2)
+
+    # ---- ADMM: rows addressed by component index
+    def _row(self, region: str, i: int, j: int) -> int:
+        return self.base[region] + (((i << self.cb) | j) << 2)
+
+    def mat_m(self, i: int, j: int) -> int:
+        """M11[i][j]"""
+        return self._row("MAT_M", i, j)
+
+    def mat_g(self, i: int, j: int) -> int:
+        """G~[i][j], j over (x, u_prev, r, 1)"""
+        return self._row("MAT_G", i, j)
+
+    def bnd(self, i: int, hi: bool) -> int:
+        """(lo, hi) of a box component, (centre, radius) at a soft pair's slack"""
+        return self.base["BND"] + (((i << 1) | int(hi)) << 2)
+
+    def wbox(self, j: int, hi: bool) -> int:
+        return self.base["WBOX"] + (((j << 1) | int(hi)) << 2)
 
     def status(self, word: int) -> dict:
         return {k: bool(word >> b & 1) for k, b in self.STATUS_BITS.items()}

@@ -1,0 +1,305 @@
+"""cocotb testbench shared by the generated cores (Verilator), driven through their AXI interfaces with
+cocotbext-axi: the TB class and the scenarios every core runs. verif/<core>/tb.py adds the core's own (its data
+memories over AXI4-Lite) and imports these, so that cocotb finds them all in one module.
+
+Environment: CORE_OUT = the generator's output folder (core.json, config.json); CORE_RANDOM = random solves in
+the bit-exact test; CORE_MEASURE = file to append measured cycle counts to (JSON lines).
+Every output word is compared with the core's bit-exact golden model, flags included.
+"""
+from __future__ import annotations
+
+import json
+import os
+import random
+from pathlib import Path
+
+import cocotb
+import numpy as np
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, ReadOnly, RisingEdge
+from cocotbext.axi import (AxiLiteBus, AxiLiteMaster, AxiResp, AxiStreamBus, AxiStreamFrame, AxiStreamSink,
+                           AxiStreamSource)
+
+from verif.regmap import Regmap
+
+
+# Every scenario ends in far fewer cycles; a hang fails the test instead of stalling the suite.
+TIMEOUT_MS = 200
+
+
+def _hi(sig) -> bool:
+    return str(sig.value) == "1"
+
+
+def golden_model(cfg: dict):
+    """The bit-exact model of the core described by its config.json."""
+    if cfg.get("core") == "admm":
+        from verif.admm.model import AdmmFixed
+        return AdmmFixed(cfg)
+    from verif.fgm.model import FgmFixed
+    return FgmFixed(cfg)
+
+
+class TB:
+    def __init__(self, dut, seed: int = 1):
+        self.dut = dut
+        out = Path(os.environ.get("CORE_OUT") or os.environ["FGM_OUT"])
+        self.core = json.loads((out / "core.json").read_text())
+        self.cfg = json.loads((out / "config.json").read_text())
+        self.rm = Regmap(self.core)
+        self.sw = self.core["stream_width"]
+        self.n, self.nu, self.nw = self.core["n"], self.core["nu"], self.core["nw"]
+        self.rng = random.Random(seed)
+        self.model = golden_model(self.cfg)
+        # box of the accepted parameter words
+        self.box = (self.model.xlo, self.model.xhi) if self.core["core"] == "fgm" else (self.model.wlo, self.model.whi)
+        self.imax = self.core["iterations"]
+        self.warm = self.core["warm_start"]
+        self.out_all = self.core["output_all"]
+        cocotb.start_soon(Clock(dut.clock, 10, unit="ns").start())
+        self.src = AxiStreamSource(AxiStreamBus.from_prefix(dut, "s_axis"), dut.clock, dut.reset, byte_lanes=1)
+        self.sink = AxiStreamSink(AxiStreamBus.from_prefix(dut, "m_axis"), dut.clock, dut.reset, byte_lanes=1)
+        self.axil = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axil"), dut.clock, dut.reset)
+        self.cycle = 0
+        self.in_done: list[int] = []     # cycles of the input tlast handshakes
+        self.out_start: list[int] = []   # cycles where an output frame's first word is valid
+        cocotb.start_soon(self._monitor())
+
+    async def _monitor(self):
+        d = self.dut
+        expect_first = True
+        while True:
+            await RisingEdge(d.clock)
+            await ReadOnly()
+            self.cycle += 1
+            if _hi(d.reset):
+                expect_first = True
+                continue
+            if _hi(d.s_axis_tvalid) and _hi(d.s_axis_tready) and _hi(d.s_axis_tlast):
+                self.in_done.append(self.cycle)
+            if _hi(d.m_axis_tvalid):
+                if expect_first:
+                    self.out_start.append(self.cycle)
+                    expect_first = False
+                if _hi(d.m_axis_tready) and _hi(d.m_axis_tlast):
+                    expect_first = True
+
+    async def reset(self):
+        self.dut.reset.value = 1
+        await ClockCycles(self.dut.clock, 3)
+        self.dut.reset.value = 0
+        await RisingEdge(self.dut.clock)
+        self.model.reset()
+        self.imax = self.core["iterations"]
+        self.warm = self.core["warm_start"]
+        self.out_all = self.core["output_all"]
+
+    def backpressure(self, on: bool):
+        def gen(p):
+            while True:
+                yield self.rng.random() < p
+        for ep, prob in ((self.src, 0.3), (self.sink, 0.4)):
+            ep.set_pause_generator(gen(prob) if on else None)
+            if not on:
+                ep.pause = False
+
+    # ---- words
+    def to_word(self, v: int) -> int:
+        return int(v) & ((1 << self.sw) - 1)
+
+    def from_word(self, u: int) -> int:
+        return u - (1 << self.sw) if u >> (self.sw - 1) & 1 else u
+
+    def random_w(self, outside: float = 0.0) -> np.ndarray:
+        """Words of a random parameter in the box; with probability `outside` per word, far outside it."""
+        lo, hi = self.box
+        w = np.array([self.rng.randint(int(a), int(b)) for a, b in zip(lo, hi)], dtype=np.int64)
+        lim = (1 << (self.sw - 1)) - 1
+        for j in range(self.nw):
+            if self.rng.random() < outside:
+                w[j] = self.rng.choice([self.rng.randint(int(hi[j]) + 1, lim), self.rng.randint(-lim - 1, int(lo[j]) - 1)])
+        return w
+
+    # ---- AXI4-Lite
+    async def write(self, addr: int, value: int) -> AxiResp:
+        r = await self.axil.write(addr, (int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
+        return r.resp
+
+    async def read(self, addr: int) -> tuple[int, AxiResp]:
+        r = await self.axil.read(addr, 4)
+        return int.from_bytes(r.data, "little"), r.resp
+
+    async def status(self) -> dict:
+        v, resp = await self.read(self.rm["STATUS"])
+        assert resp == AxiResp.OKAY
+        return self.rm.status(v)
+
+    async def set_ctrl(self, warm: bool | None = None, out_all: bool | None = None, hold: bool = False):
+        self.warm = self.warm if warm is None else warm
+        self.out_all = self.out_all if out_all is None else out_all
+        v = int(self.warm) | int(hold) << 1 | int(self.out_all) << 2
+        assert await self.write(self.rm["CTRL"], v) == AxiResp.OKAY
+
+    async def set_imax(self, imax: int):
+        assert await self.write(self.rm["IMAX"], imax) == AxiResp.OKAY
+        self.imax = imax
+
+    # ---- streams
+    async def send(self, w):
+        await self.src.send(AxiStreamFrame(tdata=[self.to_word(v) for v in w]))
+
+    async def recv(self) -> list[int]:
+        f = await self.sink.recv()
+        return [self.from_word(x) for x in f.tdata]
+
+    def expect(self, w):
+        """Model result for the next solve, as the words the core sends."""
+        r = self.model.solve(w, imax=self.imax, warm=self.warm)
+        words = r.z if self.out_all else r.z[: self.nu]
+        return [int(x) for x in words], r
+
+    async def solve_and_check(self, w, tag=""):
+        exp, r = self.expect(w)
+        await self.send(w)
+        got = await self.recv()
+        assert got == exp, f"{tag}: RTL {got} != model {exp} for w={list(w)}"
+        return r
+
+
+def _measure(record: dict):
+    path = os.environ.get("CORE_MEASURE") or os.environ.get("FGM_MEASURE")
+    if path:
+        with open(path, "a") as f:
+            f.write(json.dumps(record) + "\n")
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def bitexact_random(dut):
+    """Random states (some outside the box), random warm/cold start and Imax, random idle and backpressure on both
+    streams: every output word equals the golden model, and the SAT and OVERFLOW flags agree."""
+    tb = TB(dut, seed=11)
+    await tb.reset()
+    count = int(os.environ.get("CORE_RANDOM") or os.environ.get("FGM_RANDOM") or "30")
+    sat = ovf = False
+    for i in range(count):
+        tb.backpressure(i % 2 == 1)
+        if i % 5 == 0:
+            await tb.set_ctrl(warm=tb.rng.random() < 0.7)
+        if i % 7 == 3:
+            await tb.set_imax(tb.rng.randint(1, 2 * tb.core["iterations"]))
+        w = tb.random_w(outside=0.05)
+        r = await tb.solve_and_check(w, f"solve {i}")
+        sat |= r.sat
+        ovf |= r.overflow
+    st = await tb.status()
+    assert st["SAT"] == sat, f"SAT flag {st['SAT']} != model {sat}"
+    assert st["OVERFLOW"] == ovf, f"OVERFLOW flag {st['OVERFLOW']} != model {ovf}"
+    assert not ovf, "a datapath word saturated for a state inside the box: the Prop. 1 widths are wrong"
+    solves, _ = await tb.read(tb.rm["SOLVES"])
+    assert solves == count
+    _measure({"test": "bitexact_random", "module": tb.core["module"], "cases": count})
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def cycle_contract(dut):
+    """Latency from the last input word to the first output word is the overhead + Imax * L of core.json, L is
+    within the paper's formula (eq. (23) or (24) of 002) and the CYCLES_PER_ITER register says it."""
+    tb = TB(dut, seed=12)
+    await tb.reset()
+    lat = {}
+    for imax in (1, 3, tb.core["iterations"]):
+        await tb.set_imax(imax)
+        tb.in_done.clear()
+        tb.out_start.clear()
+        await tb.solve_and_check(tb.random_w(), f"imax {imax}")
+        assert len(tb.in_done) == 1 and len(tb.out_start) == 1
+        lat[imax] = tb.out_start[0] - tb.in_done[0]
+        last, _ = await tb.read(tb.rm["LAST_CYCLES"])
+        assert last == lat[imax] - 2, f"LAST_CYCLES {last} vs measured {lat[imax]} - 2"
+        assert lat[imax] == tb.core["solve_overhead_cycles"] + imax * tb.core["cycles_per_iteration"], \
+            f"Imax={imax}: measured {lat[imax]} cycles, core.json says {tb.core['cycles_per_solve_formula']}"
+    per_iter = (lat[3] - lat[1]) // 2
+    assert per_iter == tb.core["cycles_per_iteration"]
+    paper = tb.core.get("cycles_eq23", tb.core.get("cycles_eq24"))
+    if tb.nw <= tb.n:
+        assert per_iter <= paper, f"L {per_iter} exceeds the paper's {paper}"
+    reg, _ = await tb.read(tb.rm["CYCLES_PER_ITER"])
+    assert reg == per_iter
+    _measure({"test": "cycle_contract", "module": tb.core["module"], "n": tb.n, "P": tb.core["P"],
+              "cycles_per_iteration": per_iter, "paper": paper,
+              "cycles_per_solve": lat[tb.core["iterations"]], "iterations": tb.core["iterations"]})
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def back_to_back(dut):
+    """Frames queued back to back (no gaps) under random output backpressure: one output per input, in order."""
+    tb = TB(dut, seed=13)
+    await tb.reset()
+    ws = [tb.random_w() for _ in range(6)]
+    exps = [tb.expect(w)[0] for w in ws]
+    tb.sink.set_pause_generator(iter(lambda: tb.rng.random() < 0.5, None))  # never returns None: endless
+    for w in ws:
+        await tb.send(w)
+    for k, e in enumerate(exps):
+        got = await tb.recv()
+        assert got == e, f"frame {k}: RTL {got} != model {e}"
+    await ClockCycles(dut.clock, 2 * tb.core["cycles_per_solve"])
+    assert tb.sink.empty(), "an extra output frame appeared"
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def reset_mid_solve(dut):
+    """Reset in the middle of a solve: no output from the aborted solve, the warm start is dropped, the next solve
+    matches the model from a cold start, and the status flags are clear."""
+    tb = TB(dut, seed=14)
+    await tb.reset()
+    await tb.solve_and_check(tb.random_w(), "before")            # makes the warm start valid
+    await tb.send(tb.random_w(outside=0.5))
+    await ClockCycles(dut.clock, tb.rng.randint(2, tb.core["cycles_per_solve"] - 2))
+    await tb.reset()
+    await ClockCycles(dut.clock, tb.core["cycles_per_solve"] + 10)
+    assert tb.sink.empty(), "the aborted solve produced an output"
+    st = await tb.status()
+    assert not any(st.values()), f"status after reset: {st}"
+    await tb.solve_and_check(tb.random_w(), "after reset")
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def saturation_flag(dut):
+    """Words outside the declared box saturate to it (the result equals the model's on the clamped state) and set
+    STATUS.SAT; writing 1 clears it."""
+    tb = TB(dut, seed=15)
+    await tb.reset()
+    r = await tb.solve_and_check(tb.random_w(), "inside")
+    assert not r.sat and not (await tb.status())["SAT"]
+    r = await tb.solve_and_check(tb.random_w(outside=1.0), "outside")
+    assert r.sat and (await tb.status())["SAT"]
+    assert await tb.write(tb.rm["STATUS"], 1 << Regmap.STATUS_BITS["SAT"]) == AxiResp.OKAY
+    assert not (await tb.status())["SAT"]
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def tlast_error(dut):
+    """A frame whose tlast comes early is not lost: words are counted, TLAST_ERROR is set, one solve per nw words."""
+    tb = TB(dut, seed=16)
+    await tb.reset()
+    if tb.nw < 2:
+        return
+    w = tb.random_w()
+    exp, _ = tb.expect(w)
+    await tb.src.send(AxiStreamFrame(tdata=[tb.to_word(v) for v in w[:-1]]))
+    await tb.src.send(AxiStreamFrame(tdata=[tb.to_word(w[-1])]))
+    got = await tb.recv()
+    assert got == exp
+    assert (await tb.status())["TLAST_ERROR"]
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def output_all(dut):
+    """CTRL.OUT_ALL streams all n words of z, equal to the model."""
+    tb = TB(dut, seed=17)
+    await tb.reset()
+    await tb.set_ctrl(out_all=True)
+    tb.backpressure(True)
+    for i in range(3):
+        await tb.solve_and_check(tb.random_w(), f"out_all {i}")
