@@ -33,17 +33,25 @@ class Unit:
     info: dict
 
 
-def generate(jobs: list[tuple[str, Format, int | str, Path]]) -> list[Unit]:
-    """Elaborate FloatTop wrappers in one sbt run: jobs are (op, format, latency or 'default', out_dir)."""
+def generator_args(jobs: list[tuple[str, int, int, int | str, Path]]) -> list[str]:
+    """Arguments of float.FloatMain for jobs (op, expW, manW, latency or 'default', out_dir)."""
     args = []
-    for op, f, lat, out in jobs:
-        args += [op, str(f.expW), str(f.manW), str(lat), str(Path(out).resolve())]
-    run_generator("float.FloatMain", args)
-    units = []
-    for op, f, _, out in jobs:
-        info = json.loads((Path(out) / "float.json").read_text())
-        units.append(Unit(op, f, info["latency"], info["module"], Path(out) / info["sv"], info))
-    return units
+    for op, e, m, lat, out in jobs:
+        args += [op, str(e), str(m), str(lat), str(Path(out).resolve())]
+    return args
+
+
+def load_unit(out: Path) -> Unit:
+    """The unit the generator wrote into `out`."""
+    info = json.loads((Path(out) / "float.json").read_text())
+    return Unit(info["op"], Format(info["expW"], info["manW"]), info["latency"], info["module"],
+                Path(out) / info["sv"], info)
+
+
+def generate(jobs: list[tuple[str, int, int, int | str, Path]]) -> list[Unit]:
+    """Elaborate FloatTop wrappers in one sbt run; raises GeneratorError (with the rules) on a refusal."""
+    run_generator("float.FloatMain", generator_args(jobs))
+    return [load_unit(out) for *_, out in jobs]
 
 
 def _bundle_sv(units: list[Unit]) -> str:
