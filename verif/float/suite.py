@@ -2,7 +2,7 @@
 results for them (computed once, shared by the model-vs-numpy and RTL-vs-model tests).
 
 Every (operator, format) at its default latency gets N_RANDOM random pairs plus the edge cases; the 8-bit
-format (4, 3) gets every operand pair instead (exhaustive). Latency variants (0, 1, past the step count) get
+formats (4, 3) and (2, 3) get every operand pair instead (exhaustive). Latency variants (0, 1, past the step count) get
 fewer vectors: they check the pipeline registers, not the arithmetic.
 """
 from __future__ import annotations
@@ -19,8 +19,9 @@ OPS = ("add", "mul", "div", "sqrt", "cmp")
 BINARY32 = Format(8, 23)
 BINARY16 = Format(5, 10)
 REDUCED = Format(6, 17)
-TINY = Format(4, 3)  # 8 bits: exhaustive
-FORMATS = (BINARY32, BINARY16, REDUCED, TINY)
+TINY = Format(4, 3)   # 8 bits: exhaustive
+TINY2 = Format(2, 3)  # 6 bits, the narrowest exponent: exhaustive
+FORMATS = (BINARY32, BINARY16, REDUCED, TINY, TINY2)
 N_RANDOM = 100_000
 N_LATENCY = 5_000
 
@@ -47,8 +48,8 @@ def exhaustive_operands(f: Format, op: str) -> tuple[np.ndarray, np.ndarray, np.
 
 @lru_cache(maxsize=None)
 def operands(f: Format, op: str, n_random: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """(a, b, opbit, number of random pairs): edge cases first, then random pairs; exhaustive for TINY."""
-    if f == TINY:
+    """(a, b, opbit, number of random pairs): edge cases first, then random pairs; exhaustive up to 8 bits."""
+    if f.width <= 8:
         a, b, o = exhaustive_operands(f, op)
         return a, b, o, 0
     ea, eb, eo = V.edge_operands(f, op)
