@@ -95,6 +95,6 @@ class FAdd(val fmt: FloatFormat, val latency: Int) extends Module {
 }
 
 object FAdd {
-  val steps = 6
+  val steps = 3 + RoundPack.steps
   def defaultLatency(fmt: FloatFormat): Int = 4
 }

@@ -91,7 +91,7 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
 object FDiv {
   /** A quotient in (1/2, 2): manW+1 kept bits, a guard bit, and one more for the case quotient < 1. */
   def quotientBits(fmt: FloatFormat): Int = fmt.manW + 3
-  def steps(fmt: FloatFormat): Int        = 2 + quotientBits(fmt) + 3
+  def steps(fmt: FloatFormat): Int        = 2 + quotientBits(fmt) + RoundPack.steps
   /** About two quotient bits per cycle. */
   def defaultLatency(fmt: FloatFormat): Int = (steps(fmt) + 1) / 2
 }

@@ -64,6 +64,6 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
 }
 
 object FMul {
-  val steps = 6
+  val steps = 3 + RoundPack.steps
   def defaultLatency(fmt: FloatFormat): Int = 3
 }

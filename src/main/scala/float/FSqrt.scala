@@ -91,7 +91,7 @@ class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
 
 object FSqrt {
   def rootBits(fmt: FloatFormat): Int     = fmt.manW + 2
-  def steps(fmt: FloatFormat): Int        = 2 + rootBits(fmt) + 3
+  def steps(fmt: FloatFormat): Int        = 2 + rootBits(fmt) + RoundPack.steps
   /** About two root bits per cycle. */
   def defaultLatency(fmt: FloatFormat): Int = (steps(fmt) + 1) / 2
 }

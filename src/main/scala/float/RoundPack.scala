@@ -34,9 +34,10 @@ class RawFloat(fmt: FloatFormat, val sigW: Int) extends Bundle {
   val divByZero = Bool()
 }
 
-/** Normalise, round to nearest even and pack: the last three steps of every arithmetic operator.
-  * Step 0: leading-zero count and left shift. Step 1: right shift into the subnormal range (with sticky),
-  * rounding. Step 2: packing (the rounding carry ripples into the exponent), overflow to infinity, specials.
+/** Normalise, round to nearest even and pack: the last four steps of every arithmetic operator.
+  * Step 0: leading-zero count and left shift. Step 1: right shift into the subnormal range (with sticky).
+  * Step 2: rounding increment. Step 3: packing (the rounding carry ripples into the exponent), overflow to
+  * infinity, specials.
   * `regs(i)` registers follow step i (from the operator's Stages).
   *
   * Left normalisation is exact only if bits inserted below the LSB are not needed: an operator passing a
@@ -44,7 +45,7 @@ class RawFloat(fmt: FloatFormat, val sigW: Int) extends Bundle {
   * computed bit (FAdd: <= 1 with 3 extra bits; FDiv: <= 1; FMul and exact sums pass sticky = 0).
   */
 class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int]) extends Module {
-  require(regs.length == 3, s"RoundPack has 3 steps: got ${regs.length} register counts")
+  require(regs.length == RoundPack.steps, s"RoundPack has ${RoundPack.steps} steps: got ${regs.length} register counts")
   val in  = IO(Input(new RawFloat(fmt, sigW)))
   val out = IO(Output(UInt(fmt.width.W)))
   val flags = IO(Output(new FloatFlags))
@@ -68,49 +69,68 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int]) extends Module {
   s0.expB := in.exp -& lz.zext + fmt.bias.S
   val r0 = Stages.delay(s0, regs(0))
 
-  // ---- step 1: subnormal shift and rounding
+  // ---- step 1: shift into the subnormal range; the kept bits, the guard bit and the sticky rest
   val s1 = Wire(new Bundle {
-    val raw      = new RawFloat(fmt, sigW)
-    val isZero   = Bool()
-    val tiny     = Bool()
-    val expEff   = SInt((fmt.expIntW + 1).W)
-    val rounded  = UInt((m + 2).W)
-    val inexact  = Bool()
+    val raw    = new RawFloat(fmt, sigW)
+    val isZero = Bool()
+    val tiny   = Bool()
+    val expEff = SInt((fmt.expIntW + 1).W)
+    val kept   = UInt((m + 1).W)
+    val guard  = Bool()
+    val rest   = Bool()
   })
-  private val tiny   = r0.expB < 1.S
-  private val far    = r0.expB < (1 - (m + 2)).S
-  private val rsh    = Mux(far, (m + 2).U, Mux(tiny, (1.S - r0.expB).asUInt, 0.U))
-  private val wide   = Cat(r0.sigN, 0.U((m + 2).W)) >> rsh
-  private val top    = wide(w + m + 1, m + 2)
-  private val lost   = wide(m + 1, 0).orR
-  private val kept   = top(w - 1, w - 1 - m)
-  private val guard  = top(w - 2 - m)
-  private val below  = if (w - 3 - m >= 0) top(w - 3 - m, 0).orR else false.B
-  private val rest   = below || lost || r0.raw.sticky
-  s1.raw     := r0.raw
-  s1.isZero  := r0.sigN === 0.U && !r0.raw.sticky
-  s1.tiny    := tiny
-  s1.expEff  := Mux(tiny, 1.S, r0.expB)
-  s1.rounded := kept +& (guard && (rest || kept(0)))
-  s1.inexact := guard || rest
+  private val tiny  = r0.expB < 1.S
+  private val far   = r0.expB < (1 - (m + 2)).S
+  private val rsh   = Mux(far, (m + 2).U, Mux(tiny, (1.S - r0.expB).asUInt, 0.U))(log2Ceil(m + 3) - 1, 0)
+  private val wide  = Cat(r0.sigN, 0.U((m + 2).W)) >> rsh
+  private val top   = wide(w + m + 1, m + 2)
+  private val below = if (w - 3 - m >= 0) top(w - 3 - m, 0).orR else false.B
+  s1.raw    := r0.raw
+  s1.isZero := r0.sigN === 0.U && !r0.raw.sticky
+  s1.tiny   := tiny
+  s1.expEff := Mux(tiny, 1.S, r0.expB)
+  s1.kept   := top(w - 1, w - 1 - m)
+  s1.guard  := top(w - 2 - m)
+  s1.rest   := below || wide(m + 1, 0).orR || r0.raw.sticky
   val r1 = Stages.delay(s1, regs(1))
 
-  // ---- step 2: pack (a rounding carry out of the significand increments the exponent field)
-  private val total    = ((r1.expEff - 1.S).asUInt << m) +& r1.rounded
+  // ---- step 2: round to nearest, ties to even
+  val s2 = Wire(new Bundle {
+    val raw     = new RawFloat(fmt, sigW)
+    val isZero  = Bool()
+    val tiny    = Bool()
+    val expEff  = SInt((fmt.expIntW + 1).W)
+    val rounded = UInt((m + 2).W)
+    val inexact = Bool()
+  })
+  s2.raw     := r1.raw
+  s2.isZero  := r1.isZero
+  s2.tiny    := r1.tiny
+  s2.expEff  := r1.expEff
+  s2.rounded := r1.kept +& (r1.guard && (r1.rest || r1.kept(0)))
+  s2.inexact := r1.guard || r1.rest
+  val r2 = Stages.delay(s2, regs(2))
+
+  // ---- step 3: pack (a rounding carry out of the significand increments the exponent field)
+  private val total    = ((r2.expEff - 1.S).asUInt << m) +& r2.rounded
   private val overflow = total >= (BigInt(fmt.maxExpField) << m).U
-  private val raw      = r1.raw
+  private val raw      = r2.raw
   private val finite   = Mux(overflow, fmt.inf(false).U(fmt.width.W), total(fmt.width - 2, 0))
-  private val special  = raw.isNaN || raw.isInf || raw.isZero || r1.isZero
+  private val special  = raw.isNaN || raw.isInf || raw.isZero || r2.isZero
   private val mag = Mux(raw.isNaN, fmt.qNaN.U,
-    Mux(raw.isInf, fmt.inf(false).U, Mux(raw.isZero || r1.isZero, 0.U, finite)))
+    Mux(raw.isInf, fmt.inf(false).U, Mux(raw.isZero || r2.isZero, 0.U, finite)))
   private val o = Wire(UInt(fmt.width.W))
   o := Cat(raw.sign && !raw.isNaN, mag(fmt.width - 2, 0))
   private val f = Wire(new FloatFlags)
   f.invalid   := raw.invalid
   f.divByZero := raw.divByZero
   f.overflow  := !special && overflow
-  f.underflow := !special && r1.tiny && r1.inexact
-  f.inexact   := !special && (r1.inexact || overflow)
-  out   := Stages.delay(o, regs(2))
-  flags := Stages.delay(f, regs(2))
+  f.underflow := !special && r2.tiny && r2.inexact
+  f.inexact   := !special && (r2.inexact || overflow)
+  out   := Stages.delay(o, regs(3))
+  flags := Stages.delay(f, regs(3))
+}
+
+object RoundPack {
+  val steps = 4
 }
