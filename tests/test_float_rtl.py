@@ -6,6 +6,7 @@ operands) through each unit. Every result and flag must equal the model's, on ex
 """
 from __future__ import annotations
 
+import shutil
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -44,11 +45,16 @@ def _vectors(op, f, lat):
 def float_session():
     jobs = [(op, f.expW, f.manW, lat, BUILD / _uid(op, f, lat)) for op, f, lat in UNITS]
     bad = [(op, e, m, lat, BUILD / "refused" / f"{op}_{e}_{m}_{lat}") for op, e, m, lat in REFUSALS]
+    for j in jobs + bad:
+        shutil.rmtree(j[-1], ignore_errors=True)
     try:
         run_generator("float.FloatMain", rtl.generator_args(jobs + bad))
         refusal_msg = ""
     except GeneratorError as e:
         refusal_msg = str(e)
+    missing = [str(j[-1]) for j in jobs if not (j[-1] / "float.json").exists()]
+    if missing:
+        raise GeneratorError(f"no output in {missing[:3]}...:\n{refusal_msg}")
     units = [rtl.load_unit(j[-1]) for j in jobs]
     with ThreadPoolExecutor(1) as pool:
         exe = pool.submit(rtl.build, units, BUILD / "sim")

@@ -1,9 +1,9 @@
 """The floating-point test session: which units are generated, which vectors each one gets, and the model's
 results for them (computed once, shared by the model-vs-numpy and RTL-vs-model tests).
 
-Every (operator, format) at its default latency gets N_RANDOM random pairs plus the edge cases; the 8-bit
-formats (4, 3) and (2, 3) get every operand pair instead (exhaustive). Latency variants (0, 1, past the step count) get
-fewer vectors: they check the pipeline registers, not the arithmetic.
+Every (operator, format) at its default latency gets N_RANDOM random pairs plus the edge cases; the formats of
+at most 8 bits, (4, 3) and (2, 3), get every operand pair instead (exhaustive). Latency variants (0, 1, past the
+step count) get fewer vectors: they check the pipeline registers, not the arithmetic.
 """
 from __future__ import annotations
 

@@ -45,7 +45,8 @@ class RawFloat(fmt: FloatFormat, val sigW: Int) extends Bundle {
   * computed bit (FAdd: <= 1 with 3 extra bits; FDiv: <= 1; FMul and exact sums pass sticky = 0).
   */
 class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int]) extends Module {
-  require(regs.length == RoundPack.steps, s"RoundPack has ${RoundPack.steps} steps: got ${regs.length} register counts")
+  require(regs.length == RoundPack.steps,
+    s"RoundPack has ${RoundPack.steps} steps: got ${regs.length} register counts")
   val in  = IO(Input(new RawFloat(fmt, sigW)))
   val out = IO(Output(UInt(fmt.width.W)))
   val flags = IO(Output(new FloatFlags))
