@@ -67,3 +67,8 @@ bench: setup $(VENV)/.bench-installed
 ## clean: remove build folders only
 clean:
 	rm -rf build target project/target project/project
+
+## test-float: the floating-point library alone (model against numpy, RTL against the model; about 1.5 minutes)
+.PHONY: test-float
+test-float: setup
+	$(PY) -m pytest tests/test_float_model.py tests/test_float_rtl.py -q $(PYTEST_ARGS)

@@ -1,0 +1,97 @@
+package float
+
+import chisel3._
+
+/** sqrt(a) rounded to nearest even, in `latency` cycles: restoring digit recurrence on the integer square root,
+  * one root bit per step, unrolled. Steps: 0 classify, 1 normalise a subnormal operand and make the exponent
+  * even, 2 .. manW+3 the manW+2 root bits (the last gives the sticky bit from the remainder), then RoundPack.
+  * sqrt(-0) = -0; any other negative operand gives NaN and invalid.
+  */
+class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
+  val in_valid  = IO(Input(Bool()))
+  val a         = IO(Input(UInt(fmt.width.W)))
+  val out_valid = IO(Output(Bool()))
+  val out       = IO(Output(UInt(fmt.width.W)))
+  val flags     = IO(Output(new FloatFlags))
+
+  override def desiredName = s"FSqrt_${fmt.tag}_l$latency"
+
+  private val n    = FSqrt.rootBits(fmt) // root bits: manW+1 kept and a guard bit
+  private val remW = n + 2
+  val stages = Stages(latency, FSqrt.steps(fmt))
+
+  // ---- step 0: classify and specials
+  val s0 = Wire(new Bundle {
+    val ua  = new Unpacked(fmt)
+    val raw = new RawFloat(fmt, 1)
+  })
+  private val ua  = Unpack(fmt, a)
+  private val neg = ua.sign && !ua.isZero && !ua.isNaN
+  s0.ua            := ua
+  s0.raw.sign      := ua.sign
+  s0.raw.exp       := 0.S
+  s0.raw.sig       := 0.U
+  s0.raw.sticky    := false.B
+  s0.raw.isNaN     := ua.isNaN || neg
+  s0.raw.isInf     := ua.isInf
+  s0.raw.isZero    := ua.isZero
+  s0.raw.invalid   := ua.isSNaN || neg
+  s0.raw.divByZero := false.B
+  val r0 = stages.cut(0, s0)
+
+  // ---- step 1: a = X * 2^(E2 - manW) with E2 even and X in [2^manW, 2^(manW+2));
+  // root of Y = X * 2^n: n bits, MSB weight 2^(E2/2)
+  class Rec extends Bundle {
+    val y    = UInt((2 * n).W) // radicand bits not yet consumed, two per step, from the top
+    val rem  = UInt(remW.W)
+    val root = UInt(n.W)
+    val raw  = new RawFloat(fmt, 1)
+  }
+  private val (na, ea) = Unpack.normalise(r0.ua.sig, r0.ua.exp)
+  private val odd      = ea(0)
+  private val x        = Mux(odd, na ## 0.U(1.W), 0.U(1.W) ## na) // n bits
+  val s1 = Wire(new Rec)
+  s1.y       := x ## 0.U(n.W)
+  s1.rem     := 0.U
+  s1.root    := 0.U
+  s1.raw     := r0.raw
+  s1.raw.exp := (ea - odd.zext) >> 1
+  val r1 = stages.cut(1, s1)
+
+  // ---- steps 2 ..: one root bit each
+  private val rec = (0 until n).foldLeft(r1) { (r, i) =>
+    val s     = Wire(new Rec)
+    val remT  = r.rem ## r.y(2 * n - 1, 2 * n - 2)
+    val trial = r.root ## 1.U(2.W)
+    val ge    = remT >= trial
+    s.y    := (r.y << 2)(2 * n - 1, 0)
+    s.rem  := Mux(ge, remT - trial, remT)(remW - 1, 0)
+    s.root := (r.root << 1)(n - 1, 0) | ge
+    s.raw  := r.raw
+    stages.cut(2 + i, s)
+  }
+
+  val raw = Wire(new RawFloat(fmt, n))
+  raw.sign      := rec.raw.sign
+  raw.exp       := rec.raw.exp
+  raw.sig       := rec.root
+  raw.sticky    := rec.rem =/= 0.U
+  raw.isNaN     := rec.raw.isNaN
+  raw.isInf     := rec.raw.isInf
+  raw.isZero    := rec.raw.isZero
+  raw.invalid   := rec.raw.invalid
+  raw.divByZero := false.B
+
+  val rp = Module(new RoundPack(fmt, n, stages.from(2 + n)))
+  rp.in     := raw
+  out       := rp.out
+  flags     := rp.flags
+  out_valid := Stages.delayValid(in_valid, latency)
+}
+
+object FSqrt {
+  def rootBits(fmt: FloatFormat): Int     = fmt.manW + 2
+  def steps(fmt: FloatFormat): Int        = 2 + rootBits(fmt) + RoundPack.steps
+  /** About two root bits per cycle. */
+  def defaultLatency(fmt: FloatFormat): Int = (steps(fmt) + 1) / 2
+}

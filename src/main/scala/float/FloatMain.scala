@@ -1,0 +1,56 @@
+package float
+
+/** Generator entry point:
+  * `runMain float.FloatMain <op> <expW> <manW> <latency|default> <outDir> [... more groups of five]`.
+  * Writes <outDir>/<module>.sv (a FloatTop test wrapper around the operator) and <outDir>/float.json
+  * (module, format, latency, port layout) per group. Each group is checked on its own: a refusal prints
+  * `REFUSED <group>: <rule and values>` and the others still build; the exit code is 1 if any was refused.
+  */
+object FloatMain extends App {
+  require(args.length >= 5 && args.length % 5 == 0,
+    "usage: float.FloatMain <op> <expW> <manW> <latency|default> <outDir> [...groups of five]")
+
+  val refused = args.grouped(5).toSeq.flatMap { case Array(op, e, m, l, out) =>
+    val what = s"$op $e $m $l"
+    try {
+      FloatOp.check(op)
+      def int(nm: String, s: String) =
+        s.toIntOption.getOrElse(throw new IllegalArgumentException(s"$nm must be an integer: got '$s'"))
+      val fmt = FloatFormat(int("expW", e), int("manW", m))
+      val lat = if (l == "default") FloatOp.defaultLatency(op, fmt) else int("latency", l)
+      require(lat >= 0, s"latency must be >= 0: got latency=$lat")
+      val name = s"FloatTop_${op}_${fmt.tag}_l$lat"
+      gen.Emit.systemVerilog(new FloatTop(op, fmt, lat), out, name)
+      gen.Emit.writeText(s"$out/float.json", json(op, fmt, lat, name))
+      None
+    } catch {
+      case ex: IllegalArgumentException =>
+        println(s"REFUSED $what: ${ex.getMessage}")
+        Some(what)
+    }
+  }
+  if (refused.nonEmpty) sys.exit(1)
+
+  def json(op: String, fmt: FloatFormat, lat: Int, name: String): String = {
+    val o = ujson.Obj(
+      "op" -> op,
+      "module" -> name,
+      "sv" -> s"$name.sv",
+      "expW" -> fmt.expW,
+      "manW" -> fmt.manW,
+      "width" -> fmt.width,
+      "bias" -> fmt.bias,
+      "latency" -> lat,
+      "steps" -> FloatOp.steps(op, fmt),
+      "default_latency" -> FloatOp.defaultLatency(op, fmt),
+      "out_width" -> math.max(fmt.width, 4),
+      "op_input" -> (op match { case "add" => "sub"; case "cmp" => "signaling"; case _ => "unused" }),
+      "out_bits" -> (if (op == "cmp") ujson.Arr("lt", "eq", "le", "unordered") else ujson.Str("result")),
+      "flags" -> ujson.Arr("invalid", "divByZero", "overflow", "underflow", "inexact"),
+      "rounding" -> "nearest-even",
+      "subnormals" -> "supported (gradual underflow); tininess detected before rounding",
+      "nan" -> s"canonical quiet NaN 0x${fmt.qNaN.toString(16)}"
+    )
+    ujson.write(o, indent = 2)
+  }
+}

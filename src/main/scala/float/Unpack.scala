@@ -1,0 +1,49 @@
+package float
+
+import chisel3._
+import chisel3.util._
+
+/** An operand taken apart. For finite values, value = (-1)^sign * sig * 2^(exp - manW): `sig` carries the hidden
+  * bit (0 for subnormals and zero), `exp` is the unbiased exponent of the hidden bit, 1 - bias for subnormals.
+  */
+class Unpacked(fmt: FloatFormat) extends Bundle {
+  val sign   = Bool()
+  val exp    = SInt(fmt.expIntW.W)
+  val sig    = UInt(fmt.sigW.W)
+  val isZero = Bool()
+  val isInf  = Bool()
+  val isNaN  = Bool()
+  val isSNaN = Bool() // signalling NaN: mantissa MSB clear
+}
+
+object Unpack {
+  def apply(fmt: FloatFormat, bits: UInt): Unpacked = {
+    val u     = Wire(new Unpacked(fmt))
+    val eF    = bits(fmt.width - 2, fmt.manW)
+    val man   = bits(fmt.manW - 1, 0)
+    val eZero = eF === 0.U
+    val eOnes = eF.andR
+    u.sign   := bits(fmt.width - 1)
+    u.exp    := (Mux(eZero, 1.U, eF).zext - fmt.bias.S).pad(fmt.expIntW)
+    u.sig    := Cat(!eZero, man)
+    u.isZero := eZero && man === 0.U
+    u.isInf  := eOnes && man === 0.U
+    u.isNaN  := eOnes && man =/= 0.U
+    u.isSNaN := eOnes && man =/= 0.U && !man(fmt.manW - 1)
+    u
+  }
+
+  /** Leading zeros of x (x.getWidth when x = 0). */
+  def clz(x: UInt): UInt = {
+    val w = x.getWidth
+    Mux(x === 0.U, w.U, PriorityEncoder(Reverse(x)))
+  }
+
+  /** (sig << lz, exp - lz) with lz the leading zeros of a nonzero sig: subnormal operands of divide and square
+    * root become normalised (hidden bit set), with an exponent below the format's minimum.
+    */
+  def normalise(sig: UInt, exp: SInt): (UInt, SInt) = {
+    val lz = PriorityEncoder(Reverse(sig))
+    ((sig << lz)(sig.getWidth - 1, 0), exp - lz.zext)
+  }
+}

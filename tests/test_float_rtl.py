@@ -1,0 +1,127 @@
+"""RTL of the floating-point operators (src/main/scala/float) against the bit-exact model, in Verilator.
+
+One sbt run elaborates every unit of the session (and the refused configurations of the refusal test); one
+Verilator model holds them all; a C++ harness streams one operand pair per cycle (5 % idle cycles with junk
+operands) through each unit. Every result and flag must equal the model's, on exactly cycle t + latency.
+"""
+from __future__ import annotations
+
+import shutil
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from verif.flow import REPO, GeneratorError, run_generator
+from verif.float import rtl, suite
+
+BUILD = REPO / "build" / "tests" / "float"
+
+DEFAULT_UNITS = [(op, f, "default") for f in suite.FORMATS for op in suite.OPS]
+UNITS = DEFAULT_UNITS + suite.LATENCY_VARIANTS
+
+# refused by the generator: (op, expW, manW, latency) -> the rule in the message
+REFUSALS = {
+    ("add", 1, 23, "3"): "exponent width expW must be in [2, 16]: got expW=1",
+    ("mul", 8, 0, "3"): "mantissa width manW must be in [1, 62]: got manW=0",
+    ("div", 16, 50, "3"): "1 + expW + manW must be <= 64 (one 64-bit word): got expW=16, manW=50",
+    ("sqrt", 8, 23, "-1"): "latency must be >= 0: got latency=-1",
+    ("fma", 8, 23, "3"): "operator must be one of add, mul, div, sqrt, cmp: got 'fma'",
+    ("cmp", 8, 23, "two"): "latency must be an integer: got 'two'",
+}
+
+
+def _uid(op, f, lat) -> str:
+    return f"{op}_{f.tag}_l{lat}"
+
+
+def _vectors(op, f, lat):
+    n = suite.N_RANDOM if lat == "default" else suite.N_LATENCY
+    seed = suite.seed_of(f, op) + (0 if lat == "default" else 7 + int(lat))
+    return n, seed
+
+
+@pytest.fixture(scope="module")
+def float_session():
+    jobs = [(op, f.expW, f.manW, lat, BUILD / _uid(op, f, lat)) for op, f, lat in UNITS]
+    bad = [(op, e, m, lat, BUILD / "refused" / f"{op}_{e}_{m}_{lat}") for op, e, m, lat in REFUSALS]
+    for j in jobs + bad:
+        shutil.rmtree(j[-1], ignore_errors=True)
+    try:
+        run_generator("float.FloatMain", rtl.generator_args(jobs + bad))
+        refusal_msg = ""
+    except GeneratorError as e:
+        refusal_msg = str(e)
+    missing = [str(j[-1]) for j in jobs if not (j[-1] / "float.json").exists()]
+    if missing:
+        raise GeneratorError(f"no output in {missing[:3]}...:\n{refusal_msg}")
+    units = [rtl.load_unit(j[-1]) for j in jobs]
+    with ThreadPoolExecutor(1) as pool:
+        exe = pool.submit(rtl.build, units, BUILD / "sim")
+        streams, expected = [], []
+        rng = np.random.default_rng(5)
+        for (op, f, lat) in UNITS:  # the model's results while Verilator compiles
+            n, seed = _vectors(op, f, lat)
+            a, b, o, _ = suite.operands(f, op, n, seed)
+            expected.append(suite.model_results(f, op, n, seed))
+            # 5 % idle cycles, with junk operands that must not reach any output
+            total = len(a) + len(a) // 19
+            valid = np.ones(total, dtype=bool)
+            valid[rng.choice(total, total - len(a), replace=False)] = False
+            ja, jb, jo = (rng.integers(0, 1 << f.width, total).astype(np.uint64),
+                          rng.integers(0, 1 << f.width, total).astype(np.uint64),
+                          rng.integers(0, 2, total).astype(np.uint64))
+            pos = np.flatnonzero(valid)
+            ja[pos], jb[pos], jo[pos] = a, b, o
+            streams.append((valid, jo, ja, jb))
+        exe = exe.result()
+    extra = max(u.latency for u in units) + 2
+    results = rtl.run(exe, BUILD / "run", streams, extra)
+    return {"units": units, "streams": streams, "expected": expected, "results": results,
+            "refusals": refusal_msg}
+
+
+def _check(float_session, key):
+    k = UNITS.index(key)
+    u = float_session["units"][k]
+    valid, o, a, b = float_session["streams"][k]
+    out, flags = float_session["expected"][k]
+    got = float_session["results"][k]
+    op, f, lat = key
+    assert u.op == op and (u.fmt.expW, u.fmt.manW) == (f.expW, f.manW)
+    if lat != "default":
+        assert u.latency == lat
+    pos = np.flatnonzero(valid)
+    assert len(out) > 0 and len(got) == len(pos), f"{len(got)} results for {len(pos)} valid inputs"
+    # latency: the result of the input on cycle t appears on cycle t + latency, and out_valid only then
+    assert np.array_equal(got[:, 0], pos.astype(np.uint64) + np.uint64(u.latency)), "latency/valid mismatch"
+    bad = np.flatnonzero((got[:, 1] != out) | (got[:, 2] != flags))
+    assert bad.size == 0, f"{bad.size} of {len(out)} differ; first: " + "; ".join(
+        f"a={int(a[pos[i]]):#x} b={int(b[pos[i]]):#x} op={int(o[pos[i]])}: rtl {int(got[i, 1]):#x} "
+        f"flags {int(got[i, 2]):#07b}, model {int(out[i]):#x} flags {int(flags[i]):#07b}" for i in bad[:4])
+    return len(out), u
+
+
+@pytest.mark.parametrize("key", DEFAULT_UNITS, ids=[_uid(*k) for k in DEFAULT_UNITS])
+def test_rtl_matches_model(float_session, key):
+    op, f, _ = key
+    n, u = _check(float_session, key)
+    if f.width <= 8:  # every operand pair, both op bits
+        assert n == 2 * (1 << f.width) ** (1 if op == "sqrt" else 2)
+    else:
+        assert n >= suite.N_RANDOM + 100  # random pairs and the edge cases
+    assert u.latency == u.info["default_latency"]
+
+
+@pytest.mark.parametrize("key", suite.LATENCY_VARIANTS, ids=[_uid(*k) for k in suite.LATENCY_VARIANTS])
+def test_latency_parameter(float_session, key):
+    n, u = _check(float_session, key)
+    assert n >= suite.N_LATENCY
+    assert u.info["latency"] == key[2] and u.module.endswith(f"_l{key[2]}")
+
+
+def test_generator_refusals(float_session):
+    msg = float_session["refusals"]
+    for (op, e, m, lat), rule in REFUSALS.items():
+        assert f"REFUSED {op} {e} {m} {lat}: " in msg and rule in msg, (rule, msg)
+    assert not (BUILD / "refused").exists() or not any((BUILD / "refused").iterdir())
