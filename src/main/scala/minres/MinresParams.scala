@@ -80,7 +80,7 @@ case class MinresParams(
   /** cycles of a batch of P problems: the init pass and Imax iterations, up to the last x write */
   def batchCycles(imax: Int): Int = (imax + 1) * P * S - S + tC + N + latCx
 
-  val multipliers: Int = taps + 1 + 3 + 9 + 3 // matvec, delta, pass B (2 + norm), scalar, pass C
+  val multipliers: Int = taps + 1 + 3 + 10 + 3 // matvec, delta, pass B (2 + norm), scalar, pass C
   val moduleName: String = s"MinresCore_${name}_n${n}_m${m}_t${T}_p$P"
 
   // ---- storage (words): variable column double-buffered for P problems, constant columns once
