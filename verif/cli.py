@@ -20,7 +20,7 @@ def _overrides(a) -> dict:
     return ov
 
 
-CORES = ("fgm", "admm")
+CORES = ("fgm", "admm", "minres")
 
 
 def _design(a):
@@ -30,6 +30,12 @@ def _design(a):
 
     if a.core not in CORES:
         sys.exit(f"error: CORE={a.core}: the cores are {', '.join(CORES)}")
+    if a.core == "minres":
+        from verif.minres.design import design_minres
+        try:
+            return design_minres(load_spec(a.problem), **_overrides(a))
+        except (DesignError, SpecError) as e:
+            sys.exit(f"error: {e}")
     try:
         return (design_fgm if a.core == "fgm" else design_admm)(load_spec(a.problem), **_overrides(a))
     except (DesignError, SpecError) as e:
@@ -43,6 +49,9 @@ def _flow(core: str):
     if core == "admm":
         from verif.admm.report import design_report
         return flow.generate_admm, design_report
+    if core == "minres":
+        from verif.minres.report import design_report
+        return flow.generate_minres, design_report
     from verif.fgm.report import design_report
     return flow.generate_fgm, design_report
 
@@ -58,6 +67,9 @@ def cmd_design(a) -> None:
 
     if a.tol is None:
         d = _design(a)
+        if a.core == "minres":
+            print(_flow("minres")[1](d))
+            return
         if a.core == "admm":
             print(_flow("admm")[1](d))
             return

@@ -76,3 +76,10 @@ def generate_admm(jobs: list[tuple[object, Path]]) -> list[dict]:
     from verif.admm.report import c_header, core_json
 
     return _generate("admm.AdmmMain", jobs, core_json, c_header)
+
+
+def generate_minres(jobs: list[tuple[object, Path]]) -> list[dict]:
+    """Elaborate MINRES cores: jobs are (MinresDesign, out_dir); the same files as generate_fgm."""
+    from verif.minres.report import c_header, core_json
+
+    return _generate("minres.MinresMain", jobs, core_json, c_header)

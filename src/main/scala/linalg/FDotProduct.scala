@@ -1,0 +1,43 @@
+package linalg
+
+import chisel3._
+import float.{FAdd, FMul, FloatFormat, Stages}
+
+/** Floating-point dot product of k terms (Fig. 1 of 001): k parallel multipliers and a pairwise adder tree,
+  * pairs (0,1), (2,3), ... at each level and an odd last element passed on (delayed to stay aligned), the order
+  * of DotProductTree and of the golden model. Fixed latency latMul + latAdd ceil(log2 k), one dot product per
+  * cycle.
+  */
+class FDotProduct(val fmt: FloatFormat, val k: Int, val latMul: Int, val latAdd: Int) extends Module {
+  require(k >= 1, s"FDotProduct: k must be >= 1, got k=$k")
+  val depth: Int   = chisel3.util.log2Ceil(k)
+  val latency: Int = latMul + latAdd * depth
+  override def desiredName = s"FDotProduct_${fmt.tag}_k${k}_lm${latMul}_la$latAdd"
+
+  val io = IO(new Bundle {
+    val a   = Input(Vec(k, UInt(fmt.width.W)))
+    val b   = Input(Vec(k, UInt(fmt.width.W)))
+    val sum = Output(UInt(fmt.width.W))
+  })
+
+  var level: Seq[UInt] = (0 until k).map { t =>
+    val mul = Module(new FMul(fmt, latMul))
+    mul.in_valid := true.B
+    mul.a        := io.a(t)
+    mul.b        := io.b(t)
+    mul.out
+  }
+  while (level.length > 1) {
+    level = level.grouped(2).toSeq.map {
+      case Seq(x, y) =>
+        val add = Module(new FAdd(fmt, latAdd))
+        add.in_valid := true.B
+        add.a        := x
+        add.b        := y
+        add.sub      := false.B
+        add.out
+      case Seq(x) => Stages.delay(x, latAdd)
+    }
+  }
+  io.sum := level.head
+}

@@ -1,0 +1,341 @@
+package minres
+
+import chisel3._
+import chisel3.util._
+import bus.{AxiLiteIO, AxiStreamIO}
+import float.{FloatFormat, Stages}
+import linalg.FDotProduct
+import shell.SolverRegs
+
+/** Control word of one element of a pass: problem slot, element (row) index, iteration (0 = the init pass), and
+  * for the feed the position of the row in the MPC structure (row r of stage k, primal index).
+  */
+class MinresCtl(p: MinresParams) extends Bundle {
+  val e    = UInt(log2Ceil(p.S + 1).W)
+  val slot = UInt(math.max(1, log2Ceil(p.P)).W)
+  val j    = UInt(16.W)
+  val r    = UInt(log2Ceil(p.period + 1).W)
+  val k    = UInt(log2Ceil(p.T + 2).W)
+  val prim = UInt(log2Ceil(p.nPrimal + 1).W)
+}
+
+/** Counter of a pass: elements 0..S-1 of slots 0..P-1 of iterations 0..Imax, one element per cycle. */
+class PassCounter(p: MinresParams) {
+  val run = RegInit(false.B)
+  val c   = RegInit(0.U.asTypeOf(new MinresCtl(p)))
+  /** an element of the matrix order is processed this cycle */
+  def valid: Bool = run && c.e < p.N.U
+  def tick(start: Bool, imax: UInt): Unit = {
+    when(start) {
+      run := true.B
+      c   := 0.U.asTypeOf(c)
+    }.elsewhen(run) {
+      val lastE = c.e === (p.S - 1).U
+      c.e := Mux(lastE, 0.U, c.e + 1.U)
+      // position in the MPC structure: rows r = 0..2n+m-1 of stages k = 0..T, primal rows counted
+      val lastR = c.r === (p.period - 1).U
+      c.r    := Mux(lastE, 0.U, Mux(lastR, 0.U, c.r + 1.U))
+      c.k    := Mux(lastE, 0.U, Mux(lastR, c.k + 1.U, c.k))
+      c.prim := Mux(lastE, 0.U, Mux(c.r >= p.n.U, c.prim + 1.U, c.prim))
+      when(lastE) {
+        val lastSlot = c.slot === (p.P - 1).U
+        c.slot := Mux(lastSlot, 0.U, c.slot + 1.U)
+        when(lastSlot) {
+          c.j := c.j + 1.U
+          when(c.j === imax) { run := false.B }
+        }
+      }
+    }
+  }
+}
+
+/** MINRES solver for the banded KKT system of section VI-A of 001, P problems interleaved (Fig. 1 of 001).
+  *
+  * A batch of up to P problems arrives on s_axis: per problem an id word, the variable part of the matrix (the
+  * diagonal of the primal rows, T(n+m)+n words) and b (N words), raw binary32, tlast on the last word. The
+  * next batch loads into the other bank while one solves. The core runs the init pass and Imax MINRES
+  * iterations on every slot, then sends per problem the id (bit 31 set if an input word or the solution is
+  * not finite) and the solution z (N words).
+  *
+  * Schedule: slot p of iteration j starts its feed at ((j P + p) S); every pass serves one slot at a time, so
+  * one instance of each unit serves all problems:
+  *   feed + matvec: v_j is read into a shift register of 2M-1 words (vector alignment by shifting) M cycles
+  *     ahead of its rows; row i multiplies the window by the 2M-1 band coefficients (the upper half from the
+  *     variable column and the constant ROM, the lower half the same columns delayed d cycles, symmetry) in the
+  *     dot-product block (2M-1 multipliers, adder tree); delta = v_j . A v_j streams into an accumulator;
+  *   pass B: u = (A v_j - delta v_j) - gamma_j v_{j-1} and ||u||^2 (accumulator);
+  *   scalar part: gamma_{j+1}, the Givens rotation, its coefficients (fully pipelined units);
+  *   pass C: v_{j+1} = u / gamma_{j+1}, w_{j+1}, x.
+  * Offsets are in MinresParams; P S >= need guarantees that v_{j+1} is written before the slot's next feed.
+  */
+class MinresCore(val p: MinresParams) extends Module {
+  override def desiredName = p.moduleName
+  private val fmt = FloatFormat.binary32
+  import p.{N, M, P, S, n, m, T, nPrimal, taps}
+
+  val s_axis = IO(Flipped(new AxiStreamIO(32)))
+  val m_axis = IO(new AxiStreamIO(32))
+  val s_axil = IO(Flipped(new AxiLiteIO(p.axiAddrW)))
+
+  require(n < 256 && m < 256 && T < 65536, s"CONFIG1 holds n, m < 256 and T < 65536: got n=$n, m=$m, T=$T")
+  val regs = new SolverRegs(s_axil, MinresRegs.IdValue, Cat(P.U(16.W), N.U(16.W)), Cat(T.U(16.W), m.U(8.W), n.U(8.W)),
+    p.cyclesPerIteration, p.imaxDefault, warmDefault = false, outAllDefault = false)
+
+  private val ops = new TimedOps(fmt, p.latAdd, p.latMul, p.latDiv, p.latSqrt)
+  import ops.{add, div, mul, sqrt, sub}
+  private val zero   = 0.U(32.W)
+  private val one    = "h3f800000".U(32.W)
+  private val negOne = "hbf800000".U(32.W)
+  private def finite(w: UInt): Bool = w(30, 23) =/= "hff".U
+
+  // ---- memories (asynchronous read; addresses slot-major)
+  val vmem = Mem(2 * P * N, UInt(32.W)) // v_j / v_{j-1} (and u), buffer j % 2 holds v_j
+  val wmem = Mem(2 * P * N, UInt(32.W)) // w_j / w_{j-1}
+  val xmem = Mem(P * N, UInt(32.W))
+  val ymem = Mem(P * N, UInt(32.W))     // A v_j
+  val bmem = Mem(2 * P * N, UInt(32.W)) // right-hand sides, double-buffered
+  val dmem = Mem(2 * P * nPrimal, UInt(32.W)) // variable column (primal diagonal), double-buffered
+  private def adr2(buf: UInt, slot: UInt, e: UInt, len: Int): UInt = (buf * P.U +& slot) * len.U +& e
+  private def adr1(slot: UInt, e: UInt): UInt = slot * N.U +& e
+  private def inN(e: UInt): UInt = Mux(e < N.U, e, 0.U)
+
+  // ---- per-problem scalars
+  private def scal() = Reg(Vec(P, UInt(32.W)))
+  val delta = scal(); val nrm2 = scal()
+  val cR = scal(); val cpR = scal(); val sR = scal(); val spR = scal(); val gamR = scal(); val etaR = scal()
+  val g1R = scal(); val a1R = scal(); val a2R = scal(); val a3R = scal(); val cetaR = scal()
+
+  // ---- input: frames into the load bank
+  val ldBank = RegInit(0.U(1.W))
+  val ldSlot = RegInit(0.U(log2Ceil(P + 1).W))
+  val ldWord = RegInit(0.U(log2Ceil(p.frameWords + 1).W))
+  val full   = RegInit(VecInit(false.B, false.B))
+  val cnt    = Reg(Vec(2, UInt(log2Ceil(P + 1).W)))
+  val ids    = Reg(Vec(2 * P, UInt(31.W))) // bank * P + slot
+  val inBad  = Reg(Vec(2 * P, Bool()))
+  val nonfinite = RegInit(false.B)
+
+  s_axis.tready := !full(ldBank) && !(regs.ctrlHold && ldWord === 0.U)
+  private val d = s_axis.tdata
+  when(s_axis.fire) {
+    val lastWord = ldWord === (p.frameWords - 1).U
+    when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
+    when(ldWord === 0.U) {
+      ids(ldBank * P.U + ldSlot)   := d(30, 0)
+      inBad(ldBank * P.U + ldSlot) := false.B
+    }.otherwise {
+      when(!finite(d)) {
+        inBad(ldBank * P.U + ldSlot) := true.B
+        nonfinite := true.B
+      }
+      when(ldWord <= nPrimal.U) {
+        dmem(adr2(ldBank, ldSlot, ldWord - 1.U, nPrimal)) := d
+      }.otherwise {
+        bmem(adr2(ldBank, ldSlot, ldWord - (nPrimal + 1).U, N)) := d
+      }
+    }
+    ldWord := Mux(lastWord, 0.U, ldWord + 1.U)
+    when(lastWord) {
+      when(ldSlot === (P - 1).U) {
+        full(ldBank) := true.B
+        cnt(ldBank)  := P.U
+        ldBank       := ~ldBank
+        ldSlot       := 0.U
+      }.otherwise { ldSlot := ldSlot + 1.U }
+    }
+  }
+
+  // ---- solver state
+  val sIdle :: sRun :: sOut :: Nil = Enum(3)
+  val state   = RegInit(sIdle)
+  val runBank = RegInit(0.U(1.W))
+  val imax    = RegInit(1.U(16.W))
+  val count   = RegInit(0.U(log2Ceil(P + 1).W))
+  val g       = RegInit(0.U(32.W))
+  val gEnd    = RegInit(0.U(32.W))
+  val xBad    = Reg(Vec(P, Bool()))
+
+  // A partly filled bank is sent on after flushCycles idle cycles of the input while the solver waits.
+  val idleCnt = RegInit(0.U(16.W))
+  val partial = ldWord === 0.U && ldSlot =/= 0.U && !full(ldBank)
+  when(partial && !s_axis.tvalid && state === sIdle && !full(runBank)) {
+    idleCnt := idleCnt + 1.U
+    when(idleCnt === (p.flushCycles - 1).U) {
+      full(ldBank) := true.B
+      cnt(ldBank)  := ldSlot
+      ldBank       := ~ldBank
+      ldSlot       := 0.U
+      idleCnt      := 0.U
+    }
+  }.otherwise { idleCnt := 0.U }
+
+  val startBatch = state === sIdle && full(runBank)
+  when(startBatch) {
+    state := sRun
+    g     := 0.U
+    imax  := regs.imaxReg
+    count := cnt(runBank)
+    gEnd  := (regs.imaxReg * p.cyclesPerIteration.U +& (p.batchCycles(0) - 1).U)
+    xBad.foreach(_ := false.B)
+  }
+  when(state === sRun) { g := g + 1.U }
+  private def startAt(t: Int): Bool = if (t == 0) startBatch else state === sRun && g === (t - 1).U
+
+  val feed = new PassCounter(p); feed.tick(startAt(0), imax)
+  val pb   = new PassCounter(p); pb.tick(startAt(p.tB), imax)
+  val ps   = new PassCounter(p); ps.tick(startAt(p.tS), imax)
+  val pc   = new PassCounter(p); pc.tick(startAt(p.tC), imax)
+
+  // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
+  val sr = Reg(Vec(taps, UInt(32.W)))
+  sr(0) := vmem(adr2(feed.c.j(0), feed.c.slot, inN(feed.c.e), N))
+  for (t <- 1 until taps) sr(t) := sr(t - 1)
+  val row      = Stages.delay(feed.c, M)
+  val rowValid = Stages.delayValid(feed.valid, M)
+
+  // ---- band coefficients of row i: column 0 variable, 1..M-1 constant (ROM) or generated (lambda rows)
+  private val isLam  = row.r < n.U
+  private val romRow = Mux(isLam, 0.U, Mux(row.k === T.U, row.r + m.U, row.r - n.U))
+  // one multiplexer per ROM column (no nested arrays in the emitted Verilog)
+  private val romSel = (0 until M - 1).map(c => VecInit(p.rom.map(_(c).U(32.W)))(romRow))
+  val colU = Wire(Vec(M, UInt(32.W)))
+  colU(0) := Mux(isLam, zero, dmem(adr2(runBank, row.slot, Mux(isLam, 0.U, row.prim), nPrimal)))
+  for (dd <- 1 until M) colU(dd) := Mux(isLam, if (dd == n) negOne else zero, romSel(dd - 1))
+  val dot = Module(new FDotProduct(fmt, taps, p.latMul, p.latAdd))
+  require(dot.latency == p.latMatvec, "matvec latency")
+  for (t <- 0 until taps) {
+    val o = t - (M - 1)
+    val (coef, ok) =
+      if (o >= 0) (colU(o), row.e < (N - o).U)
+      else (Stages.delay(colU(-o), -o), row.e >= (-o).U)
+    dot.io.a(t) := Mux(ok, coef, zero)
+    dot.io.b(t) := Mux(ok, sr(M - 1 - o), zero)
+  }
+  val y    = Timed(dot.io.sum, p.latMatvec)
+  val rowY = ops.delayTo(row, 0, y.t)
+  when(Stages.delayValid(rowValid, y.t)) { ymem(adr1(rowY.slot, rowY.e)) := y.v }
+  // delta = v_j . A v_j
+  val dTerm = mul(Timed(sr(M - 1), 0), y)
+  val dAcc  = Module(new FStreamAcc(fmt, N, p.latAdd))
+  dAcc.io.valid := Stages.delayValid(rowValid, dTerm.t)
+  dAcc.io.index := ops.delayTo(row.e, 0, dTerm.t)
+  dAcc.io.term  := dTerm.v
+  require(dTerm.t + dAcc.latency + 1 + p.tRow + N - 1 == p.tDelta, "delta schedule")
+  val dSlot = ops.delayTo(row.slot, 0, dTerm.t + dAcc.latency)
+  when(dAcc.io.done) { delta(dSlot) := dAcc.io.sum }
+
+  // ---- pass B: u = (y - delta v_j) - gamma v_{j-1}; ||u||^2
+  private val bc = pb.c
+  private val bInit = bc.j === 0.U
+  val yIn   = Mux(bInit, bmem(adr2(runBank, bc.slot, inN(bc.e), N)), ymem(adr1(bc.slot, inN(bc.e))))
+  val vjB   = Mux(bInit, zero, vmem(adr2(bc.j(0), bc.slot, inN(bc.e), N)))
+  val vjm1B = Mux(bc.j <= 1.U, zero, vmem(adr2(~bc.j(0), bc.slot, inN(bc.e), N)))
+  val dB    = Mux(bInit, zero, delta(bc.slot))
+  val gB    = Mux(bInit, zero, gamR(bc.slot))
+  val u     = sub(sub(Timed(yIn, 0), mul(Timed(dB, 0), Timed(vjB, 0))), mul(Timed(gB, 0), Timed(vjm1B, 0)))
+  require(u.t == p.latB, "pass B latency")
+  val bcU = ops.delayTo(bc, 0, u.t)
+  when(Stages.delayValid(pb.valid, u.t)) { vmem(adr2(~bcU.j(0), bcU.slot, bcU.e, N)) := u.v }
+  val nTerm = mul(u, u)
+  val nAcc  = Module(new FStreamAcc(fmt, N, p.latAdd))
+  nAcc.io.valid := Stages.delayValid(pb.valid, nTerm.t)
+  nAcc.io.index := ops.delayTo(bc.e, 0, nTerm.t)
+  nAcc.io.term  := nTerm.v
+  require(p.tB + N - 1 + nTerm.t + nAcc.latency + 1 == p.tNrm, "norm schedule")
+  val nSlot = ops.delayTo(bc.slot, 0, nTerm.t + nAcc.latency)
+  when(nAcc.io.done) { nrm2(nSlot) := nAcc.io.sum }
+
+  // ---- scalar part: gamma_{j+1}, Givens rotation (eq. numbers: Elman, Silvester, Wathen Alg. 2.4)
+  private val sc = ps.c
+  private val sSlot = sc.slot
+  private def at0(v: UInt) = Timed(v, 0)
+  val nrm = at0(nrm2(sSlot)); val dl = at0(delta(sSlot))
+  val c0 = at0(cR(sSlot)); val cp0 = at0(cpR(sSlot)); val s0 = at0(sR(sSlot)); val sp0 = at0(spR(sSlot))
+  val gm = at0(gamR(sSlot)); val et = at0(etaR(sSlot))
+  val g1   = sqrt(nrm)
+  val a0   = sub(mul(c0, dl), mul(mul(cp0, s0), gm))
+  val a1   = sqrt(add(mul(a0, a0), nrm))
+  val a2   = add(mul(s0, dl), mul(mul(cp0, c0), gm))
+  val a3   = mul(sp0, gm)
+  val c1   = div(a0, a1)
+  val s1   = div(g1, a1)
+  val ceta = mul(c1, et)
+  val eta1 = ops.neg(mul(s1, et))
+  private val tS = p.latScalar
+  require(Seq(ceta, eta1).forall(_.t == tS), "scalar latency")
+  private val scW = ops.delayTo(sc, 0, tS)
+  private val Seq(g1d, a1d, a2d, a3d, c1d, s1d) = Seq(g1, a1, a2, a3, c1, s1).map(ops.at(_, tS))
+  when(Stages.delayValid(ps.valid && sc.e === 0.U, tS)) {
+    val q = scW.slot
+    when(scW.j === 0.U) {
+      cR(q) := one; cpR(q) := one; sR(q) := zero; spR(q) := zero
+      gamR(q) := g1d; etaR(q) := g1d
+    }.otherwise {
+      cpR(q) := cR(q); cR(q) := c1d; spR(q) := sR(q); sR(q) := s1d
+      gamR(q) := g1d; etaR(q) := eta1.v
+    }
+    g1R(q) := g1d; a1R(q) := a1d; a2R(q) := a2d; a3R(q) := a3d
+    cetaR(q) := ceta.v
+  }
+
+  // ---- pass C: v_{j+1} = u / gamma_{j+1}; w_{j+1} = ((v_j - a3 w_{j-1}) - a2 w_j) / a1; x += c eta w_{j+1}
+  private val cc = pc.c
+  private val ce = inN(cc.e)
+  val uC    = at0(vmem(adr2(~cc.j(0), cc.slot, ce, N)))
+  val vjC   = at0(vmem(adr2(cc.j(0), cc.slot, ce, N)))
+  val wjm1C = at0(Mux(cc.j <= 2.U, zero, wmem(adr2(~cc.j(0), cc.slot, ce, N))))
+  val wjC   = at0(Mux(cc.j <= 1.U, zero, wmem(adr2(cc.j(0), cc.slot, ce, N))))
+  val xC    = at0(Mux(cc.j <= 1.U, zero, xmem(adr1(cc.slot, ce))))
+  val vNew  = div(uC, at0(g1R(cc.slot)))
+  val wNew  = div(sub(sub(vjC, mul(at0(a3R(cc.slot)), wjm1C)), mul(at0(a2R(cc.slot)), wjC)), at0(a1R(cc.slot)))
+  val xNew  = add(xC, mul(at0(cetaR(cc.slot)), wNew))
+  require(vNew.t == p.latCv && wNew.t == p.latCw && xNew.t == p.latCx, "pass C latency")
+  private val cV = ops.delayTo(cc, 0, vNew.t)
+  when(Stages.delayValid(pc.valid, vNew.t)) { vmem(adr2(~cV.j(0), cV.slot, cV.e, N)) := vNew.v }
+  private val cW = ops.delayTo(cc, 0, wNew.t)
+  when(Stages.delayValid(pc.valid, wNew.t) && cW.j =/= 0.U) { wmem(adr2(~cW.j(0), cW.slot, cW.e, N)) := wNew.v }
+  private val cX = ops.delayTo(cc, 0, xNew.t)
+  when(Stages.delayValid(pc.valid, xNew.t) && cX.j =/= 0.U) {
+    xmem(adr1(cX.slot, cX.e)) := xNew.v
+    when(!finite(xNew.v)) { xBad(cX.slot) := true.B }
+  }
+
+  // ---- end of the batch, output
+  val batchCycles = RegInit(0.U(32.W))
+  when(state === sRun && g === gEnd) {
+    state       := sOut
+    batchCycles := g + 1.U
+  }
+  val oSlot = RegInit(0.U(log2Ceil(P + 1).W))
+  val oIdx  = RegInit(0.U(log2Ceil(N + 1).W))
+  val oBad  = inBad(runBank * P.U + oSlot) || xBad(oSlot)
+  m_axis.tvalid := state === sOut
+  m_axis.tdata  := Mux(oIdx === 0.U, Cat(oBad, ids(runBank * P.U + oSlot)), xmem(adr1(oSlot, Mux(oIdx === 0.U, 0.U, oIdx - 1.U))))
+  m_axis.tlast  := oIdx === N.U
+  when(m_axis.fire) {
+    when(oIdx === 0.U && oBad) { nonfinite := true.B }
+    oIdx := Mux(oIdx === N.U, 0.U, oIdx + 1.U)
+    when(oIdx === N.U) {
+      regs.solveDone(batchCycles)
+      oSlot := oSlot + 1.U
+      when(oSlot === count - 1.U) {
+        oSlot         := 0.U
+        state         := sIdle
+        full(runBank) := false.B
+        runBank       := ~runBank
+      }
+    }
+  }
+
+  // ---- registers: the shared ones, STATUS bit 6 NONFINITE (write 1 to clear)
+  regs.busy := state =/= sIdle || full.asUInt.orR || ldWord =/= 0.U || ldSlot =/= 0.U
+  when(regs.axil.rd.addr === SolverRegs.STATUS.U) {
+    regs.axil.rd.data := Cat(nonfinite, false.B, regs.stTlast, regs.stRej, regs.stOvf, regs.stSat, regs.busy)
+  }
+  when(regs.axil.wr.valid && regs.wA === SolverRegs.STATUS.U && regs.wD(6)) { nonfinite := false.B }
+  regs.writes()
+}
+
+object MinresRegs {
+  val IdValue: Long = 0x4d4e5231L // 'MNR1'
+}

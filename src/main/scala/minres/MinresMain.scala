@@ -1,0 +1,46 @@
+package minres
+
+/** Generator entry point: `runMain minres.MinresMain <config.json> <outDir> [...pairs]`. Writes <outDir>/<module>.sv
+  * and <outDir>/hw.json (module, P, schedule, cycle counts, storage, register map).
+  */
+object MinresMain extends App {
+  gen.CoreMain.run(args, "minres.MinresMain") { (cfg, out) =>
+    val p = MinresParams.fromJson(cfg)
+    gen.Emit.systemVerilog(new MinresCore(p), out, p.moduleName)
+    gen.Emit.writeText(s"$out/hw.json", hwJson(p))
+  }
+
+  def hwJson(p: MinresParams): String = {
+    val regs = shell.SolverRegs.descriptions("0x4D4E5231 ('MNR1')", "[15:0] N, [31:16] P", "[7:0] n, [15:8] m, [31:16] T",
+      "(unused)")
+    val (regJson, regions) = gen.CoreMain.registerJson(regs, Nil, Map.empty)
+    val o = ujson.Obj(
+      "module" -> p.moduleName,
+      "N" -> p.N,
+      "M" -> p.M,
+      "P" -> p.P,
+      "P_eq15" -> p.pAuto,
+      "k1" -> p.k1,
+      "k2" -> p.k2,
+      "slot_cycles" -> p.S,
+      "cycles_per_iteration" -> p.cyclesPerIteration,
+      "cycles_bound" -> (p.P * p.N + p.P),
+      "batch_cycles_formula" -> s"(Imax + 1) * ${p.cyclesPerIteration} + ${p.batchCycles(0) - p.cyclesPerIteration}",
+      "batch_cycles_imax0" -> p.batchCycles(0),
+      "schedule" -> ujson.Obj("t_row" -> p.tRow, "t_delta" -> p.tDelta, "t_B" -> p.tB, "t_scalar" -> p.tS,
+        "t_C" -> p.tC, "need" -> p.need, "lat_matvec" -> p.latMatvec, "lat_scalar" -> p.latScalar,
+        "acc_tail" -> p.accTail),
+      "storage_words" -> p.storageWords,
+      "storage_variable" -> p.storageVariable,
+      "storage_constant" -> p.storageConstant,
+      "storage_dense_cds" -> p.storageDense,
+      "storage_bound_001" -> p.storageBound,
+      "frame_words" -> p.frameWords,
+      "multipliers" -> p.multipliers,
+      "axil_addr_width" -> p.axiAddrW,
+      "registers" -> regJson,
+      "regions" -> regions
+    )
+    ujson.write(o, indent = 2)
+  }
+}

@@ -1,0 +1,117 @@
+package minres
+
+import chisel3.util.log2Ceil
+
+/** Everything the MINRES generator needs (verif/minres/design.py writes it): the MPC sizes (n states, m inputs,
+  * horizon T, 001 notation), the latencies of the float operators (binary32), P, and the constant columns of
+  * the half-CDS band (`rom`, raw binary32 words: (2n+m) rows x (M-1) columns, see verif/minres/kkt.py).
+  *
+  * The schedule (MinresCore) runs P problems in slots of S cycles; a problem's iteration is the matvec feed,
+  * the matvec, the Lanczos update (pass B), the scalar part and the vector updates (pass C), at fixed offsets
+  * from its slot start. P * S must cover the chain from a slot's feed to the first v_{j+1} word being written:
+  * `need` cycles. P = 0 in the configuration means "the smallest P with P N >= need", eq. (15) of 001 in this
+  * core's form: P = ceil((2N + M + k1 ceil(log2(2M-1)) + k2) / N) with k1 = lat_add, k2 below.
+  */
+case class MinresParams(
+    name: String,
+    n: Int,
+    m: Int,
+    T: Int,
+    pRequested: Int,
+    latAdd: Int,
+    latMul: Int,
+    latDiv: Int,
+    latSqrt: Int,
+    imaxDefault: Int,
+    flushCycles: Int,
+    rom: Seq[Seq[BigInt]]) {
+  require(n >= 1 && m >= 1 && T >= 1, s"need n >= 1, m >= 1, T >= 1: got n=$n, m=$m, T=$T")
+  require(latAdd >= 1, s"lat_add must be >= 1 (the streaming accumulator feeds the adder's output back): got $latAdd")
+  require(latMul >= 0 && latDiv >= 0 && latSqrt >= 0, s"latencies must be >= 0: got lat_mul=$latMul, lat_div=$latDiv, lat_sqrt=$latSqrt")
+  require(imaxDefault >= 1 && imaxDefault <= 65535, s"iterations must be in [1, 65535]: got $imaxDefault")
+  require(flushCycles >= 1 && flushCycles <= 65535, s"flush_cycles must be in [1, 65535]: got $flushCycles")
+  require(pRequested >= 0 && pRequested <= 64, s"P must be in [1, 64] (0: from eq. (15)): got P=$pRequested")
+
+  /** Order and half-bandwidth of the KKT matrix, eq. (14) of 001. */
+  val N: Int      = T * (2 * n + m) + 2 * n
+  val M: Int      = 2 * n + m
+  val period: Int = 2 * n + m
+  /** words of the variable part: the diagonal of the primal rows */
+  val nPrimal: Int = T * (n + m) + n
+  val taps: Int    = 2 * M - 1
+  val depth: Int   = log2Ceil(taps)
+  require(rom.length == period && rom.forall(_.length == M - 1),
+    s"rom must be ${period} x ${M - 1} (constant half-CDS columns 1..M-1): got ${rom.length} x ${rom.headOption.map(_.length).getOrElse(0)}")
+  require(rom.flatten.forall(w => w >= 0 && w < (BigInt(1) << 32)), "rom words must be raw binary32 (0 .. 2^32-1)")
+  /** partial sums of the streaming accumulators */
+  val accParts: Int = latAdd
+  require(N > accParts, s"N = $N must exceed lat_add = $latAdd (the accumulator's partial sums)")
+
+  // ---- latencies of the pipelines (MinresCore checks its own against these)
+  /** matvec: products, then the adder tree */
+  val latMatvec: Int = latMul + latAdd * depth
+  /** from the last term entering an accumulator to its result readable in the per-problem register */
+  val accTail: Int = latAdd + 2 + latAdd * log2Ceil(accParts)
+  /** pass B: u = (y - delta v_j) - gamma v_{j-1} */
+  val latB: Int = latMul + 2 * latAdd
+  /** scalar part (norms, Givens rotation) */
+  val latScalar: Int = 4 * latMul + 2 * latAdd + latSqrt + latDiv
+  /** pass C: v_{j+1} (a divide), w_{j+1} and x */
+  val latCv: Int = latDiv
+  val latCw: Int = latMul + 2 * latAdd + latDiv
+  val latCx: Int = 2 * latMul + 3 * latAdd + latDiv
+
+  // ---- schedule, offsets from a slot's first feed cycle
+  val tRow: Int   = M
+  val tDelta: Int = tRow + N - 1 + latMatvec + latMul + accTail
+  val tB: Int     = tDelta
+  val tNrm: Int   = tB + N - 1 + latB + latMul + accTail
+  val tS: Int     = tNrm
+  val tC: Int     = tS + latScalar + 1
+  /** the first v_{j+1} word must be written before the slot's next feed reads it */
+  val need: Int = tC + latCv + 1
+  val k1: Int   = latAdd
+  val k2: Int   = need - 2 * N - M - k1 * depth
+  val pAuto: Int = (need + N - 1) / N
+  val P: Int     = if (pRequested == 0) pAuto else pRequested
+  /** slot length: N when P is at least pAuto, else stretched so that P S >= need */
+  val S: Int = math.max(N, (need + P - 1) / P)
+  val cyclesPerIteration: Int = P * S
+  /** cycles of a batch of P problems: the init pass and Imax iterations, up to the last x write */
+  def batchCycles(imax: Int): Int = (imax + 1) * P * S - S + tC + N + latCx
+
+  val multipliers: Int = taps + 1 + 3 + 10 + 3 // matvec, delta, pass B (2 + norm), scalar, pass C
+  val moduleName: String = s"MinresCore_${name}_n${n}_m${m}_t${T}_p$P"
+
+  // ---- storage (words): variable column double-buffered for P problems, constant columns once
+  val storageVariable: Int = 2 * P * nPrimal
+  val storageConstant: Int = period * (M - 1)
+  val storageWords: Int    = storageVariable + storageConstant
+  val storageDense: Int    = 2 * P * N * M
+  val storageBound: Int    = 2 * P * (1 + T * (m + n) + n) * n + (1 + m + n) * (m + n)
+  require(storageWords <= storageBound, s"structured storage $storageWords exceeds the bound of 001 $storageBound")
+
+  val frameWords: Int = 1 + nPrimal + N
+  val axiAddrW: Int   = log2Ceil(shell.SolverRegs.RegionStart) + 2
+}
+
+object MinresParams {
+  def fromJson(text: String): MinresParams = {
+    val j = ujson.read(text)
+    require(j("core").str == "minres", s"not a MINRES configuration: core=${j("core").str}")
+    MinresParams(
+      name = j("name").str,
+      n = j("n").num.toInt,
+      m = j("m").num.toInt,
+      T = j("T").num.toInt,
+      pRequested = j("P").num.toInt,
+      latAdd = j("lat_add").num.toInt,
+      latMul = j("lat_mul").num.toInt,
+      latDiv = j("lat_div").num.toInt,
+      latSqrt = j("lat_sqrt").num.toInt,
+      imaxDefault = j("iterations").num.toInt,
+      flushCycles = j("flush_cycles").num.toInt,
+      rom = j("rom").arr.toSeq.map(_.arr.toSeq.map(v => BigInt(v.num.toLong)))
+    )
+  }
+}

@@ -1,0 +1,130 @@
+"""MINRES: the KKT system of the interior-point step in the banded order of Fig. 4 of 001 (order and bandwidth of
+eq. (14)), the storage scheme of section VI-F, and the golden models (bit-exact binary32 model of the core,
+float64 MINRES, direct solve)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import random_problem
+from verif.minres.kkt import (Layout, const_rom, dense_cds_words, from_half_cds, half_bandwidth, kkt_matrix,
+                              paper_bound_words, random_weights, sizes, storage_table, structured_words,
+                              to_half_cds)
+from verif.minres.model import MinresCoreModel, acc, minres64, tree, words
+
+SHAPES = [(1, 1, 1), (1, 1, 5), (2, 1, 3), (3, 2, 4), (4, 1, 2), (2, 3, 6), (8, 4, 10), (5, 3, 20)]
+
+
+def system(n, m, T, seed):
+    p = random_problem(f"k{n}{m}{T}", n, m, T, 0, seed)
+    rng = np.random.default_rng(seed)
+    w = random_weights(rng, n, m, T, 0.1, 10.0)
+    K = kkt_matrix(p.A, p.B, p.Q, p.R, p.QN, T, w)
+    rom = const_rom(p.A, p.B, p.Q, p.R, p.QN, T)
+    diag = np.diagonal(K)[Layout(n, m, T).primal_rows()]
+    return p, K, rom, diag, rng
+
+
+@pytest.mark.parametrize("n,m,T", SHAPES)
+def test_kkt_order_bandwidth_and_structure(n, m, T):
+    """N = T(2n+m) + 2n and M = 2n+m (eq. (14)), measured on the matrix; symmetric, indefinite; half-CDS round
+    trip; the constant columns repeat with period 2n+m (const_rom checks it) and only column 0 varies with W."""
+    p, K, rom, diag, rng = system(n, m, T, 1)
+    N, M = sizes(n, m, T)
+    assert K.shape == (N, N)
+    assert half_bandwidth(K) == M
+    assert np.array_equal(K, K.T)
+    ev = np.linalg.eigvalsh(K)
+    assert ev.min() < 0 < ev.max(), "the KKT matrix is indefinite"
+    C = to_half_cds(K, M)
+    assert np.array_equal(from_half_cds(C), K)
+    K2 = kkt_matrix(p.A, p.B, p.Q, p.R, p.QN, T, random_weights(rng, n, m, T))
+    C2 = to_half_cds(K2, M)
+    assert np.array_equal(C[:, 1:], C2[:, 1:]), "columns 1..M-1 must not depend on W"
+    assert not np.array_equal(C[:, 0], C2[:, 0])
+
+
+def test_kkt_solves_the_mpc_step():
+    """With W = 0 the KKT system is the optimality system of the equality-constrained MPC QP: its primal part
+    matches the unconstrained LQ solution from x0 (states follow the dynamics)."""
+    n, m, T = 3, 2, 6
+    p = random_problem("lq", n, m, T, 0, 3)
+    L = Layout(n, m, T)
+    K = kkt_matrix(p.A, p.B, p.Q, p.R, p.QN, T)
+    x0 = np.array([1.0, -0.5, 0.25])
+    rhs = np.zeros(L.N)
+    rhs[L.lam(0): L.lam(0) + n] = -x0
+    z = np.linalg.solve(K, rhs)
+    x = [z[L.x(k): L.x(k) + n] for k in range(T + 1)]
+    u = [z[L.u(k): L.u(k) + m] for k in range(T)]
+    assert np.allclose(x[0], x0)
+    for k in range(T):
+        assert np.allclose(x[k + 1], p.A @ x[k] + p.B @ u[k])
+
+
+def test_storage_counts():
+    """Structured count <= the bound of 001 <= dense-band CDS; the bound's saving is about 75% (m = 3, T = 20,
+    as 001 claims) and ours more, since only the diagonal varies with box constraints."""
+    for n in (1, 2, 5, 10, 20, 40):
+        for P in (1, 4, 8):
+            s = structured_words(n, 3, 20, P)["total"]
+            assert s <= paper_bound_words(n, 3, 20, P) <= dense_cds_words(n, 3, 20, P)
+    rows = storage_table()
+    for r in rows:
+        if r["n"] >= 5:
+            assert 0.73 < r["saving_paper"] < 0.78, r
+        assert r["saving_structured"] > r["saving_paper"]
+
+
+def test_tree_and_accumulator_order():
+    """tree() pairs (0,1), (2,3), ... with an odd element passed on; acc() uses L partial sums."""
+    t = np.array([[1e8, 1.0, -1e8, 1.0, 3.0]], dtype=np.float32)
+    f = np.float32
+    assert tree(t)[0] == ((f(1e8) + f(1.0)) + (f(-1e8) + f(1.0))) + f(3.0)
+    x = np.arange(1, 10, dtype=np.float32) * np.float32(0.1)
+    s = np.float32(0)
+    for v in x:
+        s = v + s
+    assert acc(x, 1) == s
+    part = [x[0] + x[2] + x[4] + x[6] + x[8], x[1] + x[3] + x[5] + x[7]]
+    assert acc(x, 2) == part[1] + part[0]  # terms 7, 8 arrive last: buckets 1 then 0
+
+
+@pytest.mark.parametrize("n,m,T", [(1, 1, 5), (2, 1, 3), (3, 2, 4), (8, 4, 10)])
+def test_model_matrix_and_convergence(n, m, T):
+    """The core model multiplies by the float32 KKT matrix; float64 MINRES reaches the direct solve; the bit-exact
+    binary32 model follows float64 MINRES and its error to the direct solve falls as iterations grow."""
+    p, K, rom, diag, rng = system(n, m, T, 2)
+    mdl = MinresCoreModel(n, m, T, rom, lat_add=4)
+    d32 = diag.astype(np.float32)
+    K32 = mdl.matrix(d32)
+    assert np.array_equal(K32, K.astype(np.float32).astype(float))
+    v = rng.standard_normal(mdl.N).astype(np.float32)
+    assert np.allclose(mdl.matvec(mdl.band(d32), v), K32 @ v, rtol=1e-5, atol=1e-5)
+    b = rng.standard_normal(mdl.N).astype(np.float32)
+    xs = np.linalg.solve(K32, b.astype(float))
+    rel = lambda x: np.linalg.norm(x - xs) / np.linalg.norm(xs)  # noqa: E731
+    its = [max(1, mdl.N // 8), mdl.N // 2, mdl.N, 2 * mdl.N]
+    e64 = [rel(minres64(K32, b, i)) for i in its]
+    e32 = [rel(mdl.solve(d32, b, i).x) for i in its]
+    assert e64[-1] < 1e-8, e64
+    assert e32[-1] < 1e-3 and e32[-1] < 0.1 * e32[0], e32
+    # early iterations: binary32 model close to float64 MINRES
+    assert rel(mdl.solve(d32, b, its[0]).x - minres64(K32, b, its[0]) + xs) < 1e-3
+
+
+def test_model_flags_nonfinite():
+    n, m, T = 2, 1, 3
+    p, K, rom, diag, rng = system(n, m, T, 4)
+    mdl = MinresCoreModel(n, m, T, rom, lat_add=4)
+    b = rng.standard_normal(mdl.N).astype(np.float32)
+    d = diag.astype(np.float32)
+    assert not mdl.solve(d, b, 5).flag
+    d2 = d.copy()
+    d2[3] = np.nan
+    assert mdl.solve(d2, b, 5).flag
+    b2 = b.copy()
+    b2[0] = np.inf
+    assert mdl.solve(d, b2, 5).flag
+    r = mdl.solve(d, np.zeros_like(b), 3)   # b = 0: 0/0 in the normalisation, flagged, not a hang
+    assert r.flag and all(w == 0x7FC00000 for w in words(r.x))

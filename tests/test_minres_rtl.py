@@ -1,0 +1,119 @@
+"""RTL of the generated MINRES core against the bit-exact golden model (verif/minres/model.py) in Verilator,
+through AXI4-Stream and AXI4-Lite; the cycle contract; core.json of the masses core (the issue's example);
+generator refusals.
+
+One sbt run elaborates every core of this file and the refused configurations (session fixture); each RTL case
+builds its Verilator model once and runs the scenarios of verif/minres/tb.py.
+"""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from conftest import random_problem
+from verif.flow import REPO, GeneratorError, run_generator
+from verif.minres.design import design_minres
+from verif.minres.report import c_header, core_json
+from verif.problem import load_spec
+from verif.sim import run_cocotb
+
+BUILD = REPO / "build" / "tests" / "minres"
+SCENARIOS = 3  # cocotb tests in verif/minres/tb.py
+
+# id -> (problem factory, design overrides, random problems); P = 0: eq. (15)
+RTL_CASES = {
+    "n2_m1_t3_pauto": (lambda: random_problem("ra", 2, 1, 3, 0, 5), dict(P=0, iterations=8), 24),
+    "n1_m2_t4_p2_l21": (lambda: random_problem("rb", 1, 2, 4, 0, 6), dict(P=2, iterations=6, lat_add=2, lat_mul=1), 10),
+}
+OTHER = {
+    "masses_p4": (lambda: load_spec(REPO / "examples/masses.yaml"), dict(P=4)),
+}
+
+
+@pytest.fixture(scope="session")
+def minres_cores():
+    jobs = {cid: (f(), ov) for cid, (f, ov, _) in RTL_CASES.items()}
+    jobs.update({cid: (f(), ov) for cid, (f, ov) in OTHER.items()})
+    designs = {cid: design_minres(p, **ov) for cid, (p, ov) in jobs.items()}
+    args = []
+    for cid, d in designs.items():
+        out = BUILD / cid
+        out.mkdir(parents=True, exist_ok=True)
+        for f in out.glob("*.sv"):
+            f.unlink()
+        d.write_config(out / "config.json")
+        args += [str(out / "config.json"), str(out)]
+    # refused configurations in the same sbt run
+    base = designs["n2_m1_t3_pauto"].config()
+    bad = {"lat_add0": dict(base, lat_add=0), "p_big": dict(base, P=65),
+           "rom_shape": dict(base, rom=base["rom"][:-1])}
+    bdir = BUILD / "refused"
+    bdir.mkdir(parents=True, exist_ok=True)
+    for k, cfg in bad.items():
+        (bdir / f"{k}.json").write_text(json.dumps(cfg))
+        args += [str(bdir / f"{k}.json"), str(bdir / k)]
+    with pytest.raises(GeneratorError) as e:
+        run_generator("minres.MinresMain", args)
+    cores = {}
+    for cid, d in designs.items():
+        out = BUILD / cid
+        core = core_json(d, json.loads((out / "hw.json").read_text()))
+        (out / "core.json").write_text(json.dumps(core, indent=2))
+        (out / core["header"]).write_text(c_header(core))
+        cores[cid] = (out, core)
+    return cores, str(e.value), bdir, list(bad)
+
+
+def test_generator_refusals(minres_cores):
+    _, msg, bdir, bad = minres_cores
+    assert "lat_add0.json: requirement failed: lat_add must be >= 1" in msg
+    assert "p_big.json: requirement failed: P must be in [1, 64]" in msg
+    assert "rom_shape.json: requirement failed: rom must be" in msg
+    assert not any((bdir / k).exists() for k in bad)
+
+
+def test_masses_core_json(minres_cores):
+    """The issue's example: masses (n = 8, m = 4, T = 10): N = 216, M = 20; P = 4 requested; one iteration of P
+    problems in at most P N + P cycles; storage within the bound of 001."""
+    out, core = minres_cores[0]["masses_p4"]
+    assert (core["N"], core["M"], core["P"]) == (216, 20, 4)
+    assert core["cycles_per_iteration"] == 4 * 216 <= core["cycles_bound"] == 4 * 216 + 4
+    assert core["storage_words"] <= core["storage_bound_001"] < core["storage_dense_cds"]
+    assert core["storage_dense_cds"] == 2 * 4 * 216 * 20
+    assert (out / core["sv"]).exists() and (out / core["header"]).exists()
+    assert re.search(r"MINRESCORE_MASSES_N8_M4_T10_P4_N\s+216u", (out / core["header"]).read_text())
+
+
+@pytest.mark.parametrize("cid", list(RTL_CASES))
+def test_rtl_matches_golden_model(cid, minres_cores):
+    out, core = minres_cores[0][cid]
+    measure = out / "measured.jsonl"
+    measure.unlink(missing_ok=True)
+    count = RTL_CASES[cid][2]
+    tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.minres.tb", out / "sim",
+                               {"CORE_OUT": str(out), "CORE_RANDOM": str(count), "CORE_MEASURE": str(measure)})
+    assert tests == SCENARIOS, f"{tests} cocotb tests ran, expected {SCENARIOS}"
+    assert failed == 0, f"{failed} of {tests} scenarios failed: see {out / 'sim' / 'sim.log'}"
+    rec = [json.loads(ln) for ln in measure.read_text().splitlines()]
+    assert next(r for r in rec if r["test"] == "bitexact_random")["cases"] == count
+    cyc = next(r for r in rec if r["test"] == "cycles")
+    assert cyc["cycles_per_iteration"] == core["cycles_per_iteration"] == core["P"] * core["slot_cycles"]
+    if core["P"] >= core["P_eq15"]:
+        assert cyc["cycles_per_iteration"] <= core["P"] * core["N"] + core["P"]
+
+
+@pytest.mark.slow
+def test_masses_rtl(minres_cores):
+    """The masses core (P = 4) in Verilator: bit-exact, and the measured cycles per iteration (slow: a large
+    Verilator build)."""
+    out, core = minres_cores[0]["masses_p4"]
+    measure = out / "measured.jsonl"
+    measure.unlink(missing_ok=True)
+    tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.minres.tb", out / "sim",
+                               {"CORE_OUT": str(out), "CORE_RANDOM": "8", "CORE_MEASURE": str(measure)})
+    assert (tests, failed) == (SCENARIOS, 0), f"see {out / 'sim' / 'sim.log'}"
+    cyc = next(json.loads(ln) for ln in measure.read_text().splitlines() if '"cycles"' in ln)
+    assert cyc["cycles_per_iteration"] == 864 <= 868

@@ -1,0 +1,1 @@
+"""MINRES banded linear solver core (section VI-A of 001): KKT system, storage scheme, golden models, design."""

@@ -1,0 +1,204 @@
+"""cocotb testbench of the MINRES core (Verilator), through its AXI4-Stream and AXI4-Lite interfaces.
+
+Environment: CORE_OUT = the generator's output folder (core.json, config.json); CORE_RANDOM = random problems in
+the bit-exact test; CORE_MEASURE = file to append measurements to (JSON lines).
+Every output word is compared with the bit-exact golden model (verif/minres/model.py).
+"""
+from __future__ import annotations
+
+import json
+import os
+import random
+from pathlib import Path
+
+import cocotb
+import numpy as np
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, RisingEdge
+from cocotbext.axi import AxiLiteBus, AxiLiteMaster, AxiResp, AxiStreamBus, AxiStreamFrame, AxiStreamSink, AxiStreamSource
+
+from verif.minres.model import MinresCoreModel, from_words, words
+from verif.regmap import Regmap
+
+TIMEOUT_MS = 400
+STATUS_NONFINITE = 6
+
+
+class MinresTB:
+    def __init__(self, dut, seed: int = 1):
+        self.dut = dut
+        out = Path(os.environ["CORE_OUT"])
+        self.core = json.loads((out / "core.json").read_text())
+        self.cfg = json.loads((out / "config.json").read_text())
+        self.rm = Regmap(dict(self.core, col_bits=0))
+        c = self.core
+        self.N, self.P, self.n, self.m, self.T = c["N"], c["P"], c["n"], c["m"], c["T"]
+        rom = from_words(np.array(self.cfg["rom"]).ravel()).reshape(2 * self.n + self.m, self.M - 1)
+        self.model = MinresCoreModel(self.n, self.m, self.T, rom, c["lat_add"])
+        self.h = np.array(self.cfg["h_diag"])
+        self.rng = random.Random(seed)
+        self.nrng = np.random.default_rng(seed)
+        self.imax = c["iterations"]
+        cocotb.start_soon(Clock(dut.clock, 10, unit="ns").start())
+        self.src = AxiStreamSource(AxiStreamBus.from_prefix(dut, "s_axis"), dut.clock, dut.reset, byte_lanes=1)
+        self.sink = AxiStreamSink(AxiStreamBus.from_prefix(dut, "m_axis"), dut.clock, dut.reset, byte_lanes=1)
+        self.axil = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axil"), dut.clock, dut.reset)
+
+    @property
+    def M(self) -> int:
+        return self.core["M"]
+
+    async def reset(self):
+        self.dut.reset.value = 1
+        await ClockCycles(self.dut.clock, 3)
+        self.dut.reset.value = 0
+        await RisingEdge(self.dut.clock)
+        self.imax = self.core["iterations"]
+
+    def backpressure(self, on: bool):
+        def gen(p):
+            while True:
+                yield self.rng.random() < p
+        for ep, prob in ((self.src, 0.3), (self.sink, 0.4)):
+            ep.set_pause_generator(gen(prob) if on else None)
+            if not on:
+                ep.pause = False
+
+    async def write(self, addr: int, value: int) -> AxiResp:
+        r = await self.axil.write(addr, (int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
+        return r.resp
+
+    async def read(self, addr: int) -> tuple[int, AxiResp]:
+        r = await self.axil.read(addr, 4)
+        return int.from_bytes(r.data, "little"), r.resp
+
+    async def set_imax(self, imax: int):
+        assert await self.write(self.rm["IMAX"], imax) == AxiResp.OKAY
+        self.imax = imax
+
+    def random_problem(self):
+        """diag = H_ii + W_ii with random interior-point weights, b random (float32)."""
+        from verif.minres.kkt import random_weights
+        w = random_weights(self.nrng, self.n, self.m, self.T, 0.1, 10.0)
+        diag = (self.h + w).astype(np.float32)
+        b = self.nrng.standard_normal(self.N).astype(np.float32)
+        return diag, b
+
+    async def send(self, pid: int, diag, b):
+        await self.src.send(AxiStreamFrame(tdata=[pid & 0x7FFFFFFF] + words(diag) + words(b)))
+
+    async def recv(self) -> tuple[int, bool, list[int]]:
+        f = await self.sink.recv()
+        d = list(f.tdata)
+        assert len(d) == self.N + 1, f"output frame of {len(d)} words, expected {self.N + 1}"
+        return d[0] & 0x7FFFFFFF, bool(d[0] >> 31), d[1:]
+
+    async def wait_idle(self):
+        for _ in range(100000):
+            v, _ = await self.read(self.rm["STATUS"])
+            if not v & 1:
+                return
+        raise AssertionError("core never became idle")
+
+    async def run_batch(self, problems, tag=""):
+        """Send (id, diag, b) problems, receive as many frames, check each against the model by id."""
+        exp = {pid: self.model.solve(dg, b, self.imax) for pid, dg, b in problems}
+        for pid, dg, b in problems:
+            await self.send(pid, dg, b)
+        got = {}
+        for _ in problems:
+            pid, flag, z = await self.recv()
+            assert pid in exp and pid not in got, f"{tag}: unexpected or repeated id {pid}"
+            got[pid] = (flag, z)
+        for pid, r in exp.items():
+            flag, z = got[pid]
+            assert flag == r.flag, f"{tag}: id {pid}: flag {flag} != model {r.flag}"
+            if not r.flag:
+                want = words(r.x)
+                bad = [i for i in range(self.N) if z[i] != want[i]]
+                assert not bad, (f"{tag}: id {pid}: {len(bad)} words differ, first at {bad[0]}: "
+                                 f"RTL {z[bad[0]]:#010x} model {want[bad[0]]:#010x}")
+        return exp
+
+
+def _measure(record: dict):
+    path = os.environ.get("CORE_MEASURE")
+    if path:
+        with open(path, "a") as f:
+            f.write(json.dumps(record) + "\n")
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def bitexact_random(dut):
+    """Batches of random problems (full, partial by the flush timeout), random Imax, random idle and backpressure
+    on both streams: every word equals the golden model, every id comes back once with its own solution."""
+    tb = MinresTB(dut, seed=11)
+    await tb.reset()
+    total = int(os.environ.get("CORE_RANDOM") or "12")
+    sent, k = 0, 0
+    while sent < total:
+        tb.backpressure(k % 2 == 1)
+        if k % 3 == 1:
+            await tb.wait_idle()
+            await tb.set_imax(tb.rng.randint(1, 2 * tb.core["iterations"]))
+        cnt = min(total - sent, tb.rng.choice([tb.P, tb.P, 2 * tb.P, max(1, tb.P // 2), 1]))
+        probs = [(tb.rng.getrandbits(31), *tb.random_problem()) for _ in range(cnt)]
+        if len({p[0] for p in probs}) < cnt:
+            continue
+        await tb.run_batch(probs, f"batch {k}")
+        sent += cnt
+        k += 1
+    tb.backpressure(False)
+    st, _ = await tb.read(tb.rm["STATUS"])
+    assert not st >> STATUS_NONFINITE & 1, "NONFINITE set without non-finite data"
+    solves, _ = await tb.read(tb.rm["SOLVES"])
+    assert solves == total, f"SOLVES {solves} != {total}"
+    _measure({"test": "bitexact_random", "cases": total})
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def cycles_per_iteration(dut):
+    """Batch cycles at Imax = k and k + 1 (P problems each): their difference is the measured cycles per MINRES
+    iteration; both equal the formula of core.json."""
+    tb = MinresTB(dut, seed=5)
+    await tb.reset()
+    meas = {}
+    for imax in (3, 4):
+        await tb.wait_idle()
+        await tb.set_imax(imax)
+        probs = [(100 * imax + q, *tb.random_problem()) for q in range(tb.P)]
+        await tb.run_batch(probs, f"imax {imax}")
+        meas[imax], _ = await tb.read(tb.rm["LAST_CYCLES"])
+        assert meas[imax] == tb.core["batch_cycles_imax0"] + imax * tb.core["cycles_per_iteration"], meas
+    per_it = meas[4] - meas[3]
+    reg, _ = await tb.read(tb.rm["CYCLES_PER_ITER"])
+    assert per_it == reg == tb.core["cycles_per_iteration"], (per_it, reg)
+    _measure({"test": "cycles", "cycles_per_iteration": per_it, "batch_cycles": meas,
+              "PN_plus_P": tb.P * tb.N + tb.P})
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def nonfinite_flagged(dut):
+    """NaN in the matrix data, Inf in b: those problems come back flagged (id bit 31), the others of the same
+    batch exact; STATUS.NONFINITE is set and cleared by writing 1; the core goes on with the next batch."""
+    tb = MinresTB(dut, seed=7)
+    await tb.reset()
+    await tb.set_imax(5)
+    probs = []
+    for q in range(tb.P):
+        dg, b = tb.random_problem()
+        if q == 0:
+            dg[tb.rng.randrange(len(dg))] = np.float32("nan")
+        elif q == 1 % tb.P and tb.P > 1:
+            b[tb.rng.randrange(len(b))] = np.float32("inf")
+        probs.append((q + 1, dg, b))
+    exp = await tb.run_batch(probs, "nonfinite")
+    assert exp[1].flag
+    st, _ = await tb.read(tb.rm["STATUS"])
+    assert st >> STATUS_NONFINITE & 1, "NONFINITE not set"
+    assert await tb.write(tb.rm["STATUS"], 1 << STATUS_NONFINITE) == AxiResp.OKAY
+    st, _ = await tb.read(tb.rm["STATUS"])
+    assert not st >> STATUS_NONFINITE & 1, "NONFINITE not cleared"
+    await tb.run_batch([(77, *tb.random_problem())], "after")
+    ident, _ = await tb.read(tb.rm["ID"])
+    assert ident == 0x4D4E5231
