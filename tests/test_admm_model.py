@@ -10,13 +10,15 @@ import pytest
 import scipy.optimize
 import yaml
 
+from verif.admm.control import (AdmmFixedController, AdmmFloatController, AdmmOsqpController, admm_references,
+                                parameters, rate_and_box_ok)
 from verif.admm.design import DesignError, design_admm, sizing_parameters
 from verif.admm.model import AdmmFixed, AdmmFloat, applied_input, proj_soft, shift_stages
 from verif.admm.problem import (BOX, FREE, SOFT_D, SOFT_X, build_admm_qp, exact_penalty_check, project_soft,
                                 solve_hard_qp_osqp, solve_soft_qp_osqp)
+from verif.closedloop import run_closed_loop
 from verif.fgm.design import design_fgm
 from verif.fgm.model import FgmFixed, fgm_float_quantised
-from verif.fixed import quantize
 from verif.problem import SpecError, condense, load_spec, problem_from_dict, steady_state_maps
 from verif.reference import solve_qp_osqp
 
@@ -43,48 +45,12 @@ def design(b=None, rounding=None, sizing_solves=None):
     return design_admm(problem(), frac_bits=b, rounding=rounding, sizing_solves=sizing_solves)
 
 
-def references(p, steps, hold, seed):
-    """Piecewise-constant references uniform in 80% of the reference box: with |r| up to 0.8 > 0.5 the soft
-    position limits, the input box and the rate limit are all active for long stretches (Fig. 5 of 002)."""
-    rng = np.random.default_rng(seed)
-    mid, half = (p.rmin + p.rmax) / 2, (p.rmax - p.rmin) / 2 * 0.8
-    R = np.zeros((steps, p.ny))
-    for k in range(0, steps, hold):
-        R[k:k + hold] = mid + half * rng.uniform(-1, 1, p.ny)
-    return R
-
-
-def stage_cost(p, x, u, u_prev, r):
-    """Stage cost of (2) on the plant: tracking, du weight and the soft penalty on the actual violation."""
-    Mx, Mu = steady_state_maps(p)
-    xs, us = Mx @ r, Mu @ r
-    du = u - u_prev
-    S = p.soft_states
-    v = np.maximum(0.0, np.abs(x[list(S.indices)] - S.center) - S.radius)
-    return float((x - xs) @ p.Q @ (x - xs) + (u - us) @ p.R @ (u - us) + du @ p.input_rate.weight @ du
-                 + S.sigma1 * v.sum() + S.sigma2 * v @ v)
-
-
-def closed_loop(d, solve, refs):
-    """Apply u = clip(u_prev + du_0) of each solve to the nominal plant; returns (cost, parameters, rate ok)."""
-    p = d.problem
-    x, up = np.zeros(p.nx), np.zeros(p.nu)
-    J, W, ok = 0.0, [], True
-    for r in refs:
-        w = np.concatenate([x, up, r])
-        W.append(w)
-        u = applied_input(d, solve(w), up)
-        # clip(u_prev + du_0) keeps both limits (up to the solver's tolerance on du_0)
-        ok &= bool(np.all(np.abs(u - up) <= p.input_rate.dumax + 1e-9) and np.all(np.abs(u) <= p.umax))
-        J += stage_cost(p, x, u, up, r)
-        x, up = p.A @ x + p.B @ u, u
-    return J, W, ok
-
-
 @functools.lru_cache(maxsize=None)
-def osqp_closed_loop(seed=0, steps=60):
-    d = design()
-    return closed_loop(d, lambda w: solve_soft_qp_osqp(d.qp, w), references(problem(), steps, 15, seed))
+def osqp_loop(seed=0, steps=60):
+    """The optimal closed loop (verif.admm.control): references every 15 steps with the soft limits, the input box
+    and the rate limit all active for long stretches (Fig. 5 of 002)."""
+    p = problem()
+    return run_closed_loop(p, AdmmOsqpController(qp()), np.zeros(p.nx), admm_references(p, steps, 15, seed))
 
 
 # ---------------------------------------------------------------------------
@@ -256,7 +222,7 @@ def test_exact_penalty():
     cost has no factor 1/2), so there the soft QP returns the hard solution; for feasible states with a larger
     multiplier the slack opens (Theorem 1 is tight); with sigma1 = 256 every feasible sample is exact."""
     q = qp()
-    _, W, _ = osqp_closed_loop()
+    W = parameters(osqp_loop())
     mus = []
     for w in W[::3]:
         r = exact_penalty_check(q, w)
@@ -337,7 +303,7 @@ def test_float_admm_converges_to_osqp(record_property):
     d = design()
     q = d.qp
     # the operating regime: warm-started along a closed loop with every constraint active
-    _, W, _ = osqp_closed_loop()
+    W = parameters(osqp_loop())
     f = AdmmFloat(d)
     err40, u_err = [], []
     for w in W:
@@ -499,24 +465,22 @@ def test_no_saturation_at_designed_widths():
 
 def test_closed_loop_cost_table2(record_property):
     """Closed-loop cost above the OSQP controller at b = 18, Imax = 40 (Table II(b) of 002: 0.25-0.6 %)."""
-    J_opt, _, ok = osqp_closed_loop()
-    assert ok
-    refs = references(problem(), 60, 15, 0)
+    p = problem()
+    opt = osqp_loop()
+    J_opt = opt.cost
+    assert rate_and_box_ok(p, opt)
+    refs = opt.r
     out = {}
     for rounding in ("nearest", "truncate"):
         d = design() if rounding == "nearest" else design(18, "truncate", 8)
-        m = AdmmFixed(d)
-
-        def solve(w, m=m, d=d):
-            res = m.solve(quantize(w, d.b))
-            assert not res.overflow
-            return res.z / float(1 << d.b)
-
-        J, _, ok = closed_loop(d, solve, refs)
-        assert ok                                    # rate and input box hold for every applied input
-        out[rounding] = 100 * (J / J_opt - 1)
-    f = AdmmFloat(design())
-    out["float64"] = 100 * (closed_loop(design(), lambda w: f.solve(w)[0], refs)[0] / J_opt - 1)
+        ctrl = AdmmFixedController(d)
+        t = run_closed_loop(p, ctrl, np.zeros(p.nx), refs)
+        assert ctrl.overflow_steps == 0 and ctrl.sat_steps == 0
+        assert rate_and_box_ok(p, t)                 # clip(u_prev + du_0) keeps the rate and the input box
+        assert len(ctrl.words) == len(refs) and all(len(wd) == p.nu for wd in ctrl.words)
+        out[rounding] = 100 * (t.cost / J_opt - 1)
+    t = run_closed_loop(p, AdmmFloatController(design()), np.zeros(p.nx), refs)
+    out["float64"] = 100 * (t.cost / J_opt - 1)
     record_property("closed_loop_excess_percent", out)
     print(f"\nclosed-loop cost above OSQP (J* = {J_opt:.4g}): " + ", ".join(f"{k} {v:+.3f} %" for k, v in out.items()))
     assert abs(out["nearest"]) < 0.6 and abs(out["float64"]) < 0.6 and abs(out["truncate"]) < 2.0

@@ -5,7 +5,9 @@ A controller maps (x, r) to u0. Three controllers share one interface, so a user
   FixedController  the bit-exact golden model of the core (verif/fgm/model.py)
   RtlController    the Verilator model of the generated core, through its AXI interfaces (inside cocotb)
 The loop is a coroutine (`closed_loop`), so the RTL controller can await the simulator; the Python-only
-controllers run it with `run_closed_loop`.
+controllers run it with `run_closed_loop`. The ADMM controllers (input-rate and soft state constraints) are in
+verif/admm/control.py and use the same loop: its cost adds the du weight and the soft penalty when the problem has
+those sections (`loop_stage_cost`).
 """
 from __future__ import annotations
 
@@ -119,17 +121,36 @@ def reference_schedule(problem: MpcProblem, steps: int, hold: int, seed: int = 0
     return R
 
 
+def loop_stage_cost(problem: MpcProblem, x, u, u_prev, r=None) -> float:
+    """Stage cost of one closed-loop step: the tracking cost (verif.problem.stage_cost) plus, when the problem has
+    the sections, the input-rate weight (u - u_prev)' W (u - u_prev) and the soft-constraint penalty of (2) of 002,
+    sigma1 1'v + sigma2 ||v||^2, on the actual violation v = max(0, |x_i - c_i| - r_i) of the plant state.
+    Problems without those sections (the FGM ones) get stage_cost unchanged."""
+    J = stage_cost(problem, x, u, r)
+    if problem.input_rate is not None:
+        du = np.asarray(u, dtype=float) - np.asarray(u_prev, dtype=float)
+        J += float(du @ problem.input_rate.weight @ du)
+    S = problem.soft_states
+    if S is not None:
+        v = np.maximum(0.0, np.abs(np.asarray(x, dtype=float)[list(S.indices)] - S.center) - S.radius)
+        J += float(S.sigma1 * v.sum() + S.sigma2 * v @ v)
+    return J
+
+
 async def closed_loop(problem: MpcProblem, ctrl: Controller, x0, refs: np.ndarray) -> Trajectory:
-    """Apply u0 of each solve to the nominal plant x+ = A x + B u for len(refs) steps."""
+    """Apply u0 of each solve to the nominal plant x+ = A x + B u for len(refs) steps (the input before the first
+    step, u_prev of the first stage cost, is zero)."""
     T = len(refs)
     X = np.zeros((T + 1, problem.nx))
     U = np.zeros((T, problem.nu))
     X[0] = x0
     cost = 0.0
+    u_prev = np.zeros(problem.nu)
     for k in range(T):
         u = np.asarray(await ctrl.step(X[k], refs[k]), dtype=float)
         U[k] = u
-        cost += stage_cost(problem, X[k], u, refs[k] if problem.ny else None)
+        cost += loop_stage_cost(problem, X[k], u, u_prev, refs[k] if problem.ny else None)
+        u_prev = u
         X[k + 1] = problem.A @ X[k] + problem.B @ u
     return Trajectory(X, U, np.asarray(refs), cost)
 
