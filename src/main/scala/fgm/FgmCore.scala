@@ -149,10 +149,8 @@ class FgmCore(val p: FgmParams) extends Module {
     when(load || rotZ) {
       for (i <- 0 until K) zFifo(u)(i) := Mux(rotZ, if (i < K - 1) zSrc(i + 1) else z, zSrc(i))
     }
-    val pa        = FixedOps.mulPipelined(opbQ, z, p.latMul)
-    val pb        = FixedOps.mulPipelined(betaQ, zOld, p.latMul)
-    val ra        = FixedOps.shiftRound(pa, b, p.rounding)
-    val rb        = FixedOps.shiftRound(pb, b, p.rounding)
+    val ra        = FixedOps.mulRoundPipelined(opbQ, z, p.latMul, b, p.rounding)
+    val rb        = FixedOps.mulRoundPipelined(betaQ, zOld, p.latMul, b, p.rounding)
     val (y, ofY)  = FixedOps.satSub(ra, rb, p.yW)
     unitY(u) := ShiftRegister(y, p.latAdd)
     unitZ(u) := ShiftRegister(z, p.latMul + p.latAdd)

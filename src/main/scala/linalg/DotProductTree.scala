@@ -55,10 +55,10 @@ class DotProductTree(val p: DotProductParams) extends Module {
 
   private def delay[T <: Data](x: T, n: Int): T = ShiftRegister(x, n)
 
-  // Multipliers (l_M stages, FixedOps.mulPipelined), then the product is rounded and narrowed.
+  // Multipliers (l_M stages, FixedOps.mulRoundPipelined: the product rounded back to fracBits), then narrowed.
   val level0 = (0 until p.m).map { j =>
-    val prod    = FixedOps.mulPipelined(io.coef(j), io.op(j), p.latMul)
-    val (v, of) = FixedOps.saturate(FixedOps.shiftRound(prod, p.fracBits, p.rounding), p.sumW)
+    val prod    = FixedOps.mulRoundPipelined(io.coef(j), io.op(j), p.latMul, p.fracBits, p.rounding)
+    val (v, of) = FixedOps.saturate(prod, p.sumW)
     (v, of)
   }
 
