@@ -58,7 +58,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   regs.busy := seq.io.running || seq.io.outValid || frameIn.io.full || frameIn.io.partial
 
   // ------------------------------------------------------------------ memories
-  val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * K, m, p.coefW, p.matInit(u), outReg = true)))
+  val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true)))
   val bndRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_bnd$u", K, 2, p.zW, p.boundInit(u), outReg = true)))
   val gwRam  = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_gw$u", K, 1, p.sumW, Seq(), outReg = true)))
   for (r <- matRam ++ bndRam ++ gwRam) {
@@ -113,7 +113,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
 
   for (u <- 0 until P) {
     val tree = if (u == 0) dp else Module(new DotProductTree(dp.p))
-    matRam(u).io.raddr := Mux(tokN.pass0, K.U +& tokN.k, tokN.k)
+    matRam(u).io.raddr := Cat(tokN.pass0, tokN.k) // second block at K2 = 2^ceil(log2 K): no adder
     tree.io.inValid := tok1.valid
     tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(m, SInt(p.coefW.W)))
     tree.io.op      := Mux(tok1.pass0, wPad, vPad)
@@ -288,7 +288,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
         for (u <- 0 until P) {
           when(unitRom(j) === u.U) {
             matRam(u).io.wen   := true.B
-            matRam(u).io.waddr := Mux(isG, slotRom(j) +& K.U, slotRom(j))
+            matRam(u).io.waddr := Mux(isG, slotRom(j) +& p.K2.U, slotRom(j))
             matRam(u).io.wmask := UIntToOH(col, m)
             matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
           }

@@ -128,10 +128,13 @@ case class AdmmParams(
   val axiAddrW: Int = log2Ceil(addrWords) + 2
 
   private def pad(r: Seq[BigInt]) = r ++ Seq.fill(m - r.length)(BigInt(0))
-  /** Per row unit: slots 0..K-1 hold the M11 rows, K..2K-1 the G~ rows. */
+  /** Rows per block of a unit's matrix memory (the second block starts there): 2^ceil(log2 K), at least 2. */
+  lazy val K2: Int = 1 << math.max(1, log2Ceil(K))
   def matInit(u: Int): Seq[Seq[BigInt]] = {
     val zero = Seq.fill(m)(BigInt(0))
-    rows(u).map(_.map(j => pad(m11(j))).getOrElse(zero)) ++ rows(u).map(_.map(j => pad(g(j))).getOrElse(zero))
+    // slots 0..K-1: the M11 rows; K2..K2+K-1: the G~ rows
+    rows(u).map(_.map(j => pad(m11(j))).getOrElse(zero)) ++ Seq.fill(K2 - K)(zero) ++
+      rows(u).map(_.map(j => pad(g(j))).getOrElse(zero))
   }
   /** Per row unit: (lo, hi) of a box row, (c, r) of a slack row, the z word range for a free row. */
   def boundInit(u: Int): Seq[Seq[BigInt]] = rows(u).map {

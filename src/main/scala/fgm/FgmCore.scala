@@ -53,7 +53,7 @@ class FgmCore(val p: FgmParams) extends Module {
 
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map { u =>
-    Module(new InitRam(s"${p.moduleName}_mat$u", 2 * K, m, p.coefW, p.matInit(u), outReg = true))
+    Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true))
   }
   val bndRam = (0 until P).map { u =>
     Module(new InitRam(s"${p.moduleName}_ubox$u", K, 2, p.zW, p.boundInit(u), outReg = true))
@@ -98,7 +98,7 @@ class FgmCore(val p: FgmParams) extends Module {
   val tokYsub = tokAt(p.stageZ + p.latMul)
 
   for (u <- 0 until P) {
-    matRam(u).io.raddr := Mux(tokN.pass0, K.U +& tokN.k, tokN.k)
+    matRam(u).io.raddr := Cat(tokN.pass0, tokN.k) // second block at K2 = 2^ceil(log2 K): no adder
     bndRam(u).io.raddr := Mux(tokN.valid && tokN.pass0, tokN.k, tokBnd.k)
   }
 
@@ -252,7 +252,7 @@ class FgmCore(val p: FgmParams) extends Module {
         for (u <- 0 until P) {
           when(unit === u.U) {
             matRam(u).io.wen   := true.B
-            matRam(u).io.waddr := Mux(isF, k +& K.U, k)
+            matRam(u).io.waddr := Mux(isF, k +& p.K2.U, k)
             matRam(u).io.wmask := UIntToOH(col, m)
             matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
           }

@@ -102,12 +102,14 @@ case class FgmParams(
   /** Byte-address width of the AXI4-Lite port. */
   val axiAddrW: Int = log2Ceil(addrWords) + 2
 
-  /** Memory contents per row unit: rows 0..K-1 hold (I - H_n) rows kP+p, rows K..2K-1 the Phi_n rows. */
+  /** Rows per block of a unit's matrix memory (the second block starts there): 2^ceil(log2 K), at least 2. */
+  lazy val K2: Int = 1 << math.max(1, log2Ceil(K))
   def matInit(p: Int): Seq[Seq[BigInt]] = {
     val zero = Seq.fill(m)(BigInt(0))
     def pad(r: Seq[BigInt]) = r ++ Seq.fill(m - r.length)(BigInt(0))
     val rows = (0 until K).map(_ * P + p)
-    rows.map(r => if (r < n) pad(a(r)) else zero) ++ rows.map(r => if (r < n) pad(f(r)) else zero)
+    // rows 0..K-1: (I - H_n) rows kP+p; rows K2..K2+K-1: the Phi_n rows
+    rows.map(r => if (r < n) pad(a(r)) else zero) ++ Seq.fill(K2 - K)(zero) ++ rows.map(r => if (r < n) pad(f(r)) else zero)
   }
   def boundInit(p: Int): Seq[Seq[BigInt]] =
     (0 until K).map(_ * P + p).map(r => if (r < n) Seq(lo(r), hi(r)) else Seq(BigInt(0), BigInt(0)))

@@ -58,10 +58,22 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val outEnd = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val busyCyc = RegInit(0.U(32.W))
 
+  // Next values of the counters; the comparisons the tokens need are made on them and registered, so the next
+  // token (which addresses the row memories) comes from registers through a few multiplexers.
+  val cntNext  = WireDefault(cnt)
+  val iterNext = WireDefault(iter)
+  val imaxNext = WireDefault(imaxL)
+  cnt   := cntNext
+  iter  := iterNext
+  imaxL := imaxNext
+  val cntInc   = RegNext(cntNext +& 1.U, 1.U)
+  val wrap0    = RegNext(cntNext === (firstLen - 1).U, (firstLen == 1).B)
+  val wrap     = RegNext(cntNext === (L - 1).U, (L == 1).B)
+  val issue    = RegNext(cntNext +& 1.U < K.U, (K > 1).B)
+  val lastIter = RegNext(iterNext === imaxNext - 1.U, true.B)
+  val iter0    = RegNext(iterNext === 0.U, true.B)
+
   val start = state === sIdle && io.frameReady
-  val wrap0 = cnt === (firstLen - 1).U
-  val wrap  = cnt === (L - 1).U
-  val lastIter = iter === imaxL - 1.U
 
   val tokN = Wire(new RowToken(kW))
   tokN := 0.U.asTypeOf(tokN)
@@ -69,14 +81,14 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     tokN.valid := true.B
     tokN.pass0 := true.B
   }.elsewhen(state === sRun && pass0) {
-    tokN.valid := wrap0 || cnt + 1.U < K.U
+    tokN.valid := wrap0 || issue
     tokN.pass0 := !wrap0
     tokN.first := wrap0
-    tokN.k     := Mux(wrap0, 0.U, (cnt + 1.U)(kW - 1, 0))
+    tokN.k     := Mux(wrap0, 0.U, cntInc(kW - 1, 0))
   }.elsewhen(state === sRun) {
-    tokN.valid := Mux(wrap, !lastIter, cnt + 1.U < K.U)
-    tokN.first := iter === 0.U && !wrap
-    tokN.k     := Mux(wrap, 0.U, (cnt + 1.U)(kW - 1, 0))
+    tokN.valid := Mux(wrap, !lastIter, issue)
+    tokN.first := iter0 && !wrap
+    tokN.k     := Mux(wrap, 0.U, cntInc(kW - 1, 0))
   }
   io.tokN := tokN
   io.start := start
@@ -89,9 +101,9 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
       when(io.frameReady) {
         state   := sRun
         pass0   := true.B
-        cnt     := 0.U
-        iter    := 0.U
-        imaxL   := io.imax
+        cntNext := 0.U
+        iterNext := 0.U
+        imaxNext := io.imax
         outEnd  := io.outLast
         busyCyc := 0.U
       }
@@ -101,17 +113,17 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
       when(pass0) {
         when(wrap0) {
           pass0 := false.B
-          cnt   := 0.U
-        }.otherwise { cnt := cnt + 1.U }
+          cntNext := 0.U
+        }.otherwise { cntNext := cnt + 1.U }
       }.otherwise {
         when(wrap) {
-          cnt  := 0.U
-          iter := iter + 1.U
+          cntNext := 0.U
+          iterNext := iter + 1.U
           when(lastIter) {
             state  := sOut
             outCnt := 0.U
           }
-        }.otherwise { cnt := cnt + 1.U }
+        }.otherwise { cntNext := cnt + 1.U }
       }
     }
     is(sOut) {
