@@ -26,8 +26,8 @@ def test_rtl_in_the_loop_equals_golden(cores):
     t_fix = run_closed_loop(p, golden, np.zeros(p.nx), refs)
     result = out / "closed_loop.json"
     result.unlink(missing_ok=True)
-    tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.fgm.closedloop_tb", out / "sim",
-                               {"FGM_OUT": str(out), "CL_SPEC": str(spec), "CL_STEPS": str(STEPS),
+    tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.closedloop_tb", out / "sim",
+                               {"CORE_OUT": str(out), "CL_SPEC": str(spec), "CL_STEPS": str(STEPS),
                                 "CL_HOLD": str(HOLD), "CL_SEED": "3", "CL_RESULT": str(result)})
     assert (tests, failed) == (1, 0)
     rtl = json.loads(result.read_text())

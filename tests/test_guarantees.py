@@ -14,7 +14,7 @@ def test_certified_core_meets_its_bounds_on_rtl(cores):
     measure = out / "measured.jsonl"
     measure.unlink(missing_ok=True)
     tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.fgm.guarantee_tb", out / "sim",
-                               {"FGM_OUT": str(out), "GUARANTEE_CASES": "40", "FGM_MEASURE": str(measure)})
+                               {"CORE_OUT": str(out), "GUARANTEE_CASES": "40", "CORE_MEASURE": str(measure)})
     assert (tests, failed) == (1, 0), f"see {out / 'sim' / 'sim.log'}"
     rec = json.loads(measure.read_text().splitlines()[-1])
     assert rec["cases"] == 40

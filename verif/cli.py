@@ -132,8 +132,8 @@ def cmd_demo(a) -> None:
     t_fix = run_closed_loop(p, golden, x0, refs)
     result = out / "closed_loop_rtl.json"
     result.unlink(missing_ok=True)
-    tests, failed = run_cocotb(out / "core" / core["sv"], core["module"], "verif.fgm.closedloop_tb", out / "sim",
-                               {"FGM_OUT": str((out / "core").resolve()), "CL_SPEC": str(Path(a.problem).resolve()),
+    tests, failed = run_cocotb(out / "core" / core["sv"], core["module"], "verif.closedloop_tb", out / "sim",
+                               {"CORE_OUT": str((out / "core").resolve()), "CL_SPEC": str(Path(a.problem).resolve()),
                                 "CL_STEPS": str(a.steps), "CL_HOLD": str(a.hold), "CL_SEED": str(a.seed),
                                 "CL_RESULT": str(result.resolve())})
     if tests != 1 or failed or not result.exists():

@@ -66,7 +66,7 @@ class FixedController(Controller):
 
 
 class RtlController(Controller):
-    """The generated core in Verilator, driven by the cocotb testbench `tb` (verif.fgm.tb.TB)."""
+    """The generated core in Verilator, driven by the cocotb testbench `tb` (verif.tb.TB)."""
     name = "rtl"
 
     def __init__(self, tb, b: int):

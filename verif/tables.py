@@ -86,6 +86,10 @@ CLEAR_FACTOR = 3.0
 
 RTL_BITS = (12, 16)
 RTL_IMAX = 15
+# ADMM cells run on the RTL in `make table2`: the example at P = 4, two b, one Imax row
+ADMM_RTL_BITS = (12, 18)
+ADMM_RTL_IMAX = 20
+ADMM_RTL_P = 4
 
 # ADMM closed loop: references uniform in 80 % of the reference box with no holdability filter
 # (verif.admm.control.admm_references), a new one every 15 steps (7.5 s): |r| up to 0.8 exceeds the soft position
@@ -806,16 +810,45 @@ def fig6(path: Path, sw: Sweep, opt: Trajectory, bs=(10, 12, 14, 16, 18), iters:
 
 # ---------------------------------------------------------------- RTL subset
 
-def _rtl_closed_loop(out: str, spec: str, steps: int, hold: int, seed: int) -> tuple[int, int]:
+def _rtl_closed_loop(out: str, spec: str, steps: int, hold: int, seed: int, imax: int | None = None) -> tuple[int, int]:
     from verif.sim import run_cocotb
 
     out_p = Path(out)
     core = json.loads((out_p / "core" / "core.json").read_text())
     result = out_p / "closed_loop_rtl.json"
     result.unlink(missing_ok=True)
-    return run_cocotb(out_p / "core" / core["sv"], core["module"], "verif.fgm.closedloop_tb", out_p / "sim",
-                      {"FGM_OUT": str((out_p / "core").resolve()), "CL_SPEC": spec, "CL_STEPS": str(steps),
-                       "CL_HOLD": str(hold), "CL_SEED": str(seed), "CL_RESULT": str(result.resolve())})
+    env = {"CORE_OUT": str((out_p / "core").resolve()), "CL_SPEC": spec, "CL_STEPS": str(steps),
+           "CL_HOLD": str(hold), "CL_SEED": str(seed), "CL_RESULT": str(result.resolve())}
+    if imax is not None:
+        env["CL_IMAX"] = str(imax)
+    return run_cocotb(out_p / "core" / core["sv"], core["module"], "verif.closedloop_tb", out_p / "sim", env)
+
+
+def _rtl_rows(res: SweepResult, runs: dict, dirs: dict, imax: int, golden) -> list[dict]:
+    """Compare each RTL closed loop with the golden model's: words and cost identical."""
+    sw = res.sweep
+    rows = []
+    for b, (tests, failed) in runs.items():
+        result = dirs[b] / "closed_loop_rtl.json"
+        if tests != 1 or failed or not result.exists():
+            raise RuntimeError(f"RTL closed loop b={b} failed: see {dirs[b] / 'sim' / 'sim.log'}")
+        rtl = json.loads(result.read_text())
+        traj, ctrl = golden(sw, b, imax)
+        pct = lambda c: 100.0 * (c - res.opt.cost) / res.opt.cost  # noqa: E731
+        rows.append({"b": b, "imax": imax, "steps": sw.steps, "golden_pct": pct(traj.cost),
+                     "rtl_pct": pct(rtl["cost"]), "same_words": rtl["words"] == ctrl.words,
+                     "same_cost": rtl["cost"] == traj.cost and traj.cost == res.cells[(imax, b)]["cost"],
+                     "dir": str(dirs[b])})
+    return rows
+
+
+def _run_rtl_loops(res: SweepResult, dirs: dict, workers: int, imax: int | None) -> dict:
+    sw = res.sweep
+    sys.stderr.write("RTL closed loops in Verilator\n")
+    with ProcessPoolExecutor(max_workers=max(1, min(workers, len(dirs)))) as ex:
+        futs = {b: ex.submit(_rtl_closed_loop, str(d), str(sw.spec), sw.steps, sw.hold, sw.seed, imax)
+                for b, d in dirs.items()}
+        return {b: f.result() for b, f in futs.items()}
 
 
 def rtl_subset(res: SweepResult, root: Path, workers: int = 2) -> list[dict]:
@@ -825,29 +858,26 @@ def rtl_subset(res: SweepResult, root: Path, workers: int = 2) -> list[dict]:
 
     sw = res.sweep
     p = _problem(str(sw.spec))
-    designs = [(b, design_fgm(p, frac_bits=b, iterations=RTL_IMAX)) for b in RTL_BITS]
-    dirs = {b: root / f"{sw.key}_b{b}_i{RTL_IMAX}" for b, _ in designs}
+    designs = {b: design_fgm(p, frac_bits=b, iterations=RTL_IMAX) for b in RTL_BITS}
+    dirs = {b: root / f"{sw.key}_b{b}_i{RTL_IMAX}" for b in designs}
     sys.stderr.write(f"elaborating {len(designs)} cores into {root}\n")
-    generate_fgm([(d, dirs[b] / "core") for b, d in designs])
-    sys.stderr.write("RTL closed loops in Verilator\n")
-    with ProcessPoolExecutor(max_workers=max(1, min(workers, len(designs)))) as ex:
-        futs = {b: ex.submit(_rtl_closed_loop, str(dirs[b]), str(sw.spec), sw.steps, sw.hold, sw.seed)
-                for b, _ in designs}
-        runs = {b: f.result() for b, f in futs.items()}
-    rows = []
-    for b, _ in designs:
-        tests, failed = runs[b]
-        result = dirs[b] / "closed_loop_rtl.json"
-        if tests != 1 or failed or not result.exists():
-            raise RuntimeError(f"RTL closed loop b={b} failed: see {dirs[b] / 'sim' / 'sim.log'}")
-        rtl = json.loads(result.read_text())
-        traj, golden = golden_loop(sw, b, RTL_IMAX)
-        pct = lambda c: 100.0 * (c - res.opt.cost) / res.opt.cost  # noqa: E731
-        rows.append({"b": b, "imax": RTL_IMAX, "steps": sw.steps, "golden_pct": pct(traj.cost),
-                     "rtl_pct": pct(rtl["cost"]), "same_words": rtl["words"] == golden.words,
-                     "same_cost": rtl["cost"] == traj.cost and traj.cost == res.cells[(RTL_IMAX, b)]["cost"],
-                     "dir": str(dirs[b])})
-    return rows
+    generate_fgm([(d, dirs[b] / "core") for b, d in designs.items()])
+    return _rtl_rows(res, _run_rtl_loops(res, dirs, workers, None), dirs, RTL_IMAX, golden_loop)
+
+
+def admm_rtl_subset(res: SweepResult, root: Path, workers: int = 2) -> list[dict]:
+    """ADMM cores (P = ADMM_RTL_P) for b in ADMM_RTL_BITS, designed as the sweep's cells (widths for the largest
+    Imax), run in the closed loop in Verilator with IMAX = ADMM_RTL_IMAX; words and cost must equal the golden
+    model's (P changes the schedule, not one bit of the result)."""
+    from verif.flow import generate_admm
+
+    sw = res.sweep
+    designs = {b: admm_design(str(sw.spec), b, sw.rounding, max(sw.imaxes), sw.overrides + (("P", ADMM_RTL_P),))
+               for b in ADMM_RTL_BITS}
+    dirs = {b: root / f"{sw.key}_b{b}_p{ADMM_RTL_P}" for b in designs}
+    sys.stderr.write(f"elaborating {len(designs)} ADMM cores into {root}\n")
+    generate_admm([(d, dirs[b] / "core") for b, d in designs.items()])
+    return _rtl_rows(res, _run_rtl_loops(res, dirs, workers, ADMM_RTL_IMAX), dirs, ADMM_RTL_IMAX, admm_golden_loop)
 
 
 # ---------------------------------------------------------------- ADMM tuning scan (--admm-tuning)
@@ -998,7 +1028,10 @@ def main(argv=None) -> None:
     written = "table2_fgm.csv, table2_fgm.md, table1_afm.csv, table1_afm.md, fig5_closed_loop.png, fig6_convergence.png"
     if admm_sweeps:
         by_mode = {sw.rounding: res[sw.key] for sw in admm_sweeps}
-        md_admm = write_admm_outputs(out, by_mode, ADMM_ROUNDING, [ADMM_TUNING_NOTE, ADMM_PAPER_NOTE])
+        admm_rtl = admm_rtl_subset(by_mode[ADMM_ROUNDING], out / "rtl", workers=a.workers) if a.rtl else None
+        if admm_rtl is not None:
+            rtl = (rtl or []) + [dict(r, core="admm") for r in admm_rtl]
+        md_admm = write_admm_outputs(out, by_mode, ADMM_ROUNDING, [ADMM_TUNING_NOTE, ADMM_PAPER_NOTE], admm_rtl)
         print(md_admm)
         written += ", table2_admm.csv, " + ", ".join(f"table2_admm_{m}.csv" for m in admm_modes[1:]) \
             + ", table2_admm.md, fig_table2_admm.png"

@@ -88,6 +88,7 @@ class AdmmFixedController(_AdmmController):
     def __init__(self, design: AdmmDesign, imax: int | None = None, warm: bool | None = None):
         super().__init__(design.problem, design.nu)
         self.d = design
+        self.b = design.b
         self.model = AdmmFixed(design)
         self.imax = imax
         self.warm = warm
@@ -97,7 +98,7 @@ class AdmmFixedController(_AdmmController):
 
     def w_words(self, x, u_prev, r) -> np.ndarray:
         """The nw parameter words streamed to the core: w = (x, u_prev, r) with b fraction bits."""
-        return quantize(np.concatenate([x, u_prev, r]), self.d.b)
+        return quantize(np.concatenate([x, u_prev, r]), self.b)
 
     async def solve_words(self, w: np.ndarray) -> np.ndarray:
         """The first nu words of z (du_0) for parameter words w; the golden model here, the core in an RTL loop."""
@@ -109,11 +110,32 @@ class AdmmFixedController(_AdmmController):
     async def step(self, x, r):
         du0 = np.asarray(await self.solve_words(self.w_words(x, self.u_prev, r)), dtype=np.int64)[: self.nu]
         self.words.append([int(v) for v in du0])
-        return self._apply(du0 / float(1 << self.d.b))
+        return self._apply(du0 / float(1 << self.b))
 
     def reset(self) -> None:
         super().reset()
         self.model.reset()
+
+
+class AdmmRtlController(AdmmFixedController):
+    """The generated ADMM core in Verilator, driven by the cocotb testbench `tb` (verif.tb.TB): the words of
+    `w_words` go out on s_axis, du_0 comes back on m_axis; the rest is AdmmFixedController's."""
+    name = "rtl"
+
+    def __init__(self, tb, problem: MpcProblem):
+        _AdmmController.__init__(self, problem, tb.nu)
+        self.tb = tb
+        self.b = int(tb.core["frac_bits"])
+        self.imax = self.warm = None
+        self.words = []
+        self.overflow_steps = self.sat_steps = 0
+
+    async def solve_words(self, w: np.ndarray) -> np.ndarray:
+        await self.tb.send(w)
+        return np.array((await self.tb.recv())[: self.nu], dtype=np.int64)
+
+    def reset(self) -> None:
+        _AdmmController.reset(self)
 
 
 class AdmmFloatController(_AdmmController):
@@ -138,5 +160,5 @@ class AdmmFloatController(_AdmmController):
         self.model.prev = None
 
 
-__all__ = ["AdmmFixedController", "AdmmFloatController", "AdmmOsqpController", "admm_references", "parameters",
+__all__ = ["AdmmFixedController", "AdmmFloatController", "AdmmRtlController", "AdmmOsqpController", "admm_references", "parameters",
            "rate_and_box_ok"]

@@ -1,7 +1,7 @@
 """cocotb test: the guarantees of the design flow checked on the RTL. Over random states in the box X0 and states
 on its corners, cold start, all of z read back: the sticky OVERFLOW bit never rises (Prop. 1 of 002), the
 distance to exact arithmetic on the same data stays under eq. (20), and the distance to the optimum under the
-certified total bound. Environment: FGM_OUT, GUARANTEE_CASES (states), FGM_MEASURE (ratios written there)."""
+certified total bound. Environment: CORE_OUT, GUARANTEE_CASES (states), CORE_MEASURE (ratios written there)."""
 from __future__ import annotations
 
 import json
@@ -59,7 +59,7 @@ async def guarantees(dut):
     rec = {"test": "guarantees", "module": tb.core["module"], "cases": len(states),
            "roundoff_observed": worst_rnd, "roundoff_bound": cert["roundoff_error_bound_eq20"],
            "total_observed": worst_opt, "total_bound": cert["total_error_bound"], "tol": cert["tol"]}
-    path = os.environ.get("FGM_MEASURE")
+    path = os.environ.get("CORE_MEASURE")
     if path:
         with open(path, "a") as f:
             f.write(json.dumps(rec) + "\n")
