@@ -94,7 +94,7 @@ class FgmDesign:
         return self.K + self.lat_add * d + 2 * self.lat_mul + 3 * self.lat_add + 1
 
     def cycles_per_solve(self, imax: int | None = None) -> int:
-        return 2 + self.K + (self.iterations if imax is None else imax) * self.cycles_per_iteration
+        return 3 + self.K + (self.iterations if imax is None else imax) * self.cycles_per_iteration
 
     @property
     def multipliers(self) -> int:

@@ -113,7 +113,7 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
     lines.append(f"    stream words {d.widths['stream']} bits")
     lines += [
         f"  Cycles: L_F = {d.cycles_per_iteration} per iteration (eq. (23): {d.cycles_eq23}); "
-        f"{d.cycles_per_solve()} per solve at Imax = {d.iterations} (= {2 + d.K} + Imax * {d.cycles_per_iteration})",
+        f"{d.cycles_per_solve()} per solve at Imax = {d.iterations} (= {3 + d.K} + Imax * {d.cycles_per_iteration})",
         f"  Round-off bound eq. (20) after {d.iterations} iterations: ||z_fixed - z_exact||_2 <= {eta[-1]:.3g}",
         f"  Multipliers: {d.multipliers} (P * max(n, nw) + 2P)",
     ]

@@ -42,7 +42,7 @@ class FgmCore(val p: FgmParams) extends Module {
   frameIn.io.hold := regs.ctrlHold
   when(frameIn.io.sat) { regs.stSat := true.B }
   when(frameIn.io.tlastErr) { regs.stTlast := true.B }
-  val seq = Module(new PassSequencer(K, K, p.cyclesPerIteration, copyAfterFirst = false, maxOut = n))
+  val seq = Module(new PassSequencer(K, K + 1, p.cyclesPerIteration, copyAfterFirst = false, maxOut = n))
   seq.io.frameReady := frameIn.io.full
   seq.io.imax       := regs.imaxReg
   seq.io.outLast    := Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)
@@ -90,6 +90,7 @@ class FgmCore(val p: FgmParams) extends Module {
   def tokAt(stage: Int): Token =
     if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(tokN), true.B)
   val tok1    = tokAt(1)
+  val tok2    = tokAt(2)
   val tokSum  = tokAt(p.stageSum)
   val tokT    = tokAt(p.stageT)
   val tokZ    = tokAt(p.stageZ)
@@ -126,7 +127,8 @@ class FgmCore(val p: FgmParams) extends Module {
     // Cold start z0 = proj(0), from this row's bounds during the first pass.
     val lo1 = bndRam(u).io.rdata(p.zW - 1, 0).asSInt
     val hi1 = bndRam(u).io.rdata(2 * p.zW - 1, p.zW).asSInt
-    unitCold(u) := Mux(!lo1(p.zW - 1) && lo1 =/= 0.S, lo1, Mux(hi1(p.zW - 1), hi1, 0.S))
+    // registered: it fans out to the rows of the unit across the chip (written a cycle later, tok2)
+    unitCold(u) := RegNext(Mux(!lo1(p.zW - 1) && lo1 =/= 0.S, lo1, Mux(hi1(p.zW - 1), hi1, 0.S)))
 
     // t = (I - H_n) y - h
     val (t, ofT) = FixedOps.satSub(tree.io.sum, hHead, p.tW)
@@ -180,7 +182,7 @@ class FgmCore(val p: FgmParams) extends Module {
     when(warmCopy) {
       yReg(r) := zReg(src).pad(p.yW)
       zReg(r) := zReg(src)
-    }.elsewhen(tok1.valid && tok1.pass0 && tok1.k === k.U && !warmL) {
+    }.elsewhen(tok2.valid && tok2.pass0 && tok2.k === k.U && !warmL) {
       yReg(r) := unitCold(u).pad(p.yW)
       zReg(r) := unitCold(u)
     }.elsewhen(copyNow) {

@@ -86,8 +86,9 @@ case class FgmParams(
   /** Cycles per iteration, eq. (23) of 002 with ceil(log2 max(n, nw)) levels. */
   val cyclesPerIteration: Int = K + latAdd * depth + 2 * latMul + 3 * latAdd + 1
   val cyclesEq23: Int = K + latAdd * log2Ceil(n) + 2 * latMul + 3 * latAdd + 1
-  /** From the handshake of the last input word to the first output word valid: 2 + K + Imax * L. */
-  val solveOverhead: Int = 2 + K
+  /** From the handshake of the last input word to the first output word valid: 3 + K + Imax * L (the first pass
+    * issues K rows and leaves one cycle, in which the cold start's last registers are written). */
+  val solveOverhead: Int = 3 + K
   def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * cyclesPerIteration
   val multipliers: Int = P * m + 2 * P
 
