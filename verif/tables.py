@@ -1037,7 +1037,7 @@ def main(argv=None) -> None:
             + ", table2_admm.md, fig_table2_admm.png"
     if rtl is not None:
         mism = [r for r in rtl if not (r["same_words"] and r["same_cost"])]
-        print(f"RTL subset (b = {', '.join(str(r['b']) for r in rtl)}, Imax = {RTL_IMAX}): "
+        print("RTL subset (" + "; ".join(f"{r.get('core', 'fgm')} b = {r['b']} Imax = {r['imax']}" for r in rtl) + "): "
               + ("words and costs identical to the golden model" if not mism else "MISMATCH"))
     print(f"wrote {out}/{written} in {time.monotonic() - t0:.0f} s")
     if rtl is not None and any(not (r["same_words"] and r["same_cost"]) for r in rtl):
