@@ -53,8 +53,9 @@ demo: setup
 table2: setup
 	$(PY) -m verif.tables $(TABLE_ARGS)
 
-## bench: benchmark report of the FGM core into BENCH (cycles, Yosys resources, nextpnr Fmax, latency against
-## 002, OSQP and numpy on this CPU); QUICK=1 for the short sweep (P = 1, 4; b = 16; no Xilinx synthesis)
+## bench: benchmark report of the FGM and ADMM cores into BENCH (cycles, Yosys resources, nextpnr Fmax, latency
+## against 002, OSQP and numpy on this CPU); QUICK=1 for the short sweep (FGM P = 1, 4, b = 16; ADMM P = 1,
+## b = 18, small problem P = 1; no Xilinx synthesis); BENCH_ARGS for more (e.g. --jobs 1, --cores admm)
 BENCH ?= build/bench
 .PHONY: bench
 $(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed
@@ -62,7 +63,7 @@ $(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed
 	touch $@
 
 bench: setup $(VENV)/.bench-installed
-	$(PY) -m verif.bench --out $(BENCH) $(if $(QUICK),--quick)
+	$(PY) -m verif.bench --out $(BENCH) $(if $(QUICK),--quick) $(BENCH_ARGS)
 
 ## clean: remove build folders only
 clean:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from verif import bench
@@ -233,8 +234,6 @@ def test_step_kinds():
 
 
 def test_software_sessions_merge_and_best_median():
-    import numpy as np
-
     def session(times, load):
         r = bench.SwResult("OSQP tuned", "s", np.array(times, dtype=float), 1e-3, [5] * np.size(times))
         return {"solvers": [r], "repeats": len(times), "load": load}
@@ -245,3 +244,131 @@ def test_software_sessions_merge_and_best_median():
     assert r.median_us == 26.0
     assert len(r.iters) == 9
     assert bench.merge_software(None, m) is m
+
+
+# ----------------------------------------------------------------------------------------- ADMM
+
+def test_eq24_and_table3b():
+    # masses_rate_soft, n_A = 216, l_A = l_M = 1, Imax = 40: Table III(b) of 002 is Imax (eq. (24) + 1) cycles
+    assert bench.eq24(216, 1, 1, 1) == 216 + 8 + 1 + 6 + 2 == 233
+    assert bench.eq24(216, 4, 1, 1) == 71 and bench.eq24(216, 8, 1, 1) == 44
+    assert bench.eq24(19, 2, 2, 3) == 10 + 2 * 5 + 3 + 12 + 2
+    for P, (mult, v6, s6) in bench.PAPER_TABLE3_ADMM.items():
+        cycles = bench.table3b_cycles(216, P, 1, 1, 40)
+        assert cycles == 40 * (bench.eq24(216, P, 1, 1) + 1)
+        assert bench.paper_multipliers_admm(216, P) == mult
+        assert bench.latency_us(cycles, bench.F_V6_MHZ) == pytest.approx(v6, abs=0.006)
+        assert bench.latency_us(cycles, bench.F_S6_MHZ) == pytest.approx(s6, abs=0.006)
+    # Imax eq. (24) alone misses the table by one cycle per iteration
+    assert bench.latency_us(40 * bench.eq24(216, 1, 1, 1), bench.F_V6_MHZ) == pytest.approx(23.30)
+
+
+def test_admm_memory_blocks():
+    assert bench.paper_memory_blocks_admm(216, 1) == (224, 216)
+    assert bench.paper_memory_blocks_admm(216, 8) == (1792, 27)
+    assert bench.paper_memory_blocks_admm(19, 2) == (54, 10)
+
+
+def test_admm_mac_utilisation():
+    assert bench.admm_useful_macs(216) == 46656
+    # P = 1: 216 multipliers, L_A = 232
+    assert bench.admm_mac_utilisation(216, 216, 232) == pytest.approx(216 / 232)
+    assert bench.admm_mac_utilisation(216, 1728, 43) == pytest.approx(46656 / (1728 * 43))
+    assert bench.admm_mac_utilisation(1, 1, 1) == 1.0
+
+
+def test_solve_cycles_from_a_short_simulation():
+    # the cycle contract 2 + (Imax + 1) L_A, measured at Imax = 5 and carried to Imax = 40
+    L = 232
+    simulated = 2 + 6 * L
+    over = bench.solve_overhead(simulated, 5, L)
+    assert over == 2 + L
+    assert bench.cycles_at(over, 40, L) == 2 + 41 * L == 9514
+    assert bench.cycles_at(bench.solve_overhead(822, 15, 52), 15, 52) == 822
+
+
+def test_soft_projection_closed_form():
+    from verif.admm.problem import project_soft
+
+    rng = np.random.default_rng(3)
+    x, d = 2 * rng.standard_normal(2000), rng.standard_normal(2000)
+    c, r = 0.3 * rng.standard_normal(2000), rng.uniform(0.05, 1.0, 2000)
+    # every case of Fig. 3b: inside, below the flat edge, beyond the corner, onto the slanted edge, and the borders
+    x[:4], d[:4], c[:4], r[:4] = [0.2, 0.9, 3.0, 1.5], [0.5, -0.3, -4.0, 0.1], 0.0, 0.5
+    x[4:6], d[4:6], c[4:6], r[4:6] = [0.5, -0.7], [0.0, 0.2], 0.0, 0.5
+    xo, do = bench.soft_projection(x, d, c, r)
+    xe, de = project_soft(x, d, c, r)
+    assert np.allclose(xo, xe, rtol=0, atol=1e-12) and np.allclose(do, de, rtol=0, atol=1e-12)
+    assert np.all(do >= 0) and np.all(np.abs(xo - c) <= r + do + 1e-12)
+
+
+@pytest.fixture(scope="module")
+def small_admm():
+    from verif.admm.design import design_admm
+
+    return design_admm(bench.small_admm_problem(), sizing_solves=8)
+
+
+def test_small_admm_problem(small_admm):
+    d = small_admm
+    assert (d.n, d.nw, d.qp.ns, d.b, d.iterations) == (19, 4, 1, 18, 40)
+
+
+def test_numpy_admm_is_admmfloat(small_admm):
+    from verif.admm.model import AdmmFloat
+
+    d = small_admm
+    rng = np.random.default_rng(5)
+    a, f = bench.NumpyAdmm(d), AdmmFloat(d)
+    lo, hi = d.qp.wlo, d.qp.whi
+    for _ in range(8):           # warm-started sequence: the shift of (z, nu) included
+        w = rng.uniform(lo, hi)
+        assert np.allclose(a.solve(w), f.solve(w)[0], rtol=0, atol=1e-12)
+
+
+def _admm_core(P, role="sweep", problem="masses_rate_soft", n=216, pnr=None, mult=None):
+    from types import SimpleNamespace
+
+    L = bench.eq24(n, P, 1, 1) - 1
+    c = bench.Core("admm", problem, P, 18, None, SimpleNamespace(
+        qp=SimpleNamespace(problem=SimpleNamespace(nx=2), nu=1, N=3, ns=1), multipliers=P * n), 40, role=role)
+    c.core = {"n": n, "nw": 17, "ns": 4, "N": 10, "lat_add": 1, "lat_mul": 1, "cycles_per_iteration": L,
+              "cycles_eq24": L + 1, "solve_overhead_cycles": 2 + L, "multipliers": P * n, "module": "AdmmCore_x",
+              "signals": {"coef": {"width": 20}, "v": {"width": 29}, "w": {"width": 21}}}
+    c.measured = {"cycles_per_iteration": L, "cycles_per_solve": 2 + 6 * L, "iterations": 5}
+    c.ecp5 = {"MULT18X18D": mult or 4 * P * n, "LUT4": 1000, "CCU2C": 10, "FF": 900, "DP16KD": 2, "LUTRAM": 0}
+    c.pnr = pnr
+    c.pnr_note = "" if pnr else "does not fit: " + "; ".join(bench.ecp5_fit(c.ecp5))
+    return c
+
+
+def test_admm_rows_and_report():
+    pnr = bench.parse_nextpnr_report(REPORT)
+    cores = [_admm_core(1), _admm_core(4), _admm_core(1, "fmax", "small_rate_soft", 19, pnr, 76)]
+    est, tag = bench.admm_fmax_estimate(cores)
+    assert est == 69.5 and "small_rate_soft" in tag
+    sw = {"solvers": [bench.SwResult(name, "s", np.array([[400.0, 500.0]]), 1e-2, None, 1e-3)
+                      for name in ("OSQP default", "OSQP tuned", bench.NumpyAdmm.name)]}
+    recs = bench.admm_rows(cores, sw, est)
+    r1, r4, rs = recs
+    assert r1["cycles_per_solve_measured"] == 2 + 41 * 232 and r1["cycles_per_solve_table3b"] == 40 * 234
+    assert r1["latency_us_v6_paper"] == 23.40 and r4["latency_us_s6_paper"] == 12.52
+    assert r1["latency_us_ecp5_est"] == pytest.approx(9514 / 69.5) and rs["latency_us_ecp5_est"] is None
+    assert rs["latency_us_ecp5"] == pytest.approx((2 + 41 * (bench.eq24(19, 1, 1, 1) - 1)) / 69.5)
+    assert r1["osqp_tuned_over_core"] == pytest.approx(450.0 / (9514 / 69.5))
+    assert r1["numpy_admm_over_core_v6"] == pytest.approx(450.0 / (9514 / 400))
+    assert rs["osqp_tuned_us"] is None
+    assert r4["mac_utilisation"] == pytest.approx(216 * 216 / (864 * 70))
+    table = "\n".join(bench.admm_summary_table([r1, r4]))
+    assert "232 (233)" in table and "no: 864 MULT18X18D" in table and "23.79 (23.40)" in table
+    info = {"machine": {"cpu": "cpu", "cores": 2, "logical": 2, "system": "Linux", "python": "3"}, "date": "d",
+            "quick": True, "Ps": (), "bs": (), "admm_Ps": (1, 4), "admm_bs": (18,), "admm_small_Ps": (1,),
+            "xilinx": False, "jobs": 1, "errors": [], "runtime_s": 60.0, "revision": "abc"}
+    sw_admm = dict(sw, repeats=1, load=[0.5, 0.6], core_err={18: (0.1, 1e-3)}, steps=2, hold=1, imax=40,
+                   u_box=(-0.1, 0.1), ref_iters=(400.0, 900), numpy_vs_admmfloat=0.0,
+                   active={"soft": 0.2, "box": 0.5, "rate": 0.4})
+    md = bench.report_md(cores, [], recs, {"admm": sw_admm}, info)
+    assert "## ADMM core: masses_rate_soft" in md and "Table III(b)" in md
+    assert "small_rate_soft" in md and "69.5" in md and "no ECP5 holds" in md
+    assert "synthesised hierarchically" in md
+    assert [c.placeable for c in cores] == [False, False, True] and cores[0].hierarchical
