@@ -364,7 +364,7 @@ def test_admm_rows_and_report():
     info = {"machine": {"cpu": "cpu", "cores": 2, "logical": 2, "system": "Linux", "python": "3"}, "date": "d",
             "quick": True, "Ps": (), "bs": (), "admm_Ps": (1, 4), "admm_bs": (18,), "admm_small_Ps": (1,),
             "xilinx": False, "jobs": 1, "errors": [], "runtime_s": 60.0, "revision": "abc"}
-    sw_admm = dict(sw, repeats=1, load=[0.5, 0.6], core_err={18: (0.1, 1e-3)}, steps=2, hold=1, imax=40,
+    sw_admm = dict(sw, repeats=1, load=[0.5, 0.6], core_err={18: (0.1, 1e-3, 1)}, steps=2, hold=1, imax=40,
                    u_box=(-0.1, 0.1), ref_iters=(400.0, 900), numpy_vs_admmfloat=0.0,
                    active={"soft": 0.2, "box": 0.5, "rate": 0.4})
     md = bench.report_md(cores, [], recs, {"admm": sw_admm}, info)
@@ -372,3 +372,9 @@ def test_admm_rows_and_report():
     assert "small_rate_soft" in md and "69.5" in md and "no ECP5 holds" in md
     assert "synthesised hierarchically" in md
     assert [c.placeable for c in cores] == [False, False, True] and cores[0].hierarchical
+
+
+def test_memory_list_counts_unnamed():
+    mems = {"top.mat0.mem": "PDPW16KD", "cc:155:do_switch$11153": "FF", "cc:155:do_switch$11157": "FF",
+            "top_w_box.mem": "TRELLIS_DPR16X4"}
+    assert bench._mem_list(mems, "top") == "mat0 -> PDPW16KD, w_box -> TRELLIS_DPR16X4, 2 unnamed -> FF"

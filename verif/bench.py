@@ -977,7 +977,7 @@ def prepare_admm_software(problem, designs: dict, steps: int, hold: int) -> SwCa
         m = AdmmFixed(db)
         err = [float(np.abs(m.solve(quantize(w, db.b)).z[:nu] / (1 << db.b) - u_opt[k]).max())
                for k, w in enumerate(W)]
-        core_err[b] = (max(err), float(np.median(err)))
+        core_err[b] = (max(err), float(np.median(err)), int(np.argmax(err)))
     a, f = NumpyAdmm(d), AdmmFloat(d)
     same = max(float(np.abs(a.solve(w) - f.solve(w)[0]).max()) for w in W[: min(len(W), 20)])
     makers = [lambda: OsqpSoftWarm(qp, "OSQP default", OSQP_DEFAULT),
@@ -1415,12 +1415,23 @@ def admm_fmax_summary_table(recs: list[dict]) -> list[str]:
     return _table(hdr, body)
 
 
+def _mem_list(mems: dict[str, str], module: str) -> str:
+    """'mat0 -> PDPW16KD, ...'; memories Yosys names after a source location (no RTL name) counted per kind."""
+    named, unnamed = [], {}
+    for k, v in sorted(mems.items()):
+        name = _mem_name(k, module)
+        if "$" in name:
+            unnamed[v] = unnamed.get(v, 0) + 1
+        else:
+            named.append(f"{name} -> {v}")
+    return ", ".join(named + [f"{n} unnamed -> {v}" for v, n in sorted(unnamed.items())])
+
+
 def _memories(cores: list[Core]) -> list[str]:
     L = []
     for c in cores:
         if c.ecp5_mem or c.xc7_mem:
-            e = ", ".join(f"{_mem_name(k, c.module)} -> {v}" for k, v in sorted(c.ecp5_mem.items()))
-            x = ", ".join(f"{_mem_name(k, c.module)} -> {v}" for k, v in sorted(c.xc7_mem.items()))
+            e, x = _mem_list(c.ecp5_mem, c.module), _mem_list(c.xc7_mem, c.module)
             L.append(f"- {c.tag}: ECP5 {e or '-'}; xc7 {x or '-'}")
     return L
 
@@ -1590,7 +1601,8 @@ def admm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[s
               + ("They are synthesised hierarchically (`synth_ecp5 -noflatten`, `synth_xilinx` without -flatten; "
                  "counts include submodules): the P row units share one dot-product module, which Yosys maps "
                  "once, where the flat synthesis of the P = 4 core ran out of the 4 GB a WebAssembly Yosys can "
-                 "address; optimisations across module boundaries are lost, so the counts are upper bounds. "
+                 "address; without optimisation across module boundaries the counts can differ a little from a flat "
+                 "synthesis. "
                  if any(c.hierarchical for c, _ in big) else ""), "",
               "Memories as Yosys inferred them (memory_libmap):", ""]
         L += _memories([c for c, _ in big])
@@ -1644,7 +1656,11 @@ def admm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[s
               ""]
         L += _software_solvers(sw)
         L += ["", "Core (bit-exact golden model, same QPs): " + ", ".join(
-            f"b = {b}: error max {e[0]:.2e}, median {e[1]:.2e}" for b, e in sorted(sw["core_err"].items())) + ".", ""]
+            f"b = {b}: error max {e[0]:.2e} (step {e[2]}, {e[2] % sw['hold']} after a reference change), "
+            f"median {e[1]:.2e}" for b, e in sorted(sw["core_err"].items()))
+              + f". numpy ADMM runs the same iteration in exact arithmetic: where its largest error matches the "
+              f"core's, that error is the algorithm's after {sw['imax']} warm-started iterations, not the fixed "
+              "point's (compare the medians).", ""]
         body = [[str(r["P"]), str(r["b"]), _f(r["latency_us_ecp5_est"]), _f(r["latency_us_v6_ours"]),
                  _x(r["osqp_default_over_core"]), _x(r["osqp_tuned_over_core"]), _x(r["numpy_admm_over_core"]),
                  _x(r["osqp_default_over_core_v6"]), _x(r["osqp_tuned_over_core_v6"]),
