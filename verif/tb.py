@@ -43,7 +43,7 @@ def golden_model(cfg: dict):
 class TB:
     def __init__(self, dut, seed: int = 1):
         self.dut = dut
-        out = Path(os.environ.get("CORE_OUT") or os.environ["FGM_OUT"])
+        out = Path(os.environ["CORE_OUT"])
         self.core = json.loads((out / "core.json").read_text())
         self.cfg = json.loads((out / "config.json").read_text())
         self.rm = Regmap(self.core)
@@ -167,7 +167,7 @@ class TB:
 
 
 def _measure(record: dict):
-    path = os.environ.get("CORE_MEASURE") or os.environ.get("FGM_MEASURE")
+    path = os.environ.get("CORE_MEASURE")
     if path:
         with open(path, "a") as f:
             f.write(json.dumps(record) + "\n")
@@ -179,7 +179,7 @@ async def bitexact_random(dut):
     streams: every output word equals the golden model, and the SAT and OVERFLOW flags agree."""
     tb = TB(dut, seed=11)
     await tb.reset()
-    count = int(os.environ.get("CORE_RANDOM") or os.environ.get("FGM_RANDOM") or "30")
+    count = int(os.environ.get("CORE_RANDOM") or "30")
     sat = ovf = False
     for i in range(count):
         tb.backpressure(i % 2 == 1)

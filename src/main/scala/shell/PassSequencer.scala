@@ -17,8 +17,8 @@ class RowToken(kW: Int) extends Bundle {
 /** Sequencer of a solve: idle -> run (the first pass, then Imax iterations) -> out (the result frame).
   *
   * The first pass issues rows 0..K-1 and lasts `firstLen` cycles; each iteration issues rows 0..K-1 and lasts `L`
-  * cycles (row k at count k). `tokN` is the token of the next cycle, from the next state, so that the row memories
-  * can be addressed a cycle ahead. `copyNow` marks the cycle after an iteration's last write in which the core
+  * cycles (row k at count k). `tokN` is the token of the next cycle, a register (but for `valid` in the cycle of
+  * `start`), so that the row memories are addressed a cycle ahead from registers. `copyNow` marks the cycle after an iteration's last write in which the core
   * moves its next operand vector into place: after every iteration but the last, and after the first pass when
   * `copyAfterFirst`.
   */
@@ -58,38 +58,54 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val outEnd = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val busyCyc = RegInit(0.U(32.W))
 
-  // Next values of the counters; the comparisons the tokens need are made on them and registered, so the next
-  // token (which addresses the row memories) comes from registers through a few multiplexers.
-  val cntNext  = WireDefault(cnt)
-  val iterNext = WireDefault(iter)
-  val imaxNext = WireDefault(imaxL)
+  // Next values of the state and the counters. The comparisons the tokens need are made on them and registered,
+  // and so is the next token itself: the row memories are addressed straight from registers.
+  val stateNext = WireDefault(state)
+  val pass0Next = WireDefault(pass0)
+  val cntNext   = WireDefault(cnt)
+  val iterNext  = WireDefault(iter)
+  val imaxNext  = WireDefault(imaxL)
+  state := stateNext
+  pass0 := pass0Next
   cnt   := cntNext
   iter  := iterNext
   imaxL := imaxNext
-  val cntInc   = RegNext(cntNext +& 1.U, 1.U)
-  val wrap0    = RegNext(cntNext === (firstLen - 1).U, (firstLen == 1).B)
-  val wrap     = RegNext(cntNext === (L - 1).U, (L == 1).B)
-  val issue    = RegNext(cntNext +& 1.U < K.U, (K > 1).B)
-  val lastIter = RegNext(iterNext === imaxNext - 1.U, true.B)
-  val iter0    = RegNext(iterNext === 0.U, true.B)
+  val cntIncN   = cntNext +& 1.U
+  val wrap0N    = cntNext === (firstLen - 1).U
+  val wrapN     = cntNext === (L - 1).U
+  val issueN    = cntIncN < K.U
+  val lastIterN = iterNext === imaxNext - 1.U
+  val iter0N    = iterNext === 0.U
+  val wrap0    = RegNext(wrap0N, (firstLen == 1).B)
+  val wrap     = RegNext(wrapN, (L == 1).B)
+  val lastIter = RegNext(lastIterN, true.B)
 
   val start = state === sIdle && io.frameReady
 
-  val tokN = Wire(new RowToken(kW))
-  tokN := 0.U.asTypeOf(tokN)
-  when(start) {
-    tokN.valid := true.B
-    tokN.pass0 := true.B
-  }.elsewhen(state === sRun && pass0) {
-    tokN.valid := wrap0 || issue
-    tokN.pass0 := !wrap0
-    tokN.first := wrap0
-    tokN.k     := Mux(wrap0, 0.U, cntInc(kW - 1, 0))
-  }.elsewhen(state === sRun) {
-    tokN.valid := Mux(wrap, !lastIter, issue)
-    tokN.first := iter0 && !wrap
-    tokN.k     := Mux(wrap, 0.U, cntInc(kW - 1, 0))
+  /** The token issued in the cycle after one in state `st` (pass0 `p0`, comparisons of its counters `w0` ... `i0`).
+    * Idle: the first row of the first pass, not valid (the cycle of `start` makes it valid). */
+  def nextToken(st: UInt, p0: Bool, w0: Bool, w: Bool, is: Bool, li: Bool, i0: Bool, inc: UInt): RowToken = {
+    val t = Wire(new RowToken(kW))
+    t := 0.U.asTypeOf(t)
+    when(st === sIdle) {
+      t.pass0 := true.B
+    }.elsewhen(st === sRun && p0) {
+      t.valid := w0 || is
+      t.pass0 := !w0
+      t.first := w0
+      t.k     := Mux(w0, 0.U, inc(kW - 1, 0))
+    }.elsewhen(st === sRun) {
+      t.valid := Mux(w, !li, is)
+      t.first := i0 && !w
+      t.k     := Mux(w, 0.U, inc(kW - 1, 0))
+    }
+    t
   }
+  val idleTok = nextToken(sIdle, false.B, false.B, false.B, false.B, false.B, false.B, 0.U)
+  val tokR = RegInit(idleTok)
+  tokR := nextToken(stateNext, pass0Next, wrap0N, wrapN, issueN, lastIterN, iter0N, cntIncN)
+  val tokN = WireDefault(tokR)
+  when(start) { tokN.valid := true.B }
   io.tokN := tokN
   io.start := start
   io.running := state === sRun
@@ -99,8 +115,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   switch(state) {
     is(sIdle) {
       when(io.frameReady) {
-        state   := sRun
-        pass0   := true.B
+        stateNext := sRun
+        pass0Next := true.B
         cntNext := 0.U
         iterNext := 0.U
         imaxNext := io.imax
@@ -112,7 +128,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
       busyCyc := busyCyc + 1.U
       when(pass0) {
         when(wrap0) {
-          pass0 := false.B
+          pass0Next := false.B
           cntNext := 0.U
         }.otherwise { cntNext := cnt + 1.U }
       }.otherwise {
@@ -120,7 +136,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
           cntNext := 0.U
           iterNext := iter + 1.U
           when(lastIter) {
-            state  := sOut
+            stateNext := sOut
             outCnt := 0.U
           }
         }.otherwise { cntNext := cnt + 1.U }
@@ -129,7 +145,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     is(sOut) {
       when(io.outFire) {
         outCnt := outCnt + 1.U
-        when(outCnt === outEnd) { state := sIdle }
+        when(outCnt === outEnd) { stateNext := sIdle }
       }
     }
   }
