@@ -378,3 +378,27 @@ def test_memory_list_counts_unnamed():
     mems = {"top.mat0.mem": "PDPW16KD", "cc:155:do_switch$11153": "FF", "cc:155:do_switch$11157": "FF",
             "top_w_box.mem": "TRELLIS_DPR16X4"}
     assert bench._mem_list(mems, "top") == "mat0 -> PDPW16KD, w_box -> TRELLIS_DPR16X4, 2 unnamed -> FF"
+
+
+def test_admm_estimate_moves_cycles_to_the_small_cores_latencies():
+    pnr = bench.parse_nextpnr_report(REPORT)
+    small = _admm_core(1, "fmax", "small_rate_soft", 19, pnr, 76)
+    small.core.update(lat_add=2, lat_mul=3)
+    big = _admm_core(4)
+    recs = bench.admm_rows([big, small], None, 69.5)
+    # eq. (24) at l_A = 2, l_M = 3 against 1, 1 for n_A = 216: 2 more cycles of multiplier, 8 + 6 of adders
+    delta = bench.eq24(216, 4, 2, 3) - bench.eq24(216, 4, 1, 1)
+    assert delta == 2 + 8 + 6
+    assert recs[0]["cycles_per_solve_est"] == recs[0]["cycles_per_solve_measured"] + 41 * delta
+    assert recs[0]["latency_us_ecp5_est"] == pytest.approx(recs[0]["cycles_per_solve_est"] / 69.5)
+    assert recs[0]["est_lat"] == (2, 3) and recs[1]["cycles_per_solve_est"] is None
+    assert "l_A = 2, l_M = 3" in bench._est_lat_text(recs)
+
+
+def test_fmax_table_names_kind_latencies_and_formula():
+    pnr = bench.parse_nextpnr_report(REPORT)
+    small = _admm_core(1, "fmax", "small_rate_soft", 19, pnr, 76)
+    small.core.update(lat_add=2, lat_mul=3)
+    r = bench.admm_rows([small], None, None)[0]
+    table = "\n".join(bench.fmax_summary_table([r]))
+    assert "| ADMM | small_rate_soft | 19 | 1 | 18 | 2, 3 |" in table and "eq. (24)" in table and "69.5" in table

@@ -75,6 +75,13 @@ QUICK_P, QUICK_B = (1,), (16,)
 ADMM_FULL_P, ADMM_FULL_B = (1, 2, 4, 8), (18,)
 ADMM_QUICK_P, ADMM_QUICK_B = (1,), (18,)
 ADMM_SMALL_FULL_P, ADMM_SMALL_QUICK_P = (1, 2), (1,)
+# Pipeline latencies of the cores placed and routed for Fmax (role "fmax"): l_M = 3 registers the operands before
+# the hard multipliers and the partial products of words wider than 18 bits; l_A = 2 gives the ADMM soft
+# projection its four one-carry-chain steps. The sweeps keep the spec's l_A = l_M = 1, the latencies of
+# eq. (23)/(24) and Table III of 002.
+FMAX_LAT = {"fgm": dict(lat_add=1, lat_mul=3), "admm": dict(lat_add=2, lat_mul=3)}
+FGM_FMAX_FULL_P, FGM_FMAX_QUICK_P, FGM_FMAX_B = (1, 2), (1,), 16
+
 # IMAX reset value of the simulated ADMM cores: cycle_contract runs Imax = 1, 3 and this value.
 ADMM_SIM_IMAX = 5
 
@@ -494,7 +501,7 @@ class Core:
     out: Path
     design: object               # what the generator elaborates
     imax: int                    # the spec's Imax: cycles per solve are reported there
-    role: str = "sweep"          # "sweep": the paper's example; "fmax": the small ADMM problem for place and route
+    role: str = "sweep"          # "sweep": the paper's example at the spec's latencies; "fmax": pipelined for Fmax
     synth: bool = True           # False: cycles only (QUICK's masses ADMM core)
     core: dict = field(default_factory=dict)
     measured: dict | None = None
@@ -508,7 +515,9 @@ class Core:
 
     @property
     def tag(self) -> str:
-        return f"{self.kind.upper()} {self.problem} P={self.P} b={self.b}"
+        la, lm = (getattr(self.design, k, self.core.get(k)) for k in ("lat_add", "lat_mul"))
+        lat = f" lA={la} lM={lm}" if self.role == "fmax" else ""
+        return f"{self.kind.upper()} {self.problem} P={self.P} b={self.b}{lat}"
 
     @property
     def placeable(self) -> bool:
@@ -1103,7 +1112,8 @@ def fgm_rows(cores: list[Core], sw: dict | None) -> list[dict]:
         t3 = PAPER_TABLE3.get(P) if (n, cj["iterations"]) == (40, 15) else None
         lat = _core_latency(c, cyc)
         r = {
-            "problem": c.problem, "P": P, "b": c.b, "n": n, "nw": cj["nw"], "nx": cj["nx"], "imax": cj["iterations"],
+            "problem": c.problem, "role": c.role, "P": P, "b": c.b, "n": n, "nw": cj["nw"], "nx": cj["nx"],
+            "imax": cj["iterations"],
             "lat_add": cj["lat_add"], "lat_mul": cj["lat_mul"],
             "cycles_per_iteration_measured": cpi, "cycles_per_iteration_corejson": cj["cycles_per_iteration"],
             "cycles_eq23": cj["cycles_eq23"],
@@ -1133,9 +1143,16 @@ def admm_fmax_estimate(cores: list[Core]) -> tuple[float | None, str]:
     return min(got) if got else (None, "")
 
 
+def _est_lat_text(recs: list[dict]) -> str:
+    lat = next((r["est_lat"] for r in recs if r.get("est_lat")), None)
+    return f"l_A = {lat[0]}, l_M = {lat[1]}" if lat else "no estimate"
+
+
 def admm_rows(cores: list[Core], sw: dict | None, est_fmax: float | None) -> list[dict]:
     """One flat record per ADMM core (masses_rate_soft sweep and the small problem placed and routed)."""
     med = {r.name: r.median_us for r in sw["solvers"]} if sw else {}
+    # the estimate's core runs at its own latencies: the sweep's cycles move by the change of eq. (24)
+    est_lat = next(((e.core["lat_add"], e.core["lat_mul"]) for e in cores if e.role == "fmax" and e.pnr), None)
     out = []
     for c in cores:
         cj, m = c.core, c.measured
@@ -1148,7 +1165,8 @@ def admm_rows(cores: list[Core], sw: dict | None, est_fmax: float | None) -> lis
         t3 = PAPER_TABLE3_ADMM.get(P) if (n, c.imax, la, lm) == (216, 40, 1, 1) else None
         sweep = c.role == "sweep"
         lat = _core_latency(c, cyc)
-        lat_est = latency_us(cyc, est_fmax) if sweep else None
+        cyc_est = cyc + (c.imax + 1) * (eq24(n, P, *est_lat) - eq24(n, P, la, lm)) if sweep and est_lat else None
+        lat_est = latency_us(cyc_est, est_fmax) if cyc_est else None
         lat_v6 = latency_us(cyc, F_V6_MHZ)
         r = {
             "problem": c.problem, "role": c.role, "P": P, "b": c.b, "n": n, "nw": cj["nw"], "ns": cj["ns"],
@@ -1166,7 +1184,8 @@ def admm_rows(cores: list[Core], sw: dict | None, est_fmax: float | None) -> lis
         _tool_columns(c, r)
         r.update({
             "latency_us_ecp5": lat,
-            "fmax_est_mhz": est_fmax if sweep else None, "latency_us_ecp5_est": lat_est,
+            "fmax_est_mhz": est_fmax if sweep else None, "est_lat": est_lat if sweep else None,
+            "cycles_per_solve_est": cyc_est, "latency_us_ecp5_est": lat_est,
             "latency_us_v6_ours": lat_v6, "latency_us_v6_paper": t3[1] if t3 else None,
             "latency_us_s6_ours": latency_us(cyc, F_S6_MHZ), "latency_us_s6_paper": t3[2] if t3 else None,
             "mac_utilisation": admm_mac_utilisation(n, cj["multipliers"], cpi if cpi else cj["cycles_per_iteration"]),
@@ -1265,13 +1284,15 @@ def _resources_plot(plt, path: Path, recs: list[dict], table1: str, title: str) 
 def _fmax_plot(plt, path: Path, fgm: list[dict], admm: list[dict]) -> None:
     fig, ax = plt.subplots(figsize=(7, 4.5))
     small = [r for r in admm if r["role"] == "fmax"]
-    Ps = sorted({r["P"] for r in fgm + small}) or [1]
-    for recs, name, mk in ((fgm, "FGM masses", "o-"), (small, "ADMM small", "s-")):
+    fast = [r for r in fgm if r["role"] == "fmax"]
+    fgm = [r for r in fgm if r["role"] == "sweep"]
+    Ps = sorted({r["P"] for r in fgm + fast + small}) or [1]
+    for recs, name, mk in ((fgm, "FGM masses", "o-"), (fast, "FGM masses", "o--"), (small, "ADMM small", "s--")):
         for b in sorted({r["b"] for r in recs}):
             pts = _by(recs, b, "fmax_mhz")
             if pts:
                 pname = f"{name} (n_A = {recs[0]['n']})" if name.startswith("ADMM") else name
-                ax.plot(*zip(*pts), mk, label=f"{pname}, b = {b}")
+                ax.plot(*zip(*pts), mk, label=f"{pname}, b = {b}, l_A = {recs[0]['lat_add']}, l_M = {recs[0]['lat_mul']}")
     for P in Ps:
         missing = [r for r in fgm if r["P"] == P and r["fmax_mhz"] is None]
         if missing:
@@ -1309,6 +1330,7 @@ def plots(out: Path, fgm: list[dict], admm: list[dict], sw: dict) -> list[Path]:
     import matplotlib.pyplot as plt
 
     paths = []
+    fgm_all, fgm = fgm, [r for r in fgm if r["role"] == "sweep"]
     if fgm:
         r0 = fgm[0]
         paths.append(out / "fgm_latency_vs_P.png")
@@ -1324,9 +1346,9 @@ def plots(out: Path, fgm: list[dict], admm: list[dict], sw: dict) -> list[Path]:
                       f"ADMM core, {r0['problem']} (n_A = {r0['n']}, Imax = {r0['imax']}): latency vs P")
         paths.append(out / "admm_resources_vs_P.png")
         _resources_plot(plt, paths[-1], big, "P n_A", f"ADMM core, {r0['problem']}: resources vs P (Yosys)")
-    if fgm or admm:
+    if fgm_all or admm:
         paths.append(out / "fmax_vs_P.png")
-        _fmax_plot(plt, paths[-1], fgm, admm)
+        _fmax_plot(plt, paths[-1], fgm_all, admm)
     return paths
 
 
@@ -1403,16 +1425,22 @@ def admm_summary_table(recs: list[dict]) -> list[str]:
     return _table(hdr, body)
 
 
-def admm_fmax_summary_table(recs: list[dict]) -> list[str]:
-    hdr = ["problem", "n_A", "P", "b", "L_A meas (eq. 24)", f"cycles/solve (Imax = {recs[0]['imax']})",
-           "MULT18X18D", "LUT4", "FF", "Fmax ECP5 MHz", "latency us ECP5", "critical path"]
-    body = [[r["problem"], str(r["n"]), str(r["P"]), str(r["b"]),
-             f"{_f(r['cycles_per_iteration_measured'], '{}')} ({r['cycles_eq24']})",
-             _f(r["cycles_per_solve_measured"], "{}"), _f(r.get("ecp5_MULT18X18D"), "{}"),
-             _f(r.get("ecp5_LUT4"), "{}"), _f(r.get("ecp5_FF"), "{}"),
-             _f(r["fmax_mhz"], "{:.1f}", r["pnr_note"] or "-"), _f(r["latency_us_ecp5"]),
-             f"{r['crit_from']} -> {r['crit_to']}, {r['crit_logic_levels']} cells" if r["crit_from"] else "-"]
-            for r in recs]
+def fmax_summary_table(recs: list[dict]) -> list[str]:
+    """Cores placed and routed for Fmax (either kind), with their pipeline latencies and cycles."""
+    hdr = ["core", "problem", "n", "P", "b", "l_A, l_M", "L meas (eq.)", "cycles/solve (Imax)", "MULT18X18D", "LUT4",
+           "FF", "Fmax ECP5 MHz", "latency us ECP5", "critical path"]
+    body = []
+    for r in recs:
+        adm = "cycles_eq24" in r
+        body.append([
+            "ADMM" if adm else "FGM", r["problem"], str(r["n"]), str(r["P"]), str(r["b"]),
+            f"{r['lat_add']}, {r['lat_mul']}",
+            f"{_f(r['cycles_per_iteration_measured'], '{}')} ({r['cycles_eq24' if adm else 'cycles_eq23']}, "
+            f"eq. ({24 if adm else 23}))",
+            f"{_f(r['cycles_per_solve_measured'], '{}')} ({r['imax']})", _f(r.get("ecp5_MULT18X18D"), "{}"),
+            _f(r.get("ecp5_LUT4"), "{}"), _f(r.get("ecp5_FF"), "{}"),
+            _f(r["fmax_mhz"], "{:.1f}", r["pnr_note"] or "-"), _f(r["latency_us_ecp5"]),
+            f"{r['crit_from']} -> {r['crit_to']}, {r['crit_logic_levels']} cells" if r["crit_from"] else "-"])
     return _table(hdr, body)
 
 
@@ -1484,6 +1512,9 @@ def _load_text(sw: dict) -> str:
 
 
 def fgm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[str]:
+    fast = [(c, r) for c, r in zip(cores, recs) if c.role == "fmax"]
+    cores = [c for c in cores if c.role == "sweep"]
+    recs = [r for r in recs if r["role"] == "sweep"]
     L = ["## FGM core: masses", "", "### Cycles (Verilator)", ""]
     body = [[str(r["P"]), str(r["b"]), _f(r["cycles_per_iteration_measured"], "{}"),
              str(r["cycles_per_iteration_corejson"]), str(r["cycles_eq23"]), _f(r["cycles_per_solve_measured"], "{}"),
@@ -1511,6 +1542,11 @@ def fgm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[st
     L += _memories(cores)
     L += ["", "### Fmax and critical path (nextpnr-ecp5, LFE5U-85F, CABGA381, speed 8)", ""]
     L += _fmax_section(cores, recs, "fgm_core.lpf")
+    if fast:
+        lat = FMAX_LAT["fgm"]
+        L += ["", f"Pipelined for Fmax: l_A = {lat['lat_add']}, l_M = {lat['lat_mul']} (operands registered before the "
+              "MULT18X18D and the partial products of words wider than 18 bits), the rest as above:", ""]
+        L += _fmax_section(*map(list, zip(*fast)), "fgm_core.lpf")
     L += ["", "### Latency against Table III(a) of 002", ""]
     body = [[str(r["P"]), str(r["b"]), _f(r["cycles_per_solve_measured"], "{}"), _f(r["fmax_mhz"], "{:.1f}"),
              _f(r["latency_us_ecp5"], "{:.3f}"), _f(r["latency_us_v6_ours"], "{:.3f}"),
@@ -1624,17 +1660,20 @@ def admm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[s
               "a shallower tree; the masses core's would be longer routes on a larger device.", ""]
         L += _fmax_section([c for c, _ in small], [r for _, r in small], "admm_core.lpf")
         L += ["", "Small problem, cycles and latency at its own Fmax:", ""]
-        L += admm_fmax_summary_table([r for _, r in small])
+        L += fmax_summary_table([r for _, r in small])
     if br:
         est = next((r["fmax_est_mhz"] for r in br if r.get("fmax_est_mhz")), None)
         L += ["", "### Latency against Table III(b) of 002", "",
               f"us est.: our cycles at {_f(est, '{:.1f}')} MHz, the lowest Fmax of the small ADMM cores on the "
-              "LFE5U-85F: an estimate of what an ECP5-class fabric would give, not a measurement (no ECP5 holds "
+              "LFE5U-85F, with the cycles of the masses core at the small cores' latencies ("
+              + _est_lat_text(br) + "): an estimate of what an ECP5-class fabric would give, not a measurement (no ECP5 holds "
               "the masses core).", ""]
-        body = [[str(r["P"]), str(r["b"]), _f(r["cycles_per_solve_measured"], "{}"), _f(r["latency_us_ecp5_est"], "{:.2f}"),
+        body = [[str(r["P"]), str(r["b"]), _f(r["cycles_per_solve_measured"], "{}"), _f(r["cycles_per_solve_est"], "{}"),
+                 _f(r["latency_us_ecp5_est"], "{:.2f}"),
                  _f(r["latency_us_v6_ours"], "{:.2f}"), _f(r["latency_us_v6_paper"]),
                  _f(r["latency_us_s6_ours"], "{:.2f}"), _f(r["latency_us_s6_paper"])] for r in br]
-        L += _table(["P", "b", f"cycles/solve (Imax = {imax})", "us est.", "us at 400 MHz", "Table III(b) V6",
+        L += _table(["P", "b", f"cycles/solve (Imax = {imax})", "cycles/solve est.", "us est.", "us at 400 MHz",
+                     "Table III(b) V6",
                      "us at 230 MHz", "Table III(b) S6"], body)
     if sw and br:
         lo, hi = sw["u_box"]
@@ -1714,6 +1753,7 @@ def report_md(cores: list[Core], fgm: list[dict], admm: list[dict], sw: dict, in
         "## Summary",
         "",
     ]
+    fgm_all, fgm = fgm, [r for r in fgm if r["role"] == "sweep"]
     if fgm:
         r0 = fgm[0]
         L += [f"### FGM core, {r0['problem']} (n = {r0['n']}, nw = {r0['nw']}, Imax = {r0['imax']}, truncation)", "",
@@ -1734,15 +1774,20 @@ def report_md(cores: list[Core], fgm: list[dict], admm: list[dict], sw: dict, in
               f"the overhead measured at Imax = {r0['imax_simulated']} + {r0['imax']} L_A (computed, not simulated "
               f"at {r0['imax']}). mult. ours: P max(n_A, nw + 1); Table I of 002: P n_A. fits LFE5U-85F: the "
               "synthesised core's hard blocks against the device's (no place and route when they do not fit). "
-              "V6/S6: our cycles at 400/230 MHz, Table III(b) of 002 in brackets. us est.: our cycles at "
+              "V6/S6: our cycles at 400/230 MHz, Table III(b) of 002 in brackets. us est.: our cycles (at the "
+              f"small cores' latencies, {_est_lat_text(big)}) at "
               f"{_f(est, '{:.0f}')} MHz, the ECP5 Fmax of the small ADMM problem below (an estimate, the masses "
               "core fits no ECP5). x / core: median software time per solve on this CPU over the core's latency, "
               "at the estimate / at 400 MHz. MAC use: n_A^2 / (multipliers x L_A).", ""]
-    if small:
-        L += [f"### ADMM core, Fmax on the LFE5U-85F: small problem {small[0]['problem']} (n_A = {small[0]['n']})", "",
-              *admm_fmax_summary_table(small), ""]
-    if fgm:
-        L += fgm_section(fc, fgm, sw.get("fgm"))
+    fast = [r for r in fgm_all if r["role"] == "fmax"] + small
+    if fast:
+        L += ["### Fmax on the LFE5U-85F with pipelining", "",
+              "The cores above use the spec's l_A = l_M = 1, the latencies of 002. These are generated with "
+              "raised latencies (FGM: l_M = {fgm[lat_mul]}; ADMM, on a small problem the device holds: l_A = "
+              "{admm[lat_add]}, l_M = {admm[lat_mul]}); their cycle contracts follow eq. (23)/(24) at those "
+              "latencies.".format(**FMAX_LAT), "", *fmax_summary_table(fast), ""]
+    if fgm_all:
+        L += fgm_section(fc, fgm_all, sw.get("fgm"))
     if admm:
         L += admm_section(ac, admm, sw.get("admm"))
     if info["errors"]:
@@ -1791,6 +1836,8 @@ def main(argv=None) -> None:
     ap.add_argument("--cores", default="fgm,admm", help="which cores to benchmark (fgm, admm or both)")
     ap.add_argument("--P", default=None, help="FGM: comma-separated P values (default 1,2,4,8; QUICK 1)")
     ap.add_argument("--b", default=None, help="FGM: comma-separated frac_bits (default 12,16; QUICK 16)")
+    ap.add_argument("--fgm-fmax-P", default=None,
+                    help="FGM masses pipelined for Fmax (b = 16, l_A = 1, l_M = 3): P values (default 1,2; QUICK 1)")
     ap.add_argument("--admm-P", default=None, help="ADMM masses_rate_soft: P values (default 1,2,4,8; QUICK 1)")
     ap.add_argument("--admm-b", default=None, help="ADMM masses_rate_soft: frac_bits (default 18)")
     ap.add_argument("--admm-small-P", default=None, help="ADMM small problem for Fmax: P values (default 1,2; QUICK 1)")
@@ -1810,6 +1857,7 @@ def main(argv=None) -> None:
     if not kinds <= {"fgm", "admm"}:
         sys.exit(f"error: --cores {a.cores}: expected fgm, admm or both")
     Ps = _ints(a.P, QUICK_P if a.quick else FULL_P) if "fgm" in kinds else ()
+    fPs = _ints(a.fgm_fmax_P, FGM_FMAX_QUICK_P if a.quick else FGM_FMAX_FULL_P) if "fgm" in kinds else ()
     bs = _ints(a.b, QUICK_B if a.quick else FULL_B) if "fgm" in kinds else ()
     aPs = _ints(a.admm_P, ADMM_QUICK_P if a.quick else ADMM_FULL_P) if "admm" in kinds else ()
     abs_ = _ints(a.admm_b, ADMM_QUICK_B if a.quick else ADMM_FULL_B) if "admm" in kinds else ()
@@ -1825,7 +1873,7 @@ def main(argv=None) -> None:
     log = Log()
     info = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "machine": machine(), "quick": a.quick, "Ps": Ps, "bs": bs, "admm_Ps": aPs, "admm_bs": abs_,
-            "admm_small_Ps": sPs, "xilinx": xilinx, "jobs": a.jobs, "errors": [], "sw_seconds": {}}
+            "admm_small_Ps": sPs, "fgm_fmax_Ps": fPs, "xilinx": xilinx, "jobs": a.jobs, "errors": [], "sw_seconds": {}}
     m = info["machine"]
     log(f"bench on {m['cpu']}, {m['cores']} cores; FGM P = {Ps}, b = {bs}; ADMM P = {aPs}, b = {abs_}, small "
         f"P = {sPs}; Xilinx synthesis {'on' if xilinx else 'off'}")
@@ -1846,6 +1894,17 @@ def main(argv=None) -> None:
                     continue
                 fgm_designs[b] = d
                 cores.append(Core("fgm", "masses", P, b, out / "cores" / f"masses_p{P}_b{b}", d, d.iterations))
+        la, lm = FMAX_LAT["fgm"]["lat_add"], FMAX_LAT["fgm"]["lat_mul"]
+        for P in fPs:
+            try:
+                d = cached_design(designs, f"fgm_masses_p{P}_b{FGM_FMAX_B}_la{la}_lm{lm}",
+                                  ("fgm", spec, P, FGM_FMAX_B, la, lm),
+                                  lambda P=P: design_fgm(problem, P=P, frac_bits=FGM_FMAX_B, **FMAX_LAT["fgm"]))
+            except DesignError as e:
+                info["errors"].append(f"FGM P={P} l_A={la} l_M={lm}: design refused: {e}")
+                continue
+            cores.append(Core("fgm", "masses", P, FGM_FMAX_B, out / "cores" / f"masses_p{P}_b{FGM_FMAX_B}_la{la}_lm{lm}",
+                              d, d.iterations, role="fmax"))
     if "admm" in kinds:
         soft = load_spec(MASSES_SOFT)
         spec = MASSES_SOFT.read_bytes()
@@ -1868,10 +1927,12 @@ def main(argv=None) -> None:
                                   synth=not a.quick))
         if sPs:
             small = small_admm_problem()
-            d = cached_design(designs, f"admm_{small.name}", ("admm", json.dumps(SMALL_ADMM, sort_keys=True)),
-                              lambda: design_admm(small))
+            la, lm = FMAX_LAT["admm"]["lat_add"], FMAX_LAT["admm"]["lat_mul"]
+            d = cached_design(designs, f"admm_{small.name}_la{la}_lm{lm}",
+                              ("admm", json.dumps(SMALL_ADMM, sort_keys=True), la, lm),
+                              lambda: design_admm(small, **FMAX_LAT["admm"]))
             for P in sPs:
-                cores.append(Core("admm", small.name, P, d.b, out / "cores" / f"{small.name}_p{P}_b{d.b}",
+                cores.append(Core("admm", small.name, P, d.b, out / "cores" / f"{small.name}_p{P}_b{d.b}_la{la}_lm{lm}",
                                   dataclasses.replace(d, P=P, iterations=ADMM_SIM_IMAX), d.iterations, role="fmax"))
         log(f"ADMM designs in {time.perf_counter() - t:.0f} s")
 
@@ -1954,14 +2015,15 @@ def main(argv=None) -> None:
         log(f"FAILED plots: {e}")
     (out / "report.md").write_text(report_md(cores, fgm, admm, sw, info))
     log(f"wrote {out / 'report.md'}, " + ", ".join(p.name for p in written))
-    if fgm:
-        print("\nFGM, masses\n" + "\n".join(fgm_summary_table(fgm)))
+    if any(r["role"] == "sweep" for r in fgm):
+        print("\nFGM, masses\n" + "\n".join(fgm_summary_table([r for r in fgm if r["role"] == "sweep"])))
     big = [r for r in admm if r["role"] == "sweep"]
     small = [r for r in admm if r["role"] == "fmax"]
     if big:
         print(f"\nADMM, {big[0]['problem']}\n" + "\n".join(admm_summary_table(big)))
-    if small:
-        print(f"\nADMM Fmax, {small[0]['problem']}\n" + "\n".join(admm_fmax_summary_table(small)))
+    fast = [r for r in fgm if r["role"] == "fmax"] + small
+    if fast:
+        print("\nFmax with pipelining\n" + "\n".join(fmax_summary_table(fast)))
     print(f"\n{'QUICK' if a.quick else 'full'} bench: {info['runtime_s'] / 60:.1f} min")
     if info["errors"]:
         print("\nfailed steps:\n  " + "\n  ".join(info["errors"]))
