@@ -1468,8 +1468,9 @@ def _memories(cores: list[Core]) -> list[str]:
 def _fmax_section(cores: list[Core], recs: list[dict], lpf: str) -> list[str]:
     tgt = next((r["fmax_target_mhz"] for r in recs if r["fmax_target_mhz"]), None)
     L = [f"Constraint from constraints/{lpf} (`--freq {_f(tgt, '{:g}')}`), seed {PNR_SEED}, "
-         "`--lpf-allow-unconstrained`: the LPF has the clock only, so nextpnr places the AXI pins itself "
-         "(the Fmax below is register to register; the I/O paths are unconstrained).", ""]
+         "`--lpf-allow-unconstrained`: the LPF sets the clock and the I/O standard (LVCMOS33) but no pin sites, "
+         "so nextpnr places the AXI pins itself (the Fmax below is register to register; nextpnr-ecp5 has no I/O "
+         "timing constraints).", ""]
     body = []
     for c, r in zip(cores, recs):
         cp = (c.pnr or {}).get("critical_path")
