@@ -55,7 +55,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   seq.io.outFire    := m_axis.fire
   frameIn.io.take   := seq.io.start
   when(seq.io.done) { regs.solveDone(seq.io.runCycles) }
-  regs.busy := seq.io.running || seq.io.outValid || frameIn.io.full || frameIn.io.partial
+  regs.busy := seq.io.running || seq.io.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true)))
@@ -94,7 +94,6 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val tokQ   = tokAt(p.stageQ)
   val tokZ   = tokAt(p.stageZ)
   val tokNu  = tokAt(p.stageN)
-  val tokW   = tokAt(p.stageW)
 
   val wPad = VecInit((0 until m).map { j =>
     if (j < nw) wReg(j).pad(p.opW) else if (j == nw) (BigInt(1) << b).S(p.opW.W) else 0.S(p.opW.W)
@@ -212,7 +211,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
     wReg  := frameIn.io.frame
     warmL := warmNow
   }
-  val writeOk = tokW.valid && !(tokW.pass0 && warmL)
+  val tokW1   = tokAt(p.stageW - 1)
+  val weW     = RowToken.enables(tokW1, tokW1.valid && !(tokW1.pass0 && warmL), K)
   val ofV     = Wire(Vec(n, Bool()))
   for (j <- 0 until n) {
     val u = p.unitOf(j)
@@ -223,7 +223,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     when(warmCopy) {
       zReg(j)  := zReg(src)
       nuReg(j) := nuReg(src)
-    }.elsewhen(writeOk && tokW.k === slot.U) {
+    }.elsewhen(weW(slot)) {
       zReg(j)  := lane.z
       nuReg(j) := lane.nu
     }

@@ -49,7 +49,7 @@ class FgmCore(val p: FgmParams) extends Module {
   seq.io.outFire    := m_axis.fire
   frameIn.io.take   := seq.io.start
   when(seq.io.done) { regs.solveDone(seq.io.runCycles) }
-  regs.busy := seq.io.running || seq.io.outValid || frameIn.io.full || frameIn.io.partial
+  regs.busy := seq.io.running || seq.io.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map { u =>
@@ -90,11 +90,9 @@ class FgmCore(val p: FgmParams) extends Module {
   def tokAt(stage: Int): Token =
     if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(tokN), true.B)
   val tok1    = tokAt(1)
-  val tok2    = tokAt(2)
   val tokSum  = tokAt(p.stageSum)
   val tokT    = tokAt(p.stageT)
   val tokZ    = tokAt(p.stageZ)
-  val tokY    = tokAt(p.stageY)
   val tokBnd  = tokAt(p.stageT - 2)
   val tokYsub = tokAt(p.stageZ + p.latMul)
 
@@ -127,7 +125,7 @@ class FgmCore(val p: FgmParams) extends Module {
     // Cold start z0 = proj(0), from this row's bounds during the first pass.
     val lo1 = bndRam(u).io.rdata(p.zW - 1, 0).asSInt
     val hi1 = bndRam(u).io.rdata(2 * p.zW - 1, p.zW).asSInt
-    // registered: it fans out to the rows of the unit across the chip (written a cycle later, tok2)
+    // registered: it fans out to the rows of the unit across the chip (written a cycle later, weCold)
     unitCold(u) := RegNext(Mux(!lo1(p.zW - 1) && lo1 =/= 0.S, lo1, Mux(hi1(p.zW - 1), hi1, 0.S)))
 
     // t = (I - H_n) y - h
@@ -175,6 +173,9 @@ class FgmCore(val p: FgmParams) extends Module {
     wReg  := frameIn.io.frame
     warmL := warmNow
   }
+  val weCold = RowToken.enables(tok1, tok1.valid && tok1.pass0 && !warmL, K)
+  val tokY1  = tokAt(p.stageY - 1)
+  val weY    = RowToken.enables(tokY1, tokY1.valid && !tokY1.pass0, K)
   for (r <- 0 until n) {
     val u   = r % P
     val k   = r / P
@@ -182,13 +183,13 @@ class FgmCore(val p: FgmParams) extends Module {
     when(warmCopy) {
       yReg(r) := zReg(src).pad(p.yW)
       zReg(r) := zReg(src)
-    }.elsewhen(tok2.valid && tok2.pass0 && tok2.k === k.U && !warmL) {
+    }.elsewhen(weCold(k)) {
       yReg(r) := unitCold(u).pad(p.yW)
       zReg(r) := unitCold(u)
     }.elsewhen(copyNow) {
       yReg(r) := yNext(r)
     }
-    when(tokY.valid && !tokY.pass0 && tokY.k === k.U) {
+    when(weY(k)) {
       yNext(r) := unitY(u)
       zReg(r)  := unitZ(u)
     }

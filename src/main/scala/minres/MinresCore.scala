@@ -328,9 +328,9 @@ class MinresCore(val p: MinresParams) extends Module {
   }
 
   // ---- registers: the shared ones, STATUS bit 6 NONFINITE (write 1 to clear)
-  regs.busy := state =/= sIdle || full.asUInt.orR || ldWord =/= 0.U || ldSlot =/= 0.U
+  regs.busy := state =/= sIdle || full.asUInt.orR || ldWord =/= 0.U || ldSlot =/= 0.U || s_axis.fire
   when(regs.axil.rd.addr === SolverRegs.STATUS.U) {
-    regs.axil.rd.data := Cat(nonfinite, false.B, regs.stTlast, regs.stRej, regs.stOvf, regs.stSat, regs.busy)
+    regs.axil.rd.data := Cat(nonfinite, false.B, regs.stTlast, regs.stRej, regs.stOvf, regs.stSat, regs.busyR)
   }
   when(regs.axil.wr.valid && regs.wA === SolverRegs.STATUS.U && regs.wD(6)) { nonfinite := false.B }
   regs.writes()

@@ -14,6 +14,14 @@ class RowToken(kW: Int) extends Bundle {
   val k = UInt(kW.W)
 }
 
+object RowToken {
+  /** One write enable per row slot k < K, `cond && tok.k === k` a cycle ahead and registered: the enables of the
+    * row registers come straight from flip-flops, not through a decoder on the token path. Pass the token (and
+    * cond) of the stage before the one the writes belong to. */
+  def enables(tok: RowToken, cond: Bool, K: Int): Vec[Bool] =
+    RegNext(VecInit((0 until K).map(k => cond && tok.k === k.U)), VecInit(Seq.fill(K)(false.B)))
+}
+
 /** Sequencer of a solve: idle -> run (the first pass, then Imax iterations) -> out (the result frame).
   *
   * The first pass issues rows 0..K-1 and lasts `firstLen` cycles; each iteration issues rows 0..K-1 and lasts `L`

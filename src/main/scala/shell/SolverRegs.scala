@@ -83,8 +83,12 @@ class SolverRegs(
   val warmValid  = RegInit(false.B)
   val solves     = RegInit(0.U(32.W))
   val lastCycles = RegInit(0.U(32.W))
-  /** driven by the core: a frame is arriving, a solve runs or results wait */
+  /** driven by the core: a frame is arriving (the handshake of its words included), a solve runs or results wait */
   val busy = Wire(Bool())
+  /** `busy` a cycle later: the data-write rules and STATUS use it, so the write decode starts at a flip-flop. It is
+    * high wherever `busy` is (a solve only begins with an input word's handshake, which `busy` covers) and for one
+    * cycle after. */
+  val busyR = RegNext(busy, false.B)
 
   /** A solve finished after `cycles` cycles: count it and validate the warm start. */
   def solveDone(cycles: UInt): Unit = {
@@ -106,7 +110,7 @@ class SolverRegs(
     is(CONFIG1.U) { axil.rd.data := config1 }
     is(CTRL.U) { axil.rd.data := Cat(ctrlOutAll, ctrlHold, ctrlWarm) }
     is(IMAX.U) { axil.rd.data := imaxReg }
-    is(STATUS.U) { axil.rd.data := Cat(warmValid, stTlast, stRej, stOvf, stSat, busy) }
+    is(STATUS.U) { axil.rd.data := Cat(warmValid, stTlast, stRej, stOvf, stSat, busyR) }
     is(SOLVES.U) { axil.rd.data := solves }
     is(LAST_CYCLES.U) { axil.rd.data := lastCycles }
     is(CYCLES_PER_ITER.U) { axil.rd.data := cyclesPerIteration.U }
@@ -126,7 +130,7 @@ class SolverRegs(
     * `fitW` signed bits; otherwise `body` runs in the cycle of the write.
     */
   def dataWrite(fitW: Int, ok: Bool)(body: => Unit): Unit = {
-    when(busy) {
+    when(busyR) {
       axil.wr.resp := AxiLiteResp.SLVERR
       when(axil.wr.valid) { stRej := true.B }
     }.elsewhen(!ok) {
