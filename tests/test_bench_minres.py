@@ -317,3 +317,21 @@ def test_software_solvers_on_the_small_problem():
     assert acc["systems"] == 2 and acc["direct_max"] < 1e-12
     # N iterations do not converge this indefinite system in finite precision, but both reduce the residual
     assert 0 < acc["f64_max"] < 0.5 and 0 < acc["core_max"] < 0.5
+
+
+def test_mem_list():
+    mems = {"Top.vmem_ext.Memory": "FF", "Top.wmem_ext.Memory": "TRELLIS_DPR16X4",
+            "Top.$auto$proc_rom.cc:155:do_switch$1644": "FF", "Top.$auto$proc_rom.cc:155:do_switch$1640": "FF",
+            "Top.bndRam_0.mem": "PDPW16KD"}
+    assert bm.mem_list(mems) == ("bndRam_0 -> PDPW16KD, vmem -> FF, wmem -> TRELLIS_DPR16X4, "
+                                 "2 ROM/unnamed -> FF")
+    assert bm.mem_list({}) == ""
+
+
+def test_summary_falls_back_to_150_mhz():
+    c = _core("masses", 1, 216, 20, 592, 216, 592, 825)
+    r = bm.minres_rows([c], _sw(6000.0, 3000.0), {"masses": 2280})[0]
+    lat = (825 + 216 * 592) / 150.0
+    assert r["numpy_over_core_per_problem_150"] == pytest.approx(3000.0 / lat)
+    row = bm.summary_table([r])[2]
+    assert f"{lat:.0f} (150 MHz)" in row and f"{3000.0 / lat:.1f}x" in row

@@ -35,12 +35,12 @@ import numpy as np
 
 from verif.bench import (
     CONSTRAINTS, ECP5_85F, PNR_SEED, Log, _cached, _digest, _f, _generator_digest, _table, ecp5_fit,
-    latency_us, machine, ratio, run_jobs, synth_ecp5_and_pnr, synth_xc7, wait_for_sbt, write_csv,
+    latency_us, lpf_frequency, machine, ratio, run_jobs, synth_ecp5_and_pnr, synth_xc7, wait_for_sbt, write_csv,
 )
 from verif.flow import REPO
 
 MASSES = REPO / "examples/masses.yaml"
-FULL_P = (1, 2, 4, 8)
+FULL_P = (1, 2, 3, 4, 8)
 QUICK_P = (1,)
 # 001 section VIII-C: "a clock frequency above 150MHz is achievable" (Virtex-6, post place and route).
 F_001_MHZ = 150.0
@@ -404,12 +404,15 @@ def fmax_estimate(cores: list[MinresCore]) -> tuple[float | None, str]:
 
 
 def _sw_columns(r: dict, sw: dict | None, lat_batch: float | None, P: int) -> None:
+    """Software medians and their ratios to the core's latency (at its Fmax or the estimate; and at 150 MHz)."""
     for key, _ in SOLVERS:
         us = median_us(sw[key]["times_us"]) if sw and key in sw else None
         r[f"{key}_us"] = us
         r[f"{key}_us_per_iteration"] = us / r["imax"] if us is not None else None
         r[f"{key}_over_core_batch"] = ratio(us, lat_batch)
         r[f"{key}_over_core_per_problem"] = ratio(us, lat_batch / P if lat_batch else None)
+        r[f"{key}_over_core_batch_150"] = ratio(us, r["latency_batch_us_150"])
+        r[f"{key}_over_core_per_problem_150"] = ratio(us, r["latency_per_problem_us_150"])
 
 
 def minres_rows(cores: list[MinresCore], sw: dict | None, nnz: dict) -> list[dict]:
@@ -490,19 +493,37 @@ def summary_table(recs: list[dict]) -> list[str]:
     body = []
     for r in recs:
         est = r["fmax_mhz"] is None and r.get("latency_batch_us_est") is not None
-        star = " (est.)" if est else ""
+        at150 = r["fmax_mhz"] is None and not est
+        star = " (est.)" if est else " (150 MHz)" if at150 else ""
+        sfx = "_150" if at150 else ""
         body.append([
             str(r["P"]), f"{_n(r['cycles_per_iteration_measured'])} ({r['cycles_PN_plus_P']})",
             f"{_n(r['batch_cycles_measured'])} ({r['imax']})", f"{_n(r['fp_units'])} ({r['fp_units_001']})",
             f"{_n(r.get('ecp5_MULT18X18D'))} / {_n(r.get('xc7_DSP48E1'))}",
             f"{_n(r.get('ecp5_LUT4'))} / {_n(r.get('xc7_LUT'))}", f"{_n(r.get('ecp5_FF'))} / {_n(r.get('xc7_FF'))}",
             _fit_text(r) if not est else f"{_fit_text(r)}, est. {r['fmax_est_mhz']:.1f}",
-            _f(r["latency_batch_us"] or r.get("latency_batch_us_est"), "{:.0f}") + star,
-            _f(r["latency_per_problem_us"] or r.get("latency_per_problem_us_est"), "{:.0f}") + star,
-            _f(r["scipy_over_core_per_problem"], "{:.1f}x"), _f(r["numpy_over_core_per_problem"], "{:.1f}x"),
+            _f(r["latency_batch_us"] or r.get("latency_batch_us_est") or r["latency_batch_us_150"], "{:.0f}") + star,
+            _f(r["latency_per_problem_us"] or r.get("latency_per_problem_us_est") or r["latency_per_problem_us_150"],
+               "{:.0f}") + star,
+            _f(r[f"scipy_over_core_per_problem{sfx}"], "{:.1f}x"), _f(r[f"numpy_over_core_per_problem{sfx}"], "{:.1f}x"),
             _f(100 * r["utilisation"] if r["utilisation"] is not None else None, "{:.0f} %"),
         ])
     return _table(hdr, body)
+
+
+def mem_list(mems: dict[str, str]) -> str:
+    """'vmem -> FF, wmem -> TRELLIS_DPR16X4, ...' from yosys memory_libmap results ('Top.vmem_ext.Memory' ->
+    'vmem'); memories yosys made from case statements (the ROM columns, '$auto$proc_rom...') counted per kind."""
+    named, unnamed = [], {}
+    for k, v in sorted(mems.items()):
+        parts = k.split(".")
+        name = parts[-2] if len(parts) > 2 and parts[-1] in ("Memory", "mem") else parts[-1]
+        name = name.removesuffix("_ext")
+        if "$" in name:
+            unnamed[v] = unnamed.get(v, 0) + 1
+        else:
+            named.append(f"{name} -> {v}")
+    return ", ".join(named + [f"{n} ROM/unnamed -> {v}" for v, n in sorted(unnamed.items())])
 
 
 def _fmax_rows(cores: list[MinresCore], recs: list[dict]) -> list[str]:
@@ -531,8 +552,6 @@ def _fmax_rows(cores: list[MinresCore], recs: list[dict]) -> list[str]:
 
 def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, info: dict) -> list[str]:
     """The "## MINRES core" section of report.md."""
-    from verif.bench import _memories
-
     big = [(c, r) for c, r in zip(cores, recs) if c.role == "sweep"]
     small = [(c, r) for c, r in zip(cores, recs) if c.role == "fmax"]
     br = [r for _, r in big]
@@ -584,12 +603,14 @@ def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, i
           "memories have asynchronous reads and up to five read ports, which no block RAM offers: Yosys builds "
           "them from distributed RAM or flip-flops, which is why FF and LUT4 grow with P.", "",
           "Memories as Yosys inferred them (memory_libmap):", ""]
-    L += _memories(cores) or ["- (none reported)"]
+    L += [f"- {c.tag}: ECP5 {mem_list(c.ecp5_mem) or '-'}; xc7 {mem_list(c.xc7_mem) or '-'}" for c in cores
+          if c.ecp5_mem or c.xc7_mem] or ["- (none reported)"]
     L += ["", "Storage words (core.json): " + "; ".join(
         f"P = {r['P']}: {r['storage_words']} (001's bound {r['storage_bound_001']}, dense-band CDS "
         f"{r['storage_dense_cds']})" for r in br) + ".", ""]
     L += ["### Fmax and critical path (nextpnr-ecp5, LFE5U-85F, CABGA381, speed 8)", ""]
-    tgt = next((r["fmax_target_mhz"] for r in recs if r.get("fmax_target_mhz")), None)
+    tgt = next((r["fmax_target_mhz"] for r in recs if r.get("fmax_target_mhz")), None) \
+        or lpf_frequency(CONSTRAINTS.joinpath("minres_core.lpf").read_text())
     L += [f"constraints/minres_core.lpf (`--freq {_f(tgt, '{:g}')}`, 001's clock), seed {PNR_SEED}, "
           "`--lpf-allow-unconstrained`: the LPF has the clock only, so the Fmax is register to register. "
           + info.get("pnr_text", ""), ""]
@@ -642,7 +663,7 @@ def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, i
                      "relative residual median / max"], body)
         if acc:
             L += ["", f"The core (bit-exact binary32 model, the words the RTL returns) on the first {acc['systems']} "
-                  f"systems: relative residual ||b - K x|| / ||b|| median {acc['core_median']:.1e}, max "
+                  f"system(s): relative residual ||b - K x|| / ||b|| median {acc['core_median']:.1e}, max "
                   f"{acc['core_max']:.1e} after {r0['imax']} iterations; float64 MINRES {acc['f64_max']:.1e}; "
                   f"a direct solve {acc['direct_max']:.1e} (median condition number {acc['cond']:.0f}). MINRES on "
                   "this indefinite system is not converged to float64 precision in N iterations; the binary32 core "
@@ -651,12 +672,17 @@ def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, i
         body = [[str(r["P"]), _f(r["latency_batch_us"] or r["latency_batch_us_est"], "{:.0f}"),
                  _f(r["latency_per_problem_us"] or r["latency_per_problem_us_est"], "{:.0f}"),
                  _f(r["scipy_over_core_batch"], "{:.1f}x"), _f(r["scipy_over_core_per_problem"], "{:.1f}x"),
-                 _f(r["numpy_over_core_batch"], "{:.1f}x"), _f(r["numpy_over_core_per_problem"], "{:.1f}x")]
+                 _f(r["numpy_over_core_batch"], "{:.1f}x"), _f(r["numpy_over_core_per_problem"], "{:.1f}x"),
+                 f"{_f(r['scipy_over_core_batch_150'], '{:.1f}x')} / {_f(r['scipy_over_core_per_problem_150'], '{:.1f}x')}",
+                 f"{_f(r['numpy_over_core_batch_150'], '{:.1f}x')} / {_f(r['numpy_over_core_per_problem_150'], '{:.1f}x')}"]
                 for r in br]
         L += _table(["P", "core us per batch", "core us per problem", "scipy / core batch",
-                     "scipy / core per problem", "numpy / core batch", "numpy / core per problem"], body)
+                     "scipy / core per problem", "numpy / core batch", "numpy / core per problem",
+                     "scipy / core at 150 MHz: batch / per problem", "numpy / core at 150 MHz: batch / per problem"],
+                    body)
         L += ["", "x / core batch: software time per solve over the core's latency for a batch (what one problem "
-              "waits); x / core per problem: over the batch latency / P (throughput with P problems in flight)."
+              "waits); x / core per problem: over the batch latency / P (throughput with P problems in flight). "
+              "The last two columns put the core at 001's 150 MHz."
               + (" Latencies at the estimated Fmax where the core was not placed." if est else ""), ""]
     L += ["### Utilisation", ""]
     body = [[c.problem, str(r["P"]), _n(r["nnz"]), _n(r["useful_flops"]), str(r["band_flops"]), _n(r["fp_units"]),
@@ -730,11 +756,12 @@ def synth_ecp5(c: MinresCore, log) -> None:
 
 
 def run_minres(out: Path, quick: bool, jobs: int, log, xilinx: bool, Ps: tuple | None = None,
-               place: bool | None = None, small: bool | None = None) -> dict:
+               place: bool | None = None, small: bool | None = None, synth_Ps: tuple | None = None) -> dict:
     """The MINRES part of the benchmark: cores under out/minres/cores, returns {"rows": one record per core (for
     minres.csv), "section": report.md lines ("## MINRES core"), "summary": README table lines, "errors": failed
     steps}. quick: P = QUICK_P, no place and route of masses, fewer software passes; xilinx: also synth_xilinx.
-    Ps, place (nextpnr on the masses cores) and small (the small problem for Fmax) override the defaults."""
+    Ps, place (nextpnr on the masses cores), small (the small problem for Fmax) and synth_Ps (the masses cores
+    Yosys synthesises; default all: 13 min for P = 1 on a 2-core EPYC, more with P) override the defaults."""
     from verif.minres.design import DesignError, design_minres
     from verif.problem import load_spec
 
@@ -742,6 +769,7 @@ def run_minres(out: Path, quick: bool, jobs: int, log, xilinx: bool, Ps: tuple |
     Ps = tuple(Ps or (QUICK_P if quick else FULL_P))
     place = (not quick) if place is None else place
     small = (not quick) if small is None else small
+    synth_Ps = tuple(Ps if synth_Ps is None else synth_Ps)
     root = Path(out).resolve() / "minres"
     if root.parts[:2] == ("/", "tmp"):
         raise ValueError(f"{root}: the YoWASP tools see their own private /tmp, choose a folder elsewhere")
@@ -813,6 +841,9 @@ def run_minres(out: Path, quick: bool, jobs: int, log, xilinx: bool, Ps: tuple |
         count_units(c)
         # rough seconds on a 2-core machine, for longest-first scheduling
         hw.append((100 + 20 * c.P, f"{c.tag} verilator", lambda c=c: measure_cycles(c, log)))
+        if c.role == "sweep" and c.P not in synth_Ps:
+            c.pnr_note = "not synthesised in this run"
+            continue
         hw.append((400 * c.P + (600 if c.place else 0), f"{c.tag} ecp5", lambda c=c: synth_ecp5(c, log)))
         if xilinx and c.role == "sweep":
             hw.append((300 * c.P, f"{c.tag} xc7", lambda c=c: synth_xc7(c, log)))
@@ -829,7 +860,9 @@ def run_minres(out: Path, quick: bool, jobs: int, log, xilinx: bool, Ps: tuple |
     placed = [c for c in cores if c.pnr]
     info["pnr_text"] = (("Placed and routed: " + ", ".join(c.tag for c in placed) + ". ") if placed else
                         "No core was placed and routed in this run. ") + (
-        "" if place else "Place and route of the masses cores is off in this run (QUICK, or --no-place); ")
+        "" if place else "Place and route of the masses cores was off in this run (QUICK or --no-place). ") + (
+        f"Yosys synthesised the masses cores at P = {', '.join(map(str, synth_Ps))} only (13 min for P = 1 on a "
+        "2-core EPYC, longer with P). " if set(Ps) - set(synth_Ps) else "")
     sweep = [r for r in rows if r["role"] == "sweep"]
     section = minres_section(cores, rows, sw, info)
     summary = [f"MINRES core, {sweep[0]['problem']} (N = {sweep[0]['N']}, M = {sweep[0]['M']}, Imax = "
@@ -850,11 +883,13 @@ def main(argv=None) -> None:
     ap.add_argument("--no-xilinx", action="store_true")
     ap.add_argument("--no-place", action="store_true", help="no nextpnr on the masses cores")
     ap.add_argument("--no-small", action="store_true", help=f"no {SMALL['name']} core for Fmax")
+    ap.add_argument("--synth-P", default=None, help="masses P values to synthesise (default: all of --P)")
     a = ap.parse_args(argv)
     out = Path(a.out).resolve()
     log = Log()
     res = run_minres(out, a.quick, a.jobs, log, not (a.quick or a.no_xilinx), Ps=_ints(a.P, ()) or None,
-                     place=False if a.no_place else None, small=False if a.no_small else None)
+                     place=False if a.no_place else None, small=False if a.no_small else None,
+                     synth_Ps=_ints(a.synth_P, ()) if a.synth_P else None)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(out / "minres.csv", res["rows"])
     m = machine()
