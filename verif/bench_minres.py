@@ -584,7 +584,9 @@ def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, i
               "of a pass through the dot-product block. With a smaller P the chain from a slot's feed to its next "
               "v_(j+1) (`need` cycles) does not fit in P N, so the slots stretch to S = ceil(need / P) and an "
               "iteration takes P S > P N + P. 001 counts iterations only; our batch adds the init pass "
-              "(v_1 = b / ||b||), the pipeline drain and the output stream (the overhead).", ""]
+              "(v_1 = b / ||b||), the pipeline drain and the output stream (the overhead). The column "
+              f"(P N + P) Imax at our P is 001's formula only where P is below its eq. (15) (P = {r0['P_eq15_001']}): "
+              "its schedule needs that many problems in flight.", ""]
     L += ["### Floating-point operators and resources (Yosys)", ""]
     body = [[c.problem, str(r["P"]), _n(r["fmul"]), _n(r["fadd"]), _n(r["fdiv"]), _n(r["fsqrt"]), _n(r["fp_units"]),
              str(r["fp_units_001"]), _n(r.get("ecp5_MULT18X18D")), _n(r.get("ecp5_LUT4")), _n(r.get("ecp5_CCU2C")),
@@ -596,7 +598,9 @@ def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, i
     L += ["", "FP operators: instances of the float library's FMul, FAdd, FDiv and FSqrt in the generated "
           "SystemVerilog (counted through the hierarchy). 001's Table I counts 4M - 3 floating-point units in the "
           "dot-product block and 27 others for its linear solver, 4M + 24; ours has 2M - 1 + 17 FMul, "
-          "2M - 2 + 8 + 2 l_A FAdd, 4 FDiv and 2 FSqrt (README, MINRES core). 001 reports no LUT, register, DSP "
+          "2M - 2 + 8 + 2 l_A FAdd, 4 FDiv and 2 FSqrt (README, MINRES core): the same 4M - 3 in the dot-product "
+          f"block and {_n(r0['fp_units'] - (4 * r0['M'] - 3) if r0['fp_units'] else None)} others (the 2-norm's own "
+          "accumulator, l_A partial sums per streaming accumulator, a fully pipelined scalar part). 001 reports no LUT, register, DSP "
           "or memory counts for a given problem (Fig. 6 plots them against n for a Virtex-6 VSX475T synthesised "
           "with XST), so there is nothing to put beside the Yosys counts. ECP5: `synth_ecp5`; xc7: `synth_xilinx "
           "-family xc7 -flatten` (RAMB in 36 Kb blocks); Yosys gives no timing for the Xilinx part. The vector "
@@ -836,17 +840,19 @@ def run_minres(out: Path, quick: bool, jobs: int, log, xilinx: bool, Ps: tuple |
         info["errors"].append(f"MINRES generation: {e}")
         log(f"FAILED MINRES generation: {e}")
         cores = [c for c in cores if c.core]
-    hw = []
+    sims, hw = [], []
     for c in cores:
         count_units(c)
         # rough seconds on a 2-core machine, for longest-first scheduling
-        hw.append((100 + 20 * c.P, f"{c.tag} verilator", lambda c=c: measure_cycles(c, log)))
+        sims.append((100 + 20 * c.P, f"{c.tag} verilator", lambda c=c: measure_cycles(c, log)))
         if c.role == "sweep" and c.P not in synth_Ps:
             c.pnr_note = "not synthesised in this run"
             continue
         hw.append((400 * c.P + (600 if c.place else 0), f"{c.tag} ecp5", lambda c=c: synth_ecp5(c, log)))
         if xilinx and c.role == "sweep":
             hw.append((300 * c.P, f"{c.tag} xc7", lambda c=c: synth_xc7(c, log)))
+    # the cycle measurements (about a minute each) before the syntheses (many minutes each)
+    info["errors"] += run_jobs(sims, jobs, log)
     info["errors"] += run_jobs(hw, jobs, log)
     loads.append(os.getloadavg()[0])
     sw2 = timing()
