@@ -621,8 +621,8 @@ def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, i
     L += _fmax_rows(cores, recs)
     if small:
         s0 = small[0][1]
-        L += ["", f"`{s0['problem']}` is a small MINRES problem built in verif/bench_minres.py (a random stable "
-              f"plant, n = {s0['n']}, m = {s0['m']}, T = {s0['T']}: N = {s0['N']}, M = {s0['M']}) with the same "
+        L += ["", f"`{s0['problem']}` is a small MINRES problem built in verif/bench_minres.py (a double integrator, "
+              f"n = {s0['n']}, m = {s0['m']}, T = {s0['T']}: N = {s0['N']}, M = {s0['M']}) with the same "
               "operators, scalar part and memories; its dot-product block has 2M - 1 = "
               f"{2 * s0['M'] - 1} products where masses has {2 * r0['M'] - 1}."]
     est = next((r["fmax_est_mhz"] for r in br if r.get("fmax_est_mhz")), None)
