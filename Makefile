@@ -53,9 +53,10 @@ demo: setup
 table2: setup
 	$(PY) -m verif.tables $(TABLE_ARGS)
 
-## bench: benchmark report of the FGM and ADMM cores into BENCH (cycles, Yosys resources, nextpnr Fmax, latency
-## against 002, OSQP and numpy on this CPU); QUICK=1 for the short sweep (FGM P = 1, 4, b = 16; ADMM P = 1,
-## b = 18, small problem P = 1; no Xilinx synthesis); BENCH_ARGS for more (e.g. --jobs 1, --cores admm)
+## bench: benchmark report of the FGM, ADMM and MINRES cores into BENCH (cycles, Yosys resources, nextpnr Fmax,
+## latency against 002/001, OSQP, scipy and numpy on this CPU); QUICK=1 for the short sweep (FGM P = 1, b = 16,
+## also pipelined; ADMM masses P = 1 in Verilator, small problem pipelined P = 1; MINRES P = 1 in Verilator; no
+## Xilinx synthesis); BENCH_ARGS for more (e.g. --jobs 1, --cores admm)
 BENCH ?= build/bench
 .PHONY: bench
 $(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed

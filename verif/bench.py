@@ -1,4 +1,5 @@
-"""Benchmark report of the FGM and ADMM cores (`make bench`, `make bench QUICK=1`).
+"""Benchmark report of the FGM, ADMM and MINRES cores (`make bench`, `make bench QUICK=1`; the MINRES part is
+verif/bench_minres.py).
 
 FGM core, masses (examples/masses.yaml, n = 40, Imax = 15), over P and frac_bits b:
   cycles       per iteration and per solve, measured in Verilator (cocotb test `cycle_contract` of verif.fgm.tb),
@@ -1834,7 +1835,7 @@ def main(argv=None) -> None:
                     help="FGM P = 1, b = 16; ADMM masses P = 1 (cycles only), small problem P = 1; no Xilinx; shorter loops")
     ap.add_argument("--out", default=str(REPO / "build/bench"))
     ap.add_argument("--jobs", type=int, default=2, help="parallel simulation/synthesis/place-and-route jobs")
-    ap.add_argument("--cores", default="fgm,admm", help="which cores to benchmark (fgm, admm or both)")
+    ap.add_argument("--cores", default="fgm,admm,minres", help="which cores to benchmark (fgm, admm, minres)")
     ap.add_argument("--P", default=None, help="FGM: comma-separated P values (default 1,2,4,8; QUICK 1)")
     ap.add_argument("--b", default=None, help="FGM: comma-separated frac_bits (default 12,16; QUICK 16)")
     ap.add_argument("--fgm-fmax-P", default=None,
@@ -1855,8 +1856,8 @@ def main(argv=None) -> None:
 
     t_start = time.perf_counter()
     kinds = {k.strip() for k in a.cores.split(",") if k.strip()}
-    if not kinds <= {"fgm", "admm"}:
-        sys.exit(f"error: --cores {a.cores}: expected fgm, admm or both")
+    if not kinds <= {"fgm", "admm", "minres"}:
+        sys.exit(f"error: --cores {a.cores}: expected some of fgm, admm, minres")
     Ps = _ints(a.P, QUICK_P if a.quick else FULL_P) if "fgm" in kinds else ()
     fPs = _ints(a.fgm_fmax_P, FGM_FMAX_QUICK_P if a.quick else FGM_FMAX_FULL_P) if "fgm" in kinds else ()
     bs = _ints(a.b, QUICK_B if a.quick else FULL_B) if "fgm" in kinds else ()
@@ -2003,9 +2004,16 @@ def main(argv=None) -> None:
     fgm = fgm_rows(fc, sw.get("fgm"))
     est, _ = admm_fmax_estimate(ac)
     admm = admm_rows(ac, sw.get("admm"), est)
+    minres = None
+    if "minres" in kinds:
+        from verif.bench_minres import run_minres
+
+        # QUICK: cycles and software only (Yosys alone takes 13 min on the masses MINRES core)
+        minres = run_minres(out, a.quick, a.jobs, log, xilinx, synth_Ps=() if a.quick else None)
+        info["errors"] += minres["errors"]
     info["runtime_s"] = time.perf_counter() - t_start
     written = []
-    for name, recs in (("fgm.csv", fgm), ("admm.csv", admm)):
+    for name, recs in (("fgm.csv", fgm), ("admm.csv", admm), ("minres.csv", minres["rows"] if minres else [])):
         if recs:
             write_csv(out / name, recs)
             written.append(out / name)
@@ -2014,7 +2022,10 @@ def main(argv=None) -> None:
     except Exception as e:
         info["errors"].append(f"plots: {e}")
         log(f"FAILED plots: {e}")
-    (out / "report.md").write_text(report_md(cores, fgm, admm, sw, info))
+    text = report_md(cores, fgm, admm, sw, info)
+    if minres:
+        text += "\n" + "\n".join(minres["section"]) + "\n"
+    (out / "report.md").write_text(text)
     log(f"wrote {out / 'report.md'}, " + ", ".join(p.name for p in written))
     if any(r["role"] == "sweep" for r in fgm):
         print("\nFGM, masses\n" + "\n".join(fgm_summary_table([r for r in fgm if r["role"] == "sweep"])))
@@ -2025,6 +2036,8 @@ def main(argv=None) -> None:
     fast = [r for r in fgm if r["role"] == "fmax"] + small
     if fast:
         print("\nFmax with pipelining\n" + "\n".join(fmax_summary_table(fast)))
+    if minres and minres["summary"]:
+        print("\n" + "\n".join(minres["summary"]))
     print(f"\n{'QUICK' if a.quick else 'full'} bench: {info['runtime_s'] / 60:.1f} min")
     if info["errors"]:
         print("\nfailed steps:\n  " + "\n  ".join(info["errors"]))
