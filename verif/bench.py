@@ -1737,7 +1737,7 @@ def report_md(cores: list[Core], fgm: list[dict], admm: list[dict], sw: dict, in
                     f"{' (cycles only)' if any(not c.synth for c in ac) else ''}, "
                     f"small problem P = {', '.join(map(str, info['admm_small_Ps']))}")
     L = [
-        "# Benchmark of the FGM and ADMM cores",
+        "# Benchmark of the solver cores",
         "",
         f"{info['date']} · {m['cpu']}, {m['cores']} cores ({m['logical']} logical CPUs) · {m['system']} · "
         f"Python {m['python']}",
