@@ -19,16 +19,23 @@ class MinresCtl(p: MinresParams) extends Bundle {
   val prim = UInt(log2Ceil(p.nPrimal + 1).W)
 }
 
-/** Counter of a pass: elements 0..S-1 of slots 0..P-1 of iterations 0..Imax, one element per cycle. */
+/** Counter of a pass: elements 0..S-1 of slots 0..P-1 of iterations 0..Imax, one element per cycle. `abort` stops
+  * it: a new batch starts while the passes of the previous one may still count through the idle end (e >= N) of
+  * their last slot, which is the case when S is stretched well beyond N. Left running, such a pass would compare
+  * its iteration with the new batch's Imax, run on past its own last iteration and write into the new batch's
+  * buffers.
+  */
 class PassCounter(p: MinresParams) {
   val run = RegInit(false.B)
   val c   = RegInit(0.U.asTypeOf(new MinresCtl(p)))
   /** an element of the matrix order is processed this cycle */
   def valid: Bool = run && c.e < p.N.U
-  def tick(start: Bool, imax: UInt): Unit = {
+  def tick(start: Bool, imax: UInt, abort: Bool): Unit = {
     when(start) {
       run := true.B
       c   := 0.U.asTypeOf(c)
+    }.elsewhen(abort) {
+      run := false.B
     }.elsewhen(run) {
       val lastE = c.e === (p.S - 1).U
       c.e := Mux(lastE, 0.U, c.e + 1.U)
@@ -181,10 +188,10 @@ class MinresCore(val p: MinresParams) extends Module {
   when(state === sRun) { g := g + 1.U }
   private def startAt(t: Int): Bool = if (t == 0) startBatch else state === sRun && g === (t - 1).U
 
-  val feed = new PassCounter(p); feed.tick(startAt(0), imax)
-  val pb   = new PassCounter(p); pb.tick(startAt(p.tB), imax)
-  val ps   = new PassCounter(p); ps.tick(startAt(p.tS), imax)
-  val pc   = new PassCounter(p); pc.tick(startAt(p.tC), imax)
+  val feed = new PassCounter(p); feed.tick(startAt(0), imax, false.B)
+  val pb   = new PassCounter(p); pb.tick(startAt(p.tB), imax, startBatch)
+  val ps   = new PassCounter(p); ps.tick(startAt(p.tS), imax, startBatch)
+  val pc   = new PassCounter(p); pc.tick(startAt(p.tC), imax, startBatch)
 
   // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
   val sr = Reg(Vec(taps, UInt(32.W)))
