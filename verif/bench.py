@@ -493,17 +493,10 @@ def wait_for_sbt(log, poll_s: float = 10.0) -> None:
 
 # ----------------------------------------------------------------------------------------- one core
 
-@dataclass
-class Core:
-    kind: str                    # "fgm" or "admm"
-    problem: str                 # spec name
-    P: int
-    b: int
-    out: Path
-    design: object               # what the generator elaborates
-    imax: int                    # the spec's Imax: cycles per solve are reported there
-    role: str = "sweep"          # "sweep": the paper's example at the spec's latencies; "fmax": pipelined for Fmax
-    synth: bool = True           # False: cycles only (QUICK's masses ADMM core)
+@dataclass(kw_only=True)
+class ToolResults:
+    """What the bench's tool steps (generation, Verilator, Yosys, nextpnr) record on a core of any kind. A core
+    class adds `kind`, `tag`, `design` (with `config()`), `placeable` and `hierarchical`."""
     core: dict = field(default_factory=dict)
     measured: dict | None = None
     ecp5: dict | None = None
@@ -513,6 +506,31 @@ class Core:
     pnr: dict | None = None
     pnr_note: str = ""
     seconds: dict = field(default_factory=dict)
+
+    @property
+    def lpf(self) -> Path:
+        return CONSTRAINTS / f"{self.kind}_core.lpf"
+
+    @property
+    def sv(self) -> Path:
+        return self.out / self.core["sv"]
+
+    @property
+    def module(self) -> str:
+        return self.core["module"]
+
+
+@dataclass
+class Core(ToolResults):
+    kind: str                    # "fgm" or "admm"
+    problem: str                 # spec name
+    P: int
+    b: int
+    out: Path
+    design: object               # what the generator elaborates
+    imax: int                    # the spec's Imax: cycles per solve are reported there
+    role: str = "sweep"          # "sweep": the paper's example at the spec's latencies; "fmax": pipelined for Fmax
+    synth: bool = True           # False: cycles only (QUICK's masses ADMM core)
 
     @property
     def tag(self) -> str:
@@ -533,25 +551,14 @@ class Core:
         ran out of the 4 GB a WebAssembly Yosys can address after 38 min."""
         return self.kind == "admm" and not self.placeable
 
-    @property
-    def lpf(self) -> Path:
-        return CONSTRAINTS / f"{self.kind}_core.lpf"
 
-    @property
-    def sv(self) -> Path:
-        return self.out / self.core["sv"]
-
-    @property
-    def module(self) -> str:
-        return self.core["module"]
-
-
-def generate(cores: list[Core], log: Log) -> None:
+def generate(cores: list[ToolResults], log: Log) -> None:
     """Elaborate the cores whose config or generator sources changed since the last run, one sbt call per kind."""
-    from verif.flow import generate_admm, generate_fgm
+    from verif.flow import generate_admm, generate_fgm, generate_minres
 
     gen = _generator_digest()
-    todo: dict[str, list] = {"fgm": [], "admm": []}
+    fns = {"fgm": generate_fgm, "admm": generate_admm, "minres": generate_minres}
+    todo: dict[str, list] = {k: [] for k in fns}
     for c in cores:
         key = _digest(json.dumps(c.design.config(), sort_keys=True), gen)
         kf = c.out / "bench_gen.key"
@@ -563,7 +570,7 @@ def generate(cores: list[Core], log: Log) -> None:
         todo[c.kind].append((c, kf, key))
     if not any(todo.values()):
         log("cores up to date (generator sources and configs unchanged)")
-    for kind, fn in (("fgm", generate_fgm), ("admm", generate_admm)):
+    for kind, fn in fns.items():
         if not todo[kind]:
             continue
         wait_for_sbt(log)
@@ -575,11 +582,15 @@ def generate(cores: list[Core], log: Log) -> None:
         for (c, kf, key), core in zip(todo[kind], outs):
             c.core = core
             kf.write_text(key)
-        log(f"generated in {time.perf_counter() - t:.0f} s")
+        dt = time.perf_counter() - t
+        for c, _, _ in todo[kind]:
+            c.seconds["sbt"] = dt / len(todo[kind])
+        log(f"generated in {dt:.0f} s")
 
 
-def measure_cycles(c: Core, log: Log) -> None:
-    """Cycles per iteration and per solve of the core in Verilator (cocotb test cycle_contract)."""
+def run_cycle_test(c: ToolResults, testcase: str) -> list[dict]:
+    """Run one cocotb test of the core's testbench (verif.<kind>.tb) in Verilator; the records it wrote to
+    CORE_MEASURE. Raises unless the test passed and wrote some; sets c.seconds["verilator"]."""
     from verif.sim import run_cocotb
 
     t = time.perf_counter()
@@ -587,11 +598,17 @@ def measure_cycles(c: Core, log: Log) -> None:
     measure.unlink(missing_ok=True)
     tests, failed = run_cocotb(c.sv, c.module, f"verif.{c.kind}.tb", c.out / "sim",
                                {"CORE_OUT": str(c.out.resolve()), "CORE_MEASURE": str(measure.resolve())},
-                               testcase="cycle_contract")
-    if (tests, failed) != (1, 0) or not measure.exists():
-        raise RuntimeError(f"cycle_contract failed ({tests} run, {failed} failed): see {c.out / 'sim' / 'sim.log'}")
-    c.measured = json.loads(measure.read_text().splitlines()[-1])
+                               testcase=testcase)
+    recs = [json.loads(ln) for ln in measure.read_text().splitlines()] if measure.exists() else []
+    if (tests, failed) != (1, 0) or not recs:
+        raise RuntimeError(f"{testcase} failed ({tests} run, {failed} failed): see {c.out / 'sim' / 'sim.log'}")
     c.seconds["verilator"] = time.perf_counter() - t
+    return recs
+
+
+def measure_cycles(c: Core, log: Log) -> None:
+    """Cycles per iteration and per solve of the core in Verilator (cocotb test cycle_contract)."""
+    c.measured = run_cycle_test(c, "cycle_contract")[-1]
     log(f"{c.tag}: measured {c.measured['cycles_per_iteration']} cycles/iteration, "
         f"{c.measured['cycles_per_solve']} cycles/solve at Imax = {c.measured['iterations']} "
         f"({c.seconds['verilator']:.0f} s)")
@@ -1363,6 +1380,14 @@ def _x(v) -> str:
     return _f(v, "{:.1f}x")
 
 
+def _resource_cells(r: dict) -> list[str]:
+    """mult. ours (Table I), MULT18X18D / DSP48E1, LUT4 / LUT, FF ECP5 / xc7."""
+    return [f"{r['multipliers']} ({r['multipliers_table1']})",
+            f"{_f(r.get('ecp5_MULT18X18D'), '{}')} / {_f(r.get('xc7_DSP48E1'), '{}')}",
+            f"{_f(r.get('ecp5_LUT4'), '{}')} / {_f(r.get('xc7_LUT'), '{}')}",
+            f"{_f(r.get('ecp5_FF'), '{}')} / {_f(r.get('xc7_FF'), '{}')}"]
+
+
 def fgm_summary_table(recs: list[dict]) -> list[str]:
     hdr = ["P", "b", "L_F meas (eq. 23)", "cycles/solve", "mult. ours (Table I)", "MULT18X18D / DSP48E1",
            "LUT4 / LUT", "FF ECP5 / xc7", "Fmax ECP5 MHz", "latency us ECP5", "V6 us ours (paper)",
@@ -1373,10 +1398,7 @@ def fgm_summary_table(recs: list[dict]) -> list[str]:
             str(r["P"]), str(r["b"]),
             f"{_f(r['cycles_per_iteration_measured'], '{}')} ({r['cycles_eq23']})",
             _f(r["cycles_per_solve_measured"], "{}"),
-            f"{r['multipliers']} ({r['multipliers_table1']})",
-            f"{_f(r.get('ecp5_MULT18X18D'), '{}')} / {_f(r.get('xc7_DSP48E1'), '{}')}",
-            f"{_f(r.get('ecp5_LUT4'), '{}')} / {_f(r.get('xc7_LUT'), '{}')}",
-            f"{_f(r.get('ecp5_FF'), '{}')} / {_f(r.get('xc7_FF'), '{}')}",
+            *_resource_cells(r),
             _f(r["fmax_mhz"], "{:.1f}", "no fit" if r["pnr_note"].startswith("does not fit") else "-"),
             _f(r["latency_us_ecp5"], "{:.2f}"),
             f"{_f(r['latency_us_v6_ours'])} ({_f(r['latency_us_v6_paper'])})",
@@ -1410,10 +1432,7 @@ def admm_summary_table(recs: list[dict]) -> list[str]:
             str(r["P"]), str(r["b"]),
             f"{_f(r['cycles_per_iteration_measured'], '{}')} ({r['cycles_eq24']})",
             _f(r["cycles_per_solve_measured"], "{}"),
-            f"{r['multipliers']} ({r['multipliers_table1']})",
-            f"{_f(r.get('ecp5_MULT18X18D'), '{}')} / {_f(r.get('xc7_DSP48E1'), '{}')}",
-            f"{_f(r.get('ecp5_LUT4'), '{}')} / {_f(r.get('xc7_LUT'), '{}')}",
-            f"{_f(r.get('ecp5_FF'), '{}')} / {_f(r.get('xc7_FF'), '{}')}",
+            *_resource_cells(r),
             _fit_cell(r),
             f"{_f(r['latency_us_v6_ours'])} ({_f(r['latency_us_v6_paper'])})",
             f"{_f(r['latency_us_s6_ours'])} ({_f(r['latency_us_s6_paper'])})",

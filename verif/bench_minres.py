@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import json
 import os
 import re
 import time
@@ -34,8 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from verif.bench import (
-    CONSTRAINTS, ECP5_85F, PNR_SEED, Log, _cached, _digest, _f, _generator_digest, _table, ecp5_fit,
-    latency_us, lpf_frequency, machine, ratio, run_jobs, synth_ecp5_and_pnr, synth_xc7, wait_for_sbt, write_csv,
+    CONSTRAINTS, ECP5_85F, PNR_SEED, Log, ToolResults, _f, _table, ecp5_fit, generate, latency_us, lpf_frequency,
+    machine, ratio, run_cycle_test, run_jobs, synth_ecp5_and_pnr, synth_xc7, write_csv,
 )
 from verif.flow import REPO
 
@@ -61,25 +60,16 @@ WEIGHTS = (0.1, 10.0)   # log-uniform interior-point weights, as verif/minres/tb
 # ----------------------------------------------------------------------------------------- one core
 
 @dataclass
-class MinresCore:
-    """One generated MINRES core with what the bench measures on it. Has the attributes verif.bench's Yosys and
-    nextpnr steps (`_yosys`, `synth_ecp5_and_pnr`, `synth_xc7`) use."""
+class MinresCore(ToolResults):
+    """One generated MINRES core with what the bench measures on it (verif.bench's generation, Yosys and nextpnr
+    steps serve it)."""
     problem: str
     P: int
     out: Path
     design: object               # verif.minres.design.MinresDesign
     role: str = "sweep"          # "sweep": masses over P; "fmax": the small problem for place and route
     kind: str = "minres"
-    core: dict = field(default_factory=dict)
-    measured: dict | None = None
-    ecp5: dict | None = None
-    ecp5_mem: dict = field(default_factory=dict)
-    xc7: dict | None = None
-    xc7_mem: dict = field(default_factory=dict)
-    pnr: dict | None = None
-    pnr_note: str = ""
     units: dict = field(default_factory=dict)
-    seconds: dict = field(default_factory=dict)
     place: bool = True           # False: synthesis for resources only, no nextpnr
 
     @property
@@ -95,50 +85,6 @@ class MinresCore:
     @property
     def hierarchical(self) -> bool:
         return False
-
-    @property
-    def lpf(self) -> Path:
-        return CONSTRAINTS / "minres_core.lpf"
-
-    @property
-    def sv(self) -> Path:
-        return self.out / self.core["sv"]
-
-    @property
-    def module(self) -> str:
-        return self.core["module"]
-
-
-def generate(cores: list[MinresCore], log) -> None:
-    """Elaborate the cores whose config or generator sources changed since the last run, in one sbt call."""
-    from verif.flow import generate_minres
-
-    gen = _generator_digest()
-    todo = []
-    for c in cores:
-        key = _digest(json.dumps(c.design.config(), sort_keys=True), gen)
-        kf = c.out / "bench_gen.key"
-        if _cached(kf, key, [c.out / "core.json"]):
-            core = json.loads((c.out / "core.json").read_text())
-            if (c.out / core["sv"]).exists():
-                c.core = core
-                continue
-        todo.append((c, kf, key))
-    if not todo:
-        log("MINRES cores up to date (generator sources and configs unchanged)")
-        return
-    wait_for_sbt(log)
-    log(f"generating {len(todo)} MINRES core(s) with sbt: " + ", ".join(c.tag for c, _, _ in todo))
-    t = time.perf_counter()
-    for _, kf, _ in todo:
-        kf.unlink(missing_ok=True)
-    for (c, kf, key), core in zip(todo, generate_minres([(c.design, c.out) for c, _, _ in todo])):
-        c.core = core
-        kf.write_text(key)
-    dt = time.perf_counter() - t
-    for c, _, _ in todo:
-        c.seconds["sbt"] = dt / len(todo)
-    log(f"generated in {dt:.0f} s")
 
 
 # ----------------------------------------------------------------------------------------- arithmetic
@@ -238,21 +184,10 @@ def float_units(sv: str, top: str) -> dict[str, int]:
 def measure_cycles(c: MinresCore, log) -> None:
     """Cycles per iteration and per batch of the core in Verilator (cocotb test cycles_per_iteration, which also
     checks every output word against the bit-exact model)."""
-    from verif.sim import run_cocotb
-
-    t = time.perf_counter()
-    measure = c.out / "measured.jsonl"
-    measure.unlink(missing_ok=True)
-    tests, failed = run_cocotb(c.sv, c.module, "verif.minres.tb", c.out / "sim",
-                               {"CORE_OUT": str(c.out.resolve()), "CORE_MEASURE": str(measure.resolve())},
-                               testcase="cycles_per_iteration")
-    recs = [json.loads(ln) for ln in measure.read_text().splitlines()] if measure.exists() else []
-    rec = next((r for r in recs if r.get("test") == "cycles"), None)
-    if (tests, failed) != (1, 0) or rec is None:
-        raise RuntimeError(f"cycles_per_iteration failed ({tests} run, {failed} failed): see "
-                           f"{c.out / 'sim' / 'sim.log'}")
+    rec = next((r for r in run_cycle_test(c, "cycles_per_iteration") if r.get("test") == "cycles"), None)
+    if rec is None:
+        raise RuntimeError(f"cycles_per_iteration wrote no cycle record: see {c.out / 'sim' / 'sim.log'}")
     c.measured = rec
-    c.seconds["verilator"] = time.perf_counter() - t
     log(f"{c.tag}: measured {rec['cycles_per_iteration']} cycles/iteration (P N + P = {rec['PN_plus_P']}), "
         f"batch cycles {rec['batch_cycles']} ({c.seconds['verilator']:.0f} s)")
 
@@ -642,7 +577,7 @@ def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, i
     L += ["", "us per batch: the latency of every problem of the batch (P problems go in together and come out "
           "together). us per problem: per batch / P, the time per solve at full throughput. 001 gives no latency "
           "table for one linear solve, only eq. (17) and (18) and plots: its column is (P N + P) Imax cycles "
-          f"(eq. (17)) with the P of its eq. (15) at the 150 MHz of section VIII-C, for the same N and Imax.", ""]
+          "(eq. (17)) with the P of its eq. (15) at the 150 MHz of section VIII-C, for the same N and Imax.", ""]
     if sw and r0["problem"] in sw:
         s = sw[r0["problem"]]
         acc = s.get("accuracy") or {}
