@@ -2,6 +2,7 @@
 PYTHON      ?= python3
 VENV        ?= .venv
 PY          := $(VENV)/bin/python
+MPC         := $(VENV)/bin/mpc-cores
 SBT_VERSION := 1.11.7
 SBT_JAR     := $(HOME)/.m2/repository/org/scala-sbt/sbt-launch/$(SBT_VERSION)/sbt-launch-$(SBT_VERSION).jar
 
@@ -17,9 +18,10 @@ GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--f
 
 .PHONY: setup verilog design test test-slow demo clean
 
-$(VENV)/.installed: requirements.txt
+$(VENV)/.installed: requirements.txt pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q -r requirements.txt
+	$(PY) -m pip install -q --disable-pip-version-check -r requirements.txt
+	$(PY) -m pip install -q --disable-pip-version-check --no-deps -e .
 	touch $@
 
 $(SBT_JAR):
@@ -30,11 +32,11 @@ setup: $(VENV)/.installed $(SBT_JAR)
 
 ## verilog: SystemVerilog, core.json and C header of CORE for PROBLEM into OUT (P, B override the spec)
 verilog: setup
-	$(PY) -m verif.cli verilog $(GEN_ARGS)
+	$(MPC) verilog $(GEN_ARGS)
 
 ## design: design report; with TOL, choose frac_bits and Imax with guarantees and write the spec for `make verilog`
 design: setup
-	$(PY) -m verif.cli design $(GEN_ARGS) $(if $(TOL),--tol $(TOL))
+	$(MPC) design $(GEN_ARGS) $(if $(TOL),--tol $(TOL))
 
 ## test: the verification suite (golden models, RTL against them in Verilator, refusals)
 test: setup
@@ -46,12 +48,12 @@ test-slow: setup
 
 ## demo: generate the FGM core for PROBLEM and run it in a closed loop with the Verilator model
 demo: setup
-	$(PY) -m verif.cli demo --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B))
+	$(MPC) demo --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B))
 
 ## table2: closed-loop cost tables (Table II(a) of 002, Table I of 000), Fig. 5/6 and the RTL subset into
 ## build/reports (TABLE_ARGS, e.g. --no-rtl)
 table2: setup
-	$(PY) -m verif.tables $(TABLE_ARGS)
+	$(MPC) table2 $(TABLE_ARGS)
 
 ## bench: benchmark report of the FGM, ADMM and MINRES cores into BENCH (cycles, Yosys resources, nextpnr Fmax,
 ## latency against 002/001, OSQP, scipy and numpy on this CPU); QUICK=1 for the short sweep (FGM P = 1, b = 16,
@@ -64,7 +66,7 @@ $(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed
 	touch $@
 
 bench: setup $(VENV)/.bench-installed
-	$(PY) -m verif.bench --out $(BENCH) $(if $(QUICK),--quick) $(BENCH_ARGS)
+	$(MPC) bench --out $(BENCH) $(if $(QUICK),--quick) $(BENCH_ARGS)
 
 ## clean: remove build folders only
 clean:

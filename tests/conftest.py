@@ -6,12 +6,29 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from verif.admm.design import design_admm  # noqa: E402
-from verif.fgm.design import design_fgm  # noqa: E402
-from verif.flow import REPO, generate_admm, generate_fgm  # noqa: E402
-from verif.problem import load_spec, problem_from_dict  # noqa: E402
+from mpc_cores.admm.design import design_admm  # noqa: E402
+from mpc_cores.fgm.design import design_fgm  # noqa: E402
+from mpc_cores.flow import REPO, generate_admm, generate_fgm  # noqa: E402
+from mpc_cores.problem import load_spec, problem_from_dict  # noqa: E402
 
 BUILD = REPO / "build" / "tests" / "fgm"
+
+
+def _plain(v):
+    """numpy scalars and containers as Python values (pytest-xdist sends recorded properties between processes)."""
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    return v.item() if isinstance(v, np.generic) else v
+
+
+@pytest.fixture
+def record_property(record_property):
+    """The built-in fixture, with values made serialisable for parallel runs."""
+    def record(name, value):
+        record_property(name, _plain(value))
+    return record
 
 
 def pytest_addoption(parser):
@@ -58,7 +75,7 @@ CASES = {
 
 
 def _certified_masses(tol: float):
-    from verif.fgm.certify import design_for_tolerance
+    from mpc_cores.fgm.certify import design_for_tolerance
 
     return design_for_tolerance(load_spec(REPO / "examples/masses.yaml"), tol)[0]
 

@@ -10,17 +10,17 @@ import pytest
 import scipy.optimize
 import yaml
 
-from verif.admm.control import (AdmmFixedController, AdmmFloatController, AdmmOsqpController, admm_references,
+from mpc_cores.admm.control import (AdmmFixedController, AdmmFloatController, AdmmOsqpController, admm_references,
                                 parameters, rate_and_box_ok)
-from verif.admm.design import DesignError, design_admm, sizing_parameters
-from verif.admm.model import AdmmFixed, AdmmFloat, applied_input, proj_soft, shift_stages
-from verif.admm.problem import (BOX, FREE, SOFT_D, SOFT_X, build_admm_qp, exact_penalty_check, project_soft,
+from mpc_cores.admm.design import DesignError, design_admm, sizing_parameters
+from mpc_cores.admm.model import AdmmFixed, AdmmFloat, applied_input, proj_soft, shift_stages
+from mpc_cores.admm.problem import (BOX, FREE, SOFT_D, SOFT_X, build_admm_qp, exact_penalty_check, project_soft,
                                 solve_hard_qp_osqp, solve_soft_qp_osqp)
-from verif.closedloop import run_closed_loop
-from verif.fgm.design import design_fgm
-from verif.fgm.model import FgmFixed, fgm_float_quantised
-from verif.problem import SpecError, condense, load_spec, problem_from_dict, steady_state_maps
-from verif.reference import solve_qp_osqp
+from mpc_cores.closedloop import run_closed_loop
+from mpc_cores.fgm.design import design_fgm
+from mpc_cores.fgm.model import FgmFixed, fgm_float_quantised
+from mpc_cores.problem import SpecError, condense, load_spec, problem_from_dict, steady_state_maps
+from mpc_cores.reference import solve_qp_osqp
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 SPEC = EXAMPLES / "masses_rate_soft.yaml"
@@ -47,7 +47,7 @@ def design(b=None, rounding=None, sizing_solves=None):
 
 @functools.lru_cache(maxsize=None)
 def osqp_loop(seed=0, steps=60):
-    """The optimal closed loop (verif.admm.control): references every 15 steps with the soft limits, the input box
+    """The optimal closed loop (mpc_cores.admm.control): references every 15 steps with the soft limits, the input box
     and the rate limit all active for long stretches (Fig. 5 of 002)."""
     p = problem()
     return run_closed_loop(p, AdmmOsqpController(qp()), np.zeros(p.nx), admm_references(p, steps, 15, seed))

@@ -1,4 +1,4 @@
-"""RTL of the generated ADMM core against the bit-exact golden model (verif/admm/model.py), over problems with
+"""RTL of the generated ADMM core against the bit-exact golden model (mpc_cores/admm/model.py), over problems with
 input-rate and soft state constraints and a spread of P, latencies and rounding; generator refusals.
 
 All cores are elaborated in one generator run (session fixture); each case builds its Verilator model once and
@@ -11,8 +11,8 @@ import json
 import pytest
 
 from conftest import ADMM_CASES
-from verif.flow import GeneratorError, run_generator
-from verif.sim import run_cocotb
+from mpc_cores.flow import GeneratorError, run_generator
+from mpc_cores.sim import run_cocotb
 
 SCENARIOS = 8  # cocotb tests in verif/admm/tb.py
 

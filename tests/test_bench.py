@@ -1,4 +1,4 @@
-"""Parsers and arithmetic of the benchmark report (verif/bench.py) on canned tool output; no synthesis."""
+"""Parsers and arithmetic of the benchmark report (mpc_bench/bench.py) on canned tool output; no synthesis."""
 from __future__ import annotations
 
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from verif import bench
+from mpc_bench import bench
 
 ECP5_STAT = """
 3. Printing statistics.
@@ -288,7 +288,7 @@ def test_solve_cycles_from_a_short_simulation():
 
 
 def test_soft_projection_closed_form():
-    from verif.admm.problem import project_soft
+    from mpc_cores.admm.problem import project_soft
 
     rng = np.random.default_rng(3)
     x, d = 2 * rng.standard_normal(2000), rng.standard_normal(2000)
@@ -304,7 +304,7 @@ def test_soft_projection_closed_form():
 
 @pytest.fixture(scope="module")
 def small_admm():
-    from verif.admm.design import design_admm
+    from mpc_cores.admm.design import design_admm
 
     return design_admm(bench.small_admm_problem(), sizing_solves=8)
 
@@ -315,7 +315,7 @@ def test_small_admm_problem(small_admm):
 
 
 def test_numpy_admm_is_admmfloat(small_admm):
-    from verif.admm.model import AdmmFloat
+    from mpc_cores.admm.model import AdmmFloat
 
     d = small_admm
     rng = np.random.default_rng(5)

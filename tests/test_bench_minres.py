@@ -1,4 +1,4 @@
-"""Formulas, parsing and report assembly of the MINRES benchmark (verif/bench_minres.py) on canned data: no sbt,
+"""Formulas, parsing and report assembly of the MINRES benchmark (mpc_bench/bench_minres.py) on canned data: no sbt,
 no Verilator, no Yosys."""
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from verif import bench_minres as bm
-from verif.minres.kkt import sizes
+from mpc_bench import bench_minres as bm
+from mpc_cores.minres.kkt import sizes
 
 SV = """
 // generated
@@ -101,7 +101,7 @@ def test_eq15_001_masses():
     N, M = sizes(8, 4, 10)
     assert bm.eq15_001(N, M) == 5
     # the kkt module's own form of the same equation
-    from verif.minres.kkt import eq15_paper
+    from mpc_cores.minres.kkt import eq15_paper
     for n, m, T in ((2, 1, 3), (8, 4, 10), (40, 3, 20), (1, 1, 1)):
         N, M = sizes(n, m, T)
         assert bm.eq15_001(N, M) == eq15_paper(N, M)
@@ -126,7 +126,7 @@ def test_flop_counts_agree_on_a_full_band():
 
 
 def test_useful_flops_counts_the_minres_iteration():
-    """Count the operations of one iteration of verif.minres.model.minres64 with an instrumented float type on a
+    """Count the operations of one iteration of mpc_cores.minres.model.minres64 with an instrumented float type on a
     tiny system and compare (the first iteration: v_0 = w_0 = w_-1 = 0 are still multiplied, as in the core)."""
     count = [0]
 
@@ -302,7 +302,7 @@ def test_summary_and_section():
 def test_software_solvers_on_the_small_problem():
     """scipy's MINRES and the float64 model iteration on the small problem's KKT systems: the same iterations
     (Imax = N = 19) give the same residuals; the core's binary32 model is near them."""
-    from verif.minres.design import design_minres
+    from mpc_cores.minres.design import design_minres
 
     d = design_minres(bm.small_problem(), P=1)
     s = bm.make_systems(d, 3)

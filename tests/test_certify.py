@@ -1,4 +1,4 @@
-"""The certified design flow (verif/fgm/certify.py): each bound against brute force on small problems, the
+"""The certified design flow (mpc_cores/fgm/certify.py): each bound against brute force on small problems, the
 choices it makes, and its refusals."""
 from __future__ import annotations
 
@@ -10,14 +10,14 @@ import pytest
 import yaml
 
 from conftest import random_problem
-from verif.cli import main as cli_main
-from verif.fgm.certify import (certify, cold_start, design_for_tolerance, initial_gap_bound, iterations_for,
+from mpc_cores.cli import main as cli_main
+from mpc_cores.fgm.certify import (certify, cold_start, design_for_tolerance, initial_gap_bound, iterations_for,
                                kappa_eff, rate_eq7)
-from verif.fgm.design import DesignError, design_fgm
-from verif.fgm.model import FgmFixed, fgm_float
-from verif.flow import REPO
-from verif.problem import load_spec
-from verif.reference import solve_qp_exact
+from mpc_cores.fgm.design import DesignError, design_fgm
+from mpc_cores.fgm.model import FgmFixed, fgm_float
+from mpc_cores.flow import REPO
+from mpc_cores.problem import load_spec
+from mpc_cores.reference import solve_qp_exact
 
 
 def _qp(d):

@@ -6,11 +6,11 @@ import json
 
 import numpy as np
 
-from verif.closedloop import FixedController, OsqpController, reference_schedule, run_closed_loop
-from verif.fgm.design import design_fgm
-from verif.flow import REPO
-from verif.problem import load_spec
-from verif.sim import run_cocotb
+from mpc_cores.closedloop import FixedController, OsqpController, reference_schedule, run_closed_loop
+from mpc_cores.fgm.design import design_fgm
+from mpc_cores.flow import REPO
+from mpc_cores.problem import load_spec
+from mpc_cores.sim import run_cocotb
 
 STEPS, HOLD = 8, 4
 
@@ -26,7 +26,7 @@ def test_rtl_in_the_loop_equals_golden(cores):
     t_fix = run_closed_loop(p, golden, np.zeros(p.nx), refs)
     result = out / "closed_loop.json"
     result.unlink(missing_ok=True)
-    tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.closedloop_tb", out / "sim",
+    tests, failed = run_cocotb(out / core["sv"], core["module"], "mpc_cores.closedloop_tb", out / "sim",
                                {"CORE_OUT": str(out), "CL_SPEC": str(spec), "CL_STEPS": str(STEPS),
                                 "CL_HOLD": str(HOLD), "CL_SEED": "3", "CL_RESULT": str(result)})
     assert (tests, failed) == (1, 0)

@@ -7,11 +7,11 @@ import json
 import pytest
 
 from conftest import ADMM_BUILD, BUILD, MASSES_SOFT
-from verif.admm.design import design_admm
-from verif.fgm.design import design_fgm
-from verif.flow import REPO, generate_admm, generate_fgm
-from verif.problem import load_spec
-from verif.sim import run_cocotb
+from mpc_cores.admm.design import design_admm
+from mpc_cores.fgm.design import design_fgm
+from mpc_cores.flow import REPO, generate_admm, generate_fgm
+from mpc_cores.problem import load_spec
+from mpc_cores.sim import run_cocotb
 
 FGM_PS = (1, 2, 4, 8, 40)
 ADMM_PS = (1, 2, 4, 8)

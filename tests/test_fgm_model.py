@@ -1,4 +1,4 @@
-"""The FGM front end (verif/fgm/design.py) and golden models (verif/fgm/model.py) against the analysis of 002:
+"""The FGM front end (mpc_cores/fgm/design.py) and golden models (mpc_cores/fgm/model.py) against the analysis of 002:
 Algorithm 1, Assumption 1, the overflow bounds of Prop. 1 (eq. (14)), the round-off bound of Prop. 2 (eq. (20))
 and the convergence bound (7)."""
 import dataclasses
@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 import yaml
 
-from verif.fgm.design import DesignError, design_fgm, int_bits_of, roundoff_bound
-from verif.fgm.model import FgmFixed, fgm_float, fgm_float_quantised
-from verif.fixed import bits_for, quantize, shift_round
-from verif.problem import CondensedQP, SpecError, condense, load_spec, problem_from_dict, qp_objective
-from verif.reference import kkt_residual, solve_qp_exact, solve_qp_osqp
+from mpc_cores.fgm.design import DesignError, design_fgm, int_bits_of, roundoff_bound
+from mpc_cores.fgm.model import FgmFixed, fgm_float, fgm_float_quantised
+from mpc_cores.fixed import bits_for, quantize, shift_round
+from mpc_cores.problem import CondensedQP, SpecError, condense, load_spec, problem_from_dict, qp_objective
+from mpc_cores.reference import kkt_residual, solve_qp_exact, solve_qp_osqp
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 

@@ -9,8 +9,8 @@ import json
 import pytest
 
 from conftest import CASES
-from verif.flow import GeneratorError, run_generator
-from verif.sim import run_cocotb
+from mpc_cores.flow import GeneratorError, run_generator
+from mpc_cores.sim import run_cocotb
 
 SCENARIOS = 8  # cocotb tests in verif/fgm/tb.py (the shared ones of verif/tb.py and axil_rewrite)
 

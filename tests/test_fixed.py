@@ -1,11 +1,11 @@
-"""Unit tests of verif/fixed.py against plain Python integer arithmetic."""
+"""Unit tests of mpc_cores/fixed.py against plain Python integer arithmetic."""
 import math
 from fractions import Fraction
 
 import numpy as np
 import pytest
 
-from verif.fixed import (
+from mpc_cores.fixed import (
     ROUNDING_MODES,
     bits_for,
     quantize,

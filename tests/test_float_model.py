@@ -1,4 +1,4 @@
-"""The bit-exact floating-point model (verif/float/model.py) against numpy, and its rounding on known cases.
+"""The bit-exact floating-point model (mpc_cores/float/model.py) against numpy, and its rounding on known cases.
 
 binary32 against numpy float32 and binary16 against numpy float16 on the same vectors the RTL gets (edge cases,
 ties, 10^5 random pairs per operator): bits equal, NaN results compared by NaN-ness (numpy keeps payloads,
@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import pytest
 
-from verif.float import model, suite
+from mpc_cores.float import model
+from verif.float import suite
 from verif.float import vectors as V
-from verif.float.model import Format
+from mpc_cores.float.model import Format
 
 F32, F16 = suite.BINARY32, suite.BINARY16
 

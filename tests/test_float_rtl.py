@@ -12,7 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from verif.flow import REPO, GeneratorError, run_generator
+from mpc_cores.flow import REPO, GeneratorError, run_generator
 from verif.float import rtl, suite
 
 BUILD = REPO / "build" / "tests" / "float"

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import json
 
-from verif.sim import run_cocotb
+from mpc_cores.sim import run_cocotb
 
 
 def test_certified_core_meets_its_bounds_on_rtl(cores):

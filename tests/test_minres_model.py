@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from conftest import random_problem
-from verif.minres.kkt import (Layout, const_rom, dense_cds_words, from_half_cds, half_bandwidth, kkt_matrix,
+from mpc_cores.minres.kkt import (Layout, const_rom, dense_cds_words, from_half_cds, half_bandwidth, kkt_matrix,
                               paper_bound_words, random_weights, sizes, storage_table, structured_words,
                               to_half_cds)
-from verif.minres.model import MinresCoreModel, acc, minres64, tree, words
+from mpc_cores.minres.model import MinresCoreModel, acc, minres64, tree, words
 
 SHAPES = [(1, 1, 1), (1, 1, 5), (2, 1, 3), (3, 2, 4), (4, 1, 2), (2, 3, 6), (8, 4, 10), (5, 3, 20)]
 

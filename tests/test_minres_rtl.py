@@ -1,4 +1,4 @@
-"""RTL of the generated MINRES core against the bit-exact golden model (verif/minres/model.py) in Verilator,
+"""RTL of the generated MINRES core against the bit-exact golden model (mpc_cores/minres/model.py) in Verilator,
 through AXI4-Stream and AXI4-Lite; the cycle contract; core.json of the masses core (the issue's example);
 generator refusals.
 
@@ -14,11 +14,11 @@ from pathlib import Path
 import pytest
 
 from conftest import random_problem
-from verif.flow import REPO, GeneratorError, run_generator
-from verif.minres.design import design_minres
-from verif.minres.report import c_header, core_json
-from verif.problem import load_spec
-from verif.sim import run_cocotb
+from mpc_cores.flow import REPO, GeneratorError, run_generator
+from mpc_cores.minres.design import design_minres
+from mpc_cores.minres.report import c_header, core_json
+from mpc_cores.problem import load_spec
+from mpc_cores.sim import run_cocotb
 
 BUILD = REPO / "build" / "tests" / "minres"
 SCENARIOS = 3  # cocotb tests in verif/minres/tb.py

@@ -6,7 +6,7 @@ import pytest
 import scipy.linalg
 import scipy.signal
 
-from verif.problem import (
+from mpc_cores.problem import (
     SpecError,
     condense,
     horizon_cost,
@@ -17,7 +17,7 @@ from verif.problem import (
     stage_cost,
     steady_state_maps,
 )
-from verif.reference import kkt_residual, solve_qp_exact, solve_qp_osqp
+from mpc_cores.reference import kkt_residual, solve_qp_exact, solve_qp_osqp
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 

@@ -1,11 +1,11 @@
-"""Short form of `make table2` (verif/tables.py): 2 x 2 corners of Table II(a) (FGM, masses) and Table II(b) (ADMM,
+"""Short form of `make table2` (mpc_bench/tables.py): 2 x 2 corners of Table II(a) (FGM, masses) and Table II(b) (ADMM,
 masses_rate_soft) of 002, golden model only, through the same sweep, CSV and markdown functions."""
 from __future__ import annotations
 
 import csv
 from dataclasses import replace
 
-from verif import tables
+from mpc_bench import tables
 
 # The first two reference segments of the full run (same seed and hold): references close to reachable, so the
 # loop is sensitive to the solver's accuracy.

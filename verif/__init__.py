@@ -1,1 +1,1 @@
-"""Python verification package for the MPC solver cores."""
+"""cocotb testbenches of the generated cores and their helpers."""

@@ -6,7 +6,7 @@ import cocotb
 from cocotb.triggers import ClockCycles
 from cocotbext.axi import AxiResp
 
-from verif.admm.problem import BOX
+from mpc_cores.admm.problem import BOX
 from verif.tb import (TB, TIMEOUT_MS, back_to_back, bitexact_random, cycle_contract, output_all,  # noqa: F401
                       reset_mid_solve, saturation_flag, tlast_error)
 

@@ -1,1 +1,1 @@
-"""Fast gradient method (Algorithm 1 of 002): design flow, golden models, testbench."""
+"""cocotb testbenches of the FGM core."""

@@ -12,8 +12,8 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-from verif.fgm.model import fgm_float
-from verif.tb import TB, TIMEOUT_MS
+from mpc_cores.fgm.model import fgm_float
+from mpc_cores.driver import TB, TIMEOUT_MS
 
 
 def _optimum(H, q, lo, hi) -> np.ndarray:

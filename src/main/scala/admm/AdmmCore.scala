@@ -10,7 +10,7 @@ import proj.{BoxProjection, SoftProjection}
 import shell.{FrameIn, PassSequencer, RowToken, SolverRegs}
 
 /** Fixed-point ADMM (Algorithm 2 of 002) for MPC with input, input-rate and soft state constraints, after Fig. 1
-  * and 3 of 002. verif/admm/model.py (AdmmFixed) is its bit-exact model.
+  * and 3 of 002. mpc_cores/admm/model.py (AdmmFixed) is its bit-exact model.
   *
   * One solve: receive w = (x, u_prev, r) on s_axis (saturated to its box); a first pass computes G~ (w, 1) and
   * the start iterate (cold: z = proj(0), nu = 0; warm: the previous (z, nu) shifted by one stage); then Imax

@@ -3,7 +3,7 @@ package admm
 import chisel3.util.log2Ceil
 import fixed.{FixedOps, Rounding}
 
-/** Everything the ADMM generator needs (Algorithm 2 of 002, verif/admm/design.py writes it): sizes, word widths,
+/** Everything the ADMM generator needs (Algorithm 2 of 002, mpc_cores/admm/design.py writes it): sizes, word widths,
   * the penalty shifts rho_j = 2^k_j and the quantised data. Integers are words with `fracBits` fraction bits.
   *
   * Components are numbered as in the sparse form (8) of 002: z = (du_0..du_{N-1}, x~_0, delta_0, ..., x~_N,
@@ -184,7 +184,7 @@ object AdmmParams {
   private def mat(v: ujson.Value): Seq[Seq[BigInt]] = v.arr.toSeq.map(ints)
   private def small(v: ujson.Value): Seq[Int] = v.arr.toSeq.map(_.num.toInt)
 
-  /** Read the config.json written by the Python front end (verif/admm/design.py). */
+  /** Read the config.json written by the Python front end (mpc_cores/admm/design.py). */
   def fromJson(text: String): AdmmParams = {
     val j = ujson.read(text)
     require(j("core").str == "admm", s"not an ADMM configuration: core=${j("core").str}")

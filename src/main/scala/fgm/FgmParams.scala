@@ -120,7 +120,7 @@ object FgmParams {
   private def ints(v: ujson.Value): Seq[BigInt] = v.arr.toSeq.map(x => BigInt(x.num.toLong))
   private def mat(v: ujson.Value): Seq[Seq[BigInt]] = v.arr.toSeq.map(ints)
 
-  /** Read the config.json written by the Python front end (verif/fgm/design.py). */
+  /** Read the config.json written by the Python front end (mpc_cores/fgm/design.py). */
   def fromJson(text: String): FgmParams = {
     val j = ujson.read(text)
     val w = j("widths")

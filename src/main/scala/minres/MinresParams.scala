@@ -2,9 +2,9 @@ package minres
 
 import chisel3.util.log2Ceil
 
-/** Everything the MINRES generator needs (verif/minres/design.py writes it): the MPC sizes (n states, m inputs,
+/** Everything the MINRES generator needs (mpc_cores/minres/design.py writes it): the MPC sizes (n states, m inputs,
   * horizon T, 001 notation), the latencies of the float operators (binary32), P, and the constant columns of
-  * the half-CDS band (`rom`, raw binary32 words: (2n+m) rows x (M-1) columns, see verif/minres/kkt.py).
+  * the half-CDS band (`rom`, raw binary32 words: (2n+m) rows x (M-1) columns, see mpc_cores/minres/kkt.py).
   *
   * The schedule (MinresCore) runs P problems in slots of S cycles; a problem's iteration is the matvec feed,
   * the matvec, the Lanczos update (pass B), the scalar part and the vector updates (pass C), at fixed offsets

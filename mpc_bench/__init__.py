@@ -1,0 +1,1 @@
+"""Benchmark and closed-loop tables of the generated cores."""

@@ -1,0 +1,320 @@
+"""ADMM front end: from an MPC problem with input-rate and soft state constraints to the quantised data and word
+widths of the core (Algorithm 2 of 002).
+
+Penalty. The matching condition z = y (10) is weighted per component: rho_j = rho 2^{s_j}, rho = 2^k, with
+s_j = log2(soft_scale) on the soft pairs (x_i, delta_i) (III-C of 002: the slack multipliers nu_delta ~ sigma1
+need a larger step to converge; both members of a pair share it so that the projection onto the cone stays
+Euclidean), s_j = log2(du_scale) on du and 0 elsewhere. Every multiplication by rho_j is a shift by k_j = k + s_j.
+With D = diag(rho_j) the y-step (12a) is the KKT solve
+
+    [[H_A + D, F'], [F, 0]]^{-1} = [[M11, M12], [M12', M22]],   y = M11 (D z - nu) + G~ (w, 1),
+
+G~ = [M12 b_w - M11 h_w,  -M11 h0] folds h(w) = h_w w + h0 and b(w) = b_w w, so one matrix-vector product per
+solve (like h = Phi_n w in the FGM). The 1 is the word 2^b.
+
+Assumption 2 of 002 (checked on the quantised M11): only M11 reaches the core, and its null space range(F')
+cannot survive rounding (eigenvalues of order 2^-b of either sign appear there, which act as round-off, not as a
+change of problem). With S = D^(1/2) M11^ D^(1/2) and U an orthonormal basis of Ker(F D^(-1/2)):
+  (i)  the eigenvalues of U'SU lie in (0, 1): the quantised y-step is the exact y-step of a problem whose reduced
+       Hessian is positive definite, i.e. (9) stays convex despite quantisation;
+  (ii) the spectral radius of S is < 1: the round-off dynamics (17)/(18) are Schur stable (Lemma 2).
+Integer bits: IV-C2 of 002 gives no analytic bound for the multipliers, so the dynamic signals are sized from
+the largest magnitudes seen by the bit-exact model on random and corner parameters (cold and warm-started
+sequences) times a safety factor; the static ones (coefficients, w, G~ w) are bounded analytically.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from mpc_cores.admm.model import ESTIMATED, AdmmFixed, wide_widths
+from mpc_cores.admm.problem import BOX, AdmmQP, build_admm_qp
+from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError
+from mpc_cores.fixed import ROUNDING_MODES, bits_for, quantize
+from mpc_cores.problem import MpcProblem
+
+# Defaults of the example (tuned on masses_rate_soft, closed loop, warm start, Imax = 40).
+RHO_DEFAULT = 2.0
+SOFT_SCALE_DEFAULT = 16.0
+DU_SCALE_DEFAULT = 4.0
+SAFETY_DEFAULT = 2.0          # estimated bounds x 2, i.e. one extra integer bit
+# signals sized from simulation (IV-C2 of 002) and those with an analytic bound
+
+ANALYTIC = ("coef", "w", "gsum")
+
+
+@dataclass
+class AdmmDesign:
+    problem: MpcProblem
+    qp: AdmmQP
+    b: int
+    P: int
+    lat_add: int
+    lat_mul: int
+    rounding: str
+    iterations: int
+    warm_start: bool
+    rho_log2: int
+    shift: np.ndarray          # k_j: rho_j = 2^k_j (n,)
+    M11f: np.ndarray           # unquantised M11 (n x n)
+    Gf: np.ndarray             # unquantised G~ (n x (nw + 1))
+    M11: np.ndarray            # words
+    G: np.ndarray              # words, last column multiplies the constant word 2^b
+    kind: np.ndarray
+    lo: np.ndarray             # box words (BOX components, 0 elsewhere), inside the real bounds
+    hi: np.ndarray
+    soft_c: np.ndarray         # centre and radius words per soft pair (radius shrunk: K^ inside K)
+    soft_r: np.ndarray
+    wlo: np.ndarray            # accepted w words, containing the real box
+    whi: np.ndarray
+    safety: float
+    output_all: bool = False   # stream all of z (else du_0)
+    assumption2: dict = field(default_factory=dict)
+    widths: dict = field(default_factory=dict)
+    bounds: dict = field(default_factory=dict)      # integer-word bounds per signal
+    observed: dict = field(default_factory=dict)    # largest words seen in the sizing runs
+    estimated: tuple = ESTIMATED
+
+    @property
+    def n(self) -> int:
+        return self.qp.n
+
+    @property
+    def nw(self) -> int:
+        return self.qp.nw
+
+    @property
+    def nu(self) -> int:
+        return self.qp.nu
+
+    @property
+    def N(self) -> int:
+        return self.qp.N
+
+    @property
+    def rho(self) -> float:
+        return 2.0 ** self.rho_log2
+
+    @property
+    def rho_vec(self) -> np.ndarray:
+        return np.ldexp(1.0, self.shift)
+
+    @property
+    def name(self) -> str:
+        return self.problem.name
+
+    @property
+    def module_name(self) -> str:
+        return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}"
+
+    # ---- cycle contract and resources of 002
+    @property
+    def cycles_per_iteration(self) -> int:
+        """L_A of eq. (24)."""
+        d = math.ceil(math.log2(self.n)) if self.n > 1 else 0
+        return -(-self.n // self.P) + self.lat_add * d + self.lat_mul + 6 * self.lat_add + 2
+
+    @property
+    def multipliers(self) -> int:
+        """Table I of 002: P n_A (the rho shifts need none)."""
+        return self.P * self.n
+
+    def config(self) -> dict:
+        """What an ADMM core generator needs, analogous to FgmDesign.config()."""
+        q = self.qp
+        return {
+            "core": "admm",
+            "name": self.name,
+            "n": self.n, "nu": self.nu, "nx": q.nx, "ns": q.ns, "N": self.N, "nw": self.nw, "P": self.P,
+            "frac_bits": self.b, "lat_add": self.lat_add, "lat_mul": self.lat_mul,
+            "rounding": self.rounding,
+            "widths": self.widths,
+            "iterations": self.iterations,
+            "warm_start": self.warm_start,
+            "output_all": self.output_all,
+            "rho_log2": self.rho_log2,
+            "shift": self.shift.tolist(),
+            "M11": self.M11.tolist(), "G": self.G.tolist(),
+            "kind": self.kind.tolist(),
+            "lo": self.lo.tolist(), "hi": self.hi.tolist(),
+            "soft_x": q.soft_x.tolist(), "soft_d": q.soft_d.tolist(),
+            "soft_c": self.soft_c.tolist(), "soft_r": self.soft_r.tolist(),
+            "wlo": self.wlo.tolist(), "whi": self.whi.tolist(),
+            "safety": self.safety, "estimated": list(self.estimated),
+        }
+
+    def write_config(self, path) -> None:
+        with open(path, "w") as f:
+            json.dump(self.config(), f)
+
+
+def _solver_opt(problem: MpcProblem, overrides: dict, key: str, default):
+    if key in overrides and overrides[key] is not None:
+        return overrides[key]
+    return problem.solver.get(key, default)
+
+
+def _pow2_exponent(v, what: str) -> int:
+    v = float(v)
+    if not (v > 0 and math.isfinite(v)) or math.frexp(v)[0] != 0.5:
+        raise DesignError(f"{what} must be a power of two (2^k, k may be negative) so that it is a shift: got {v:g}")
+    return math.frexp(v)[1] - 1
+
+
+def kkt_blocks(qp: AdmmQP, rho_vec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(M11, G~) from the offline inverse of the KKT matrix of (12a)."""
+    n, neq = qp.n, qp.F.shape[0]
+    K = np.block([[qp.H + np.diag(rho_vec), qp.F.T], [qp.F, np.zeros((neq, neq))]])
+    Minv = np.linalg.inv(K)
+    M11 = 0.5 * (Minv[:n, :n] + Minv[:n, :n].T)
+    M12 = Minv[:n, n:]
+    G = np.hstack([M12 @ qp.b_w - M11 @ qp.h_w, -(M11 @ qp.h0)[:, None]])
+    return M11, G
+
+
+def check_assumption2(qp: AdmmQP, M11_hat: np.ndarray, rho_vec: np.ndarray) -> dict:
+    sq = np.sqrt(rho_vec)
+    S = sq[:, None] * M11_hat * sq[None, :]
+    S = 0.5 * (S + S.T)
+    U = scipy.linalg.null_space(qp.F / sq[None, :])
+    ev_k = np.linalg.eigvalsh(U.T @ S @ U)
+    ev = np.linalg.eigvalsh(S)
+    return {"kernel_min": float(ev_k[0]), "kernel_max": float(ev_k[-1]),
+            "spectral_radius": float(max(abs(ev[0]), abs(ev[-1]))),
+            "ok_i": bool(ev_k[0] > 0 and ev_k[-1] < 1), "ok_ii": bool(max(abs(ev[0]), abs(ev[-1])) < 1)}
+
+
+def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
+    """Build the ADMM core description. Keyword overrides take precedence over the spec's `solver:` section:
+    frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, rho, soft_scale, du_scale, safety,
+    sizing_solves (random parameters per sizing run), sizing_seed."""
+    opt = lambda k, d: _solver_opt(problem, overrides, k, d)  # noqa: E731
+    b = int(opt("frac_bits", 18))
+    P = int(opt("P", 1))
+    lat_add = int(opt("lat_add", 1))
+    lat_mul = int(opt("lat_mul", 1))
+    # nearest by default: truncating each of the n_A products of a row biases every y by about -n_A/2 LSB per
+    # iteration and the multiplier update integrates it (measured in tests/test_admm_model.py)
+    rounding = str(opt("rounding", "nearest"))
+    iterations = int(opt("iterations", 40))
+    warm_start = bool(opt("warm_start", True))
+    output_all = bool(opt("output_all", False))
+    safety = float(opt("safety", SAFETY_DEFAULT))
+    try:
+        qp = build_admm_qp(problem)
+    except ValueError as e:
+        raise DesignError(str(e)) from None
+    n = qp.n
+
+    if not 1 <= P <= n:
+        raise DesignError(f"P must be in [1, n_A] (one row unit per variable at most): got P={P}, n_A={n}")
+    if b < 1:
+        raise DesignError(f"frac_bits must be >= 1: got {b}")
+    if lat_add < 0 or lat_mul < 0:
+        raise DesignError(f"lat_add and lat_mul must be >= 0: got lat_add={lat_add}, lat_mul={lat_mul}")
+    if rounding not in ROUNDING_MODES:
+        raise DesignError(f"rounding must be one of {ROUNDING_MODES}: got {rounding!r}")
+    if not 1 <= iterations <= 65535:
+        raise DesignError(f"iterations must be in [1, 65535]: got {iterations}")
+    if not safety >= 1:
+        raise DesignError(f"safety must be >= 1 (it multiplies the largest simulated magnitudes): got {safety}")
+    if qp.ns and not qp.sigma2 > 0:
+        raise DesignError("soft_states.sigma2 must be > 0 (Remark 1 of 002)")
+
+    k = _pow2_exponent(opt("rho", RHO_DEFAULT), "rho")
+    s_soft = _pow2_exponent(opt("soft_scale", SOFT_SCALE_DEFAULT), "soft_scale")
+    s_du = _pow2_exponent(opt("du_scale", DU_SCALE_DEFAULT), "du_scale")
+    shift = np.full(n, k, dtype=np.int64)
+    shift[qp.soft_x] += s_soft
+    shift[qp.soft_d] += s_soft
+    shift[: qp.N * qp.nu] += s_du
+    if shift.min() < -b:
+        raise DesignError(f"rho_j = 2^{int(shift.min())} is not representable with frac_bits={b} "
+                          f"(Assumption 2 of 002 wants rho exact in b bits): increase rho or frac_bits")
+    rho_vec = np.ldexp(1.0, shift)
+
+    M11f, Gf = kkt_blocks(qp, rho_vec)
+    M11 = quantize(M11f, b)
+    G = quantize(Gf, b)
+    a2 = check_assumption2(qp, M11 / float(1 << b), rho_vec)
+    if not a2["ok_i"]:
+        raise DesignError(
+            f"Assumption 2(i) of 002 fails at frac_bits={b}, rho=2^{k}: D^(1/2) M11^ D^(1/2) on Ker F has eigenvalues "
+            f"in [{a2['kernel_min']:.6g}, {a2['kernel_max']:.6g}], not inside (0, 1) (the quantised problem is no longer "
+            f"convex); increase frac_bits or choose another rho")
+    if not a2["ok_ii"]:
+        raise DesignError(
+            f"Assumption 2(ii) of 002 fails at frac_bits={b}, rho=2^{k}: ||D^(1/2) M11^ D^(1/2)|| = {a2['spectral_radius']:.6g} >= 1 "
+            f"(the round-off dynamics (18) are not Schur stable); increase frac_bits or choose another rho")
+
+    box = qp.kind == BOX
+    lo = np.where(box, quantize(np.where(box, qp.lo, 0.0), b, "ceil"), 0)      # K^ inside K
+    hi = np.where(box, quantize(np.where(box, qp.hi, 0.0), b, "floor"), 0)
+    if np.any(lo > hi):
+        raise DesignError(f"box bounds collapse at frac_bits={b}: some min > max after quantisation")
+    soft_c = quantize(qp.soft_c, b)
+    soft_r = quantize(qp.soft_r - np.abs(soft_c / float(1 << b) - qp.soft_c), b, "floor")
+    if np.any(soft_r <= 0):
+        raise DesignError(f"a soft-constraint radius vanishes at frac_bits={b}")
+    wlo = quantize(qp.wlo, b, "floor")
+    whi = quantize(qp.whi, b, "ceil")
+
+    d = AdmmDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
+                   iterations=iterations, warm_start=warm_start, rho_log2=k, shift=shift, M11f=M11f, Gf=Gf,
+                   M11=M11, G=G, kind=qp.kind.copy(), lo=lo, hi=hi, soft_c=soft_c, soft_r=soft_r, wlo=wlo, whi=whi,
+                   safety=safety, output_all=output_all, assumption2=a2)
+    _size_words(d, int(opt("sizing_solves", 48)), int(opt("sizing_seed", 0)))
+    return d
+
+
+def sizing_parameters(d: AdmmDesign, rng: np.random.Generator, count: int) -> np.ndarray:
+    """Parameter words for sizing and tests: half uniform in the accepted box, half at random corners of it."""
+    u = rng.integers(d.wlo, d.whi + 1, size=(count - count // 2, d.nw))
+    c = np.where(rng.integers(0, 2, size=(count // 2, d.nw)) == 1, d.whi, d.wlo)
+    return np.vstack([u, c]).astype(np.int64)
+
+
+def _size_words(d: AdmmDesign, solves: int, seed: int) -> None:
+    """Widths: analytic for the static data, simulated (largest magnitude x safety) for the iterates (IV-C2)."""
+
+    one = 1 << d.b
+    G = np.abs(d.G).astype(object)
+    w1 = [max(abs(int(a)), abs(int(c))) for a, c in zip(d.wlo, d.whi)] + [one]
+    gsum = max(sum(g * x // one + 1 for g, x in zip(row, w1)) for row in G)
+    bounds = {
+        "coef": int(max(np.abs(d.M11).max(), np.abs(d.G).max(), 1)),
+        "w": int(max(w1)),
+        "gsum": int(gsum),
+    }
+    # bit-exact runs with wide words: cold solves, then warm-started sequences of random / corner parameters
+    model = AdmmFixed(d.config() | {"widths": wide_widths()})
+    rng = np.random.default_rng(seed)
+    seen = dict.fromkeys(ESTIMATED, 0)
+    runs = [(sizing_parameters(d, rng, solves), False)] + [(sizing_parameters(d, rng, solves), True) for _ in range(4)]
+    state = None
+    for W, warm in runs:
+        res = model.solve_batch(W, warm_from=state if warm else None, track=True)
+        state = (res.z, res.nu)
+        for key in ESTIMATED:
+            seen[key] = max(seen[key], int(res.peaks[key]))
+    box = d.kind == BOX
+    seen["z"] = max(seen["z"], int(np.abs(d.lo[box]).max(initial=0)), int(np.abs(d.hi[box]).max(initial=0)))
+    for key in ESTIMATED:
+        bounds[key] = int(math.ceil(d.safety * max(seen[key], 1)))
+    bounds["sum"] = max(bounds["msum"], bounds["gsum"])          # one dot-product unit for M11 v and G~ w1
+    widths = {key: max(2, bits_for(v)) for key, v in bounds.items()}
+    prod = widths["coef"] + max(widths["v"], widths["w"])
+    if prod > MODEL_PRODUCT_BITS:
+        raise DesignError(f"product width {prod} bits exceeds {MODEL_PRODUCT_BITS} (coef {widths['coef']} + operand "
+                          f"{max(widths['v'], widths['w'])}): reduce frac_bits")
+    for key in ("coef", "w"):
+        if widths[key] > 32:
+            raise DesignError(f"{key} words of {widths[key]} bits do not fit a 32-bit AXI4-Lite word: reduce frac_bits")
+    widths["stream"] = 8 * -(-max(widths["w"], widths["z"]) // 8)
+    d.widths = widths
+    d.bounds = bounds
+    d.observed = seen

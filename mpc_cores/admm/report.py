@@ -1,0 +1,103 @@
+"""core.json, the C header and the design report of an ADMM core."""
+from __future__ import annotations
+
+from mpc_cores import header
+from mpc_cores.admm.design import AdmmDesign
+
+_WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (x, u_prev, r) after saturation, and the word 1",
+         "v": "operand v = rho z - nu", "y": "y = M11 v + G~ (w, 1)", "q": "q = y + nu / rho", "z": "iterate z",
+         "d": "y - z", "nu": "multiplier nu", "sum": "products and adder-tree partial sums",
+         "msum": "sum of |products| of a row of M11 v", "gsum": "sum of |products| of a row of G~ (w, 1)"}
+
+
+def core_json(d: AdmmDesign, hw: dict) -> dict:
+    """Metadata of a generated ADMM core: the Python design and the generator's hw.json, checked against 002."""
+    if hw["cycles_per_iteration"] > hw["cycles_eq24"]:
+        raise RuntimeError(f"L_A = {hw['cycles_per_iteration']} exceeds eq. (24) of 002: {hw['cycles_eq24']}")
+    if hw["multipliers"] != d.P * max(d.n, d.nw + 1):
+        raise RuntimeError(f"generator and front end disagree on multipliers: {hw['multipliers']}")
+    b = d.b
+    one = 1 << b
+    signals = {k: {"width": w, "int_bits": w - 1 - b, "frac_bits": b, "bound": d.bounds[k] / one,
+                   "how": "simulated x safety" if k in d.estimated else "analytic", "what": _WHAT[k]}
+               for k, w in d.widths.items() if k != "stream" and k in d.bounds}
+    sw = d.widths["stream"]
+    L = hw["cycles_per_iteration"]
+    q = d.qp
+    return {
+        "core": "admm",
+        "name": d.name,
+        "module": hw["module"],
+        "sv": f"{hw['module']}.sv",
+        "header": f"{hw['module']}.h",
+        "n": d.n, "nu": d.nu, "nw": d.nw, "nx": q.nx, "ns": q.ns, "N": d.N,
+        "P": d.P, "K": hw["K"],
+        "frac_bits": b,
+        "stream_width": sw,
+        "lat_add": d.lat_add, "lat_mul": d.lat_mul,
+        "rounding": d.rounding,
+        "iterations": d.iterations,
+        "warm_start": d.warm_start,
+        "output_all": d.output_all,
+        "rho_log2": d.rho_log2,
+        "shifts": hw["shifts"],
+        "cycles_per_iteration": L,
+        "cycles_eq24": hw["cycles_eq24"],
+        "cycles_per_solve": hw["cycles_per_solve"],
+        "solve_overhead_cycles": hw["solve_overhead_cycles"],
+        "cycles_per_solve_formula": f"{hw['solve_overhead_cycles']} + IMAX * {L}",
+        "tree_inputs": hw["tree_inputs"], "tree_depth": hw["tree_depth"],
+        "multipliers": hw["multipliers"],
+        "multipliers_table1": d.P * d.n,
+        "signals": signals,
+        "assumption2": d.assumption2,
+        "row_units": hw["row_units"],
+        "axil_addr_width": hw["axil_addr_width"],
+        "col_bits": hw["col_bits"],
+        "registers": hw["registers"],
+        "regions": hw["regions"],
+    }
+
+
+def c_header(core: dict) -> str:
+    pfx = core["module"].upper()
+    mem = [
+        f"#define {pfx}_COL_BITS{'':<16} {core['col_bits']}u",
+        "/* M11[i][j] and G~[i][j] (j over (x, u_prev, r, 1)), i and j component indices of z */",
+        f"#define {pfx}_MAT_M_ADDR(i, j) ({pfx}_MAT_M_BASE + ((((uint32_t)(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
+        f"#define {pfx}_MAT_G_ADDR(i, j) ({pfx}_MAT_G_BASE + ((((uint32_t)(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
+        "/* component i: (lo, hi) of a box component, (centre, radius) at the slack of a soft pair (hi = 0 first,",
+        "   1 second); other components: DECERR. A write clears the warm start. */",
+        f"#define {pfx}_BND_ADDR(i, hi) ({pfx}_BND_BASE + ((((uint32_t)(i) << 1) | (uint32_t)(hi)) << 2))",
+        "/* box of the accepted input word j of (x, u_prev, r) */",
+        f"#define {pfx}_WBOX_ADDR(j, hi) ({pfx}_WBOX_BASE + ((((uint32_t)(j) << 1) | (uint32_t)(hi)) << 2))",
+    ]
+    return header.c_header(core, "ADMM core (input, input-rate and soft state constraints)", mem)
+
+
+def design_report(d: AdmmDesign, core: dict | None = None) -> str:
+    b = d.b
+    one = 1 << b
+    a2 = d.assumption2
+    q = d.qp
+    lines = [
+        f"ADMM core for '{d.name}': n_A = {d.n} = N (nu + nx~ + |S|) + nx~ + |S| = {d.N} ({d.nu} + {q.nx} + {q.ns}) "
+        f"+ {q.nx} + {q.ns}, nw = {d.nw} (x, u_prev, r)",
+        f"  P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}, {d.rounding} products, b = {b} fraction bits",
+        f"  rho = 2^{d.rho_log2}, shifts k_j in {sorted(set(int(k) for k in d.shift))} (soft pairs, du scaled)",
+        f"  Assumption 2 (002) on the quantised M11: eig on Ker F in [{a2['kernel_min']:.4g}, {a2['kernel_max']:.6f}] "
+        f"(inside (0, 1)), spectral radius {a2['spectral_radius']:.6f} (< 1)",
+        "  Word widths (static words analytic; iterates: largest seen in the bit-exact model x safety, IV-C2 of 002):",
+    ]
+    for k, w in d.widths.items():
+        if k == "stream" or k not in d.bounds:
+            continue
+        lines.append(f"    {k:<5} {w:>3} bits = Q{w - 1 - b}.{b}  |{k}| <= {d.bounds[k] / one:.6g}")
+    lines.append(f"    stream words {d.widths['stream']} bits")
+    if core is not None:
+        lines.append(f"  Cycles: L_A = {core['cycles_per_iteration']} per iteration (eq. (24): {core['cycles_eq24']}); "
+                     f"{core['cycles_per_solve']} per solve at Imax = {d.iterations} (= {core['cycles_per_solve_formula']})")
+    else:
+        lines.append(f"  Cycles: eq. (24) of 002 gives L_A <= {d.cycles_per_iteration} per iteration")
+    lines.append(f"  Multipliers: {d.P * max(d.n, d.nw + 1)} (P * max(n_A, nw + 1); Table I: P n_A = {d.P * d.n})")
+    return "\n".join(lines)

@@ -1,0 +1,168 @@
+"""The command line behind the make targets: `mpc-cores <command>` or `python -m mpc_cores <command>`.
+
+  design   design report of CORE for PROBLEM; with --tol (kinds with certified designs), the certified spec
+  verilog  SystemVerilog, core.json, SystemRDL and its exports, FuseSoC core file into --out
+  demo     the closed loop with the RTL (Verilator) on the bundled example
+  table2   closed-loop cost tables (mpc_bench.tables)
+  bench    benchmark report (mpc_bench)
+  test     the verification suite (pytest on tests/ of a source checkout)
+
+Every kind of the registry (mpc_cores.registry) is available through --core; refusals are one line
+`error: <rule>: <values>` with exit status 2.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mpc_cores import registry
+from mpc_cores.errors import DesignError, GeneratorError, SpecError
+from mpc_cores.flow import REPO
+
+
+def refuse(msg: str) -> None:
+    print(f"error: {msg}", file=sys.stderr)
+    sys.exit(2)
+
+
+def _overrides(a) -> dict:
+    ov = {}
+    for k in ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations"):
+        v = getattr(a, k, None)
+        if v not in (None, ""):
+            ov[k] = v
+    return ov
+
+
+def _kind(a):
+    try:
+        return registry.get(a.core)
+    except KeyError as e:
+        refuse(e.args[0])
+
+
+def _design(a):
+    from mpc_cores.problem import load_spec
+
+    kind = _kind(a)
+    ov = _overrides(a)
+    bad = sorted(set(ov) - set(kind.overrides))
+    if bad:
+        refuse(f"CORE={kind.name} takes the overrides {', '.join(kind.overrides)}: got {', '.join(bad)}")
+    try:
+        return kind, kind.design(load_spec(a.problem), **ov)
+    except (DesignError, SpecError) as e:
+        refuse(str(e))
+
+
+def cmd_design(a) -> None:
+    """Design report; with --tol, choose the design with guarantees and write the spec `make verilog` takes."""
+    if a.tol is None:
+        kind, d = _design(a)
+        print(kind.design_report(d))
+        extra = kind.extra.get("design_extra")
+        if extra:
+            from mpc_cores.kind import load
+            print(load(extra)(d))
+        return
+    kind = _kind(a)
+    if kind.tol_fn is None:
+        with_tol = [k.name for k in registry.kinds().values() if k.tol_fn]
+        refuse(f"CORE={kind.name}: TOL (certified design) is available for {', '.join(with_tol)} only: run "
+               f"`make design CORE={kind.name}` without TOL")
+    from mpc_cores.fgm.certify import write_certified_spec
+
+    try:
+        write_certified_spec(kind, a.problem, a.tol, _overrides(a), a.out)
+    except (DesignError, SpecError) as e:
+        refuse(str(e))
+
+
+def cmd_verilog(a) -> None:
+    from mpc_cores.flow import generate
+
+    kind, d = _design(a)
+    out = Path(a.out or f"build/{kind.name}_{d.name}_p{d.P}")
+    try:
+        core = generate(kind, [(d, out)])[0]
+    except GeneratorError as e:
+        refuse(str(e))
+    print(kind.design_report(d, core))
+    files = [core["sv"], "core.json"] + [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact", "fusesoc_core")
+                                         if core.get(k)]
+    print("wrote " + ", ".join(str(out / f) for f in files))
+
+
+def cmd_demo(a) -> None:
+    from mpc_cores.demo import DemoError, run_demo
+
+    kind, d = _design(a)
+    if not kind.has_demo:
+        with_demo = [k.name for k in registry.kinds().values() if k.has_demo]
+        refuse(f"CORE={kind.name}: the closed-loop demo runs the cores {', '.join(with_demo)}; "
+               f"`make test` checks CORE={kind.name} against its golden model")
+    print(kind.design_report(d))
+    try:
+        table = run_demo(kind, d, Path(a.problem), Path(a.out), a.steps, a.hold, a.seed)
+    except (DemoError, GeneratorError) as e:
+        refuse(str(e))
+    print(table)
+    print(f"\nwrote {Path(a.out) / 'report.md'}, {Path(a.out) / 'closed_loop.png'}, {Path(a.out) / 'core'}")
+
+
+def _forward(module: str, argv: list[str]) -> None:
+    from mpc_cores.kind import load
+
+    load(module).main(argv)
+
+
+def cmd_test(a, rest: list[str]) -> None:
+    import subprocess
+
+    tests = REPO / "tests"
+    if not tests.is_dir():
+        refuse(f"the test suite lives in a source checkout: no {tests}")
+    sys.exit(subprocess.call([sys.executable, "-m", "pytest", str(tests), "-q", *rest], cwd=REPO))
+
+
+def main(argv=None) -> None:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    kinds = registry.names()
+    ap = argparse.ArgumentParser(prog="mpc-cores", description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    for name, what in (("design", "design report (with --tol: certified design)"),
+                       ("verilog", "generate a core"), ("demo", "closed loop with the RTL")):
+        s = sub.add_parser(name, help=what)
+        s.add_argument("--core", default="fgm", help=f"core kind: {', '.join(kinds)}")
+        s.add_argument("--problem", default=str(REPO / "examples/masses.yaml"))
+        s.add_argument("--P", type=int)
+        s.add_argument("--frac-bits", dest="frac_bits", type=int)
+        s.add_argument("--lat-add", dest="lat_add", type=int)
+        s.add_argument("--lat-mul", dest="lat_mul", type=int)
+        s.add_argument("--rounding", choices=["truncate", "nearest"])
+        s.add_argument("--iterations", type=int)
+        s.add_argument("--out")
+        if name == "design":
+            s.add_argument("--tol", type=float, help="target ||z_fixed - z*||_2 over the state box")
+        if name == "demo":
+            s.add_argument("--steps", type=int, default=60)
+            s.add_argument("--hold", type=int, default=20)
+            s.add_argument("--seed", type=int, default=0)
+    for name, what in (("table2", "closed-loop cost tables (options: see `mpc-cores table2 --help`)"),
+                       ("bench", "benchmark report (options: see `mpc-cores bench --help`)"),
+                       ("test", "the verification suite (pytest options follow)")):
+        sub.add_parser(name, help=what, add_help=False)
+    if argv and argv[0] in ("table2", "bench", "test"):
+        cmd, rest = argv[0], argv[1:]
+        if cmd == "test":
+            return cmd_test(None, rest)
+        return _forward({"table2": "mpc_bench.tables", "bench": "mpc_bench.bench"}[cmd], rest)
+    a = ap.parse_args(argv)
+    if a.cmd == "demo" and not a.out:
+        a.out = "build/demo"
+    {"design": cmd_design, "verilog": cmd_verilog, "demo": cmd_demo}[a.cmd](a)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,94 @@
+"""`make demo`: generate a core for a problem and run it in a closed loop with its Verilator model, driven through
+its AXI interfaces, beside the optimal controller (float64, OSQP) and the bit-exact golden model."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from mpc_cores.closedloop import reference_schedule, run_closed_loop
+from mpc_cores.flow import generate
+from mpc_cores.sim import run_cocotb
+
+
+class DemoError(RuntimeError):
+    """The RTL closed loop failed or disagrees with the golden model."""
+
+
+def run_demo(kind, d, spec: Path, out: Path, steps: int, hold: int, seed: int) -> str:
+    """The closed loop of `kind`'s core for design `d`; writes report.md, closed_loop.png and the core into `out`
+    and returns the report's table. Raises DemoError when the RTL fails or its words differ from the model's."""
+    p = d.problem
+    out = Path(out)
+    core = generate(kind, [(d, out / "core")])[0]
+    optimal, golden, holdable = kind.controllers(d)
+    refs = reference_schedule(p, steps, hold, seed, holdable=holdable)
+    x0 = np.zeros(p.nx)
+    print(f"\nClosed loop: {steps} steps of {p.Ts} s, references changing every {hold} steps, x0 = 0")
+    t_opt = run_closed_loop(p, optimal, x0, refs)
+    t_fix = run_closed_loop(p, golden, x0, refs)
+    result = out / "closed_loop_rtl.json"
+    result.unlink(missing_ok=True)
+    tests, failed = run_cocotb(out / "core" / core["sv"], core["module"], "mpc_cores.closedloop_tb", out / "sim",
+                               {"CORE_OUT": str((out / "core").resolve()), "CL_SPEC": str(Path(spec).resolve()),
+                                "CL_STEPS": str(steps), "CL_HOLD": str(hold), "CL_SEED": str(seed),
+                                "CL_HOLDABLE": str(holdable), "CL_RESULT": str(result.resolve())})
+    if tests != 1 or failed or not result.exists():
+        raise DemoError(f"the RTL closed loop failed: see {out / 'sim' / 'sim.log'}")
+    rtl = json.loads(result.read_text())
+    same = rtl["words"] == golden.words
+    u_rtl = np.array(rtl["u"])
+
+    def pct(c):
+        return 100.0 * (c - t_opt.cost) / t_opt.cost
+
+    viol = float(np.max(np.maximum(u_rtl - p.umax, p.umin - u_rtl)))
+    lines = [
+        "",
+        "| controller | closed-loop cost | above optimum |",
+        "|---|---|---|",
+        f"| float64 OSQP (optimal) | {t_opt.cost:.6f} | 0 % |",
+        f"| golden model, b = {d.b}, Imax = {d.iterations} | {t_fix.cost:.6f} | {pct(t_fix.cost):.4f} % |",
+        f"| RTL (Verilator, AXI) | {rtl['cost']:.6f} | {pct(rtl['cost']):.4f} % |",
+        "",
+        f"RTL words equal the golden model's in all {steps} steps: {'yes' if same else 'NO'}",
+        f"max |u_rtl - u_optimal| = {np.max(np.abs(u_rtl - t_opt.u)):.3g}; input bound violation {max(viol, 0):.3g}",
+        f"status after the run: {', '.join(k for k, v in rtl['status'].items() if v) or 'clear'}",
+        f"latency: {core['cycles_per_solve']} cycles per solve ({core['cycles_per_iteration']} per iteration) = "
+        f"{core['cycles_per_solve'] / 400:.3f} us at 400 MHz, {core['cycles_per_solve'] / 230:.3f} us at 230 MHz",
+    ]
+    table = "\n".join(lines)
+    (out / "report.md").write_text(kind.design_report(d, core) + "\n" + table + "\n")
+    plot(out / "closed_loop.png", p, t_opt, np.array(rtl["x"]), u_rtl, refs)
+    if not same:
+        raise DemoError("the RTL and the golden model disagree")
+    return table
+
+
+def plot(path, p, t_opt, x_rtl, u_rtl, refs) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    T = len(refs)
+    t = np.arange(T + 1) * (p.Ts or 1.0)
+    fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    y_rtl = x_rtl @ p.C.T if p.C is not None else x_rtl
+    y_opt = t_opt.x @ p.C.T if p.C is not None else t_opt.x
+    for i in range(y_rtl.shape[1]):
+        (line,) = ax[0].plot(t, y_rtl[:, i], label=f"y{i} RTL")
+        ax[0].plot(t, y_opt[:, i], "k:", lw=0.8)
+        if p.ny:
+            ax[0].step(t[:-1], refs[:, i], "--", where="post", lw=0.8, color=line.get_color())
+    ax[0].set_ylabel("outputs (dotted: optimal,\ndashed: reference)")
+    for i in range(u_rtl.shape[1]):
+        ax[1].step(t[:-1], u_rtl[:, i], where="post")
+    ax[1].axhline(float(np.max(p.umax)), color="r", lw=0.8)
+    ax[1].axhline(float(np.min(p.umin)), color="r", lw=0.8)
+    ax[1].set_ylabel("inputs (RTL)")
+    ax[1].set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

@@ -1,0 +1,162 @@
+"""cocotb driver of a generated fixed-point core (Verilator) through its AXI interfaces with cocotbext-axi: clock,
+reset, AXI4-Stream source and sink, AXI4-Lite master, the core's bit-exact golden model beside it, and a monitor of
+the stream handshakes (cycle counts). The closed loop and the testbenches of verif/ drive the cores through it.
+
+Environment: CORE_OUT = the generator's output folder (core.json, config.json).
+"""
+from __future__ import annotations
+
+import json
+import os
+import random
+from pathlib import Path
+
+import cocotb
+import numpy as np
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, ReadOnly, RisingEdge
+from cocotbext.axi import (AxiLiteBus, AxiLiteMaster, AxiResp, AxiStreamBus, AxiStreamFrame, AxiStreamSink,
+                           AxiStreamSource)
+
+from mpc_cores.regmap import Regmap
+
+
+# Every scenario ends in far fewer cycles; a hang fails the test instead of stalling the suite.
+TIMEOUT_MS = 200
+
+
+def _hi(sig) -> bool:
+    return str(sig.value) == "1"
+
+
+def golden_model(cfg: dict):
+    """The bit-exact model of the core described by its config.json."""
+    from mpc_cores import registry
+
+    return registry.get(cfg.get("core", "fgm")).golden_model(cfg)
+
+
+class TB:
+    def __init__(self, dut, seed: int = 1):
+        self.dut = dut
+        out = Path(os.environ["CORE_OUT"])
+        self.core = json.loads((out / "core.json").read_text())
+        self.cfg = json.loads((out / "config.json").read_text())
+        self.rm = Regmap(self.core)
+        self.sw = self.core["stream_width"]
+        self.n, self.nu, self.nw = self.core["n"], self.core["nu"], self.core["nw"]
+        self.rng = random.Random(seed)
+        self.model = golden_model(self.cfg)
+        # box of the accepted parameter words
+        self.box = (self.model.xlo, self.model.xhi) if self.core["core"] == "fgm" else (self.model.wlo, self.model.whi)
+        self.imax = self.core["iterations"]
+        self.warm = self.core["warm_start"]
+        self.out_all = self.core["output_all"]
+        cocotb.start_soon(Clock(dut.clock, 10, unit="ns").start())
+        self.src = AxiStreamSource(AxiStreamBus.from_prefix(dut, "s_axis"), dut.clock, dut.reset, byte_lanes=1)
+        self.sink = AxiStreamSink(AxiStreamBus.from_prefix(dut, "m_axis"), dut.clock, dut.reset, byte_lanes=1)
+        self.axil = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axil"), dut.clock, dut.reset)
+        self.cycle = 0
+        self.in_done: list[int] = []     # cycles of the input tlast handshakes
+        self.out_start: list[int] = []   # cycles where an output frame's first word is valid
+        cocotb.start_soon(self._monitor())
+
+    async def _monitor(self):
+        d = self.dut
+        expect_first = True
+        while True:
+            await RisingEdge(d.clock)
+            await ReadOnly()
+            self.cycle += 1
+            if _hi(d.reset):
+                expect_first = True
+                continue
+            if _hi(d.s_axis_tvalid) and _hi(d.s_axis_tready) and _hi(d.s_axis_tlast):
+                self.in_done.append(self.cycle)
+            if _hi(d.m_axis_tvalid):
+                if expect_first:
+                    self.out_start.append(self.cycle)
+                    expect_first = False
+                if _hi(d.m_axis_tready) and _hi(d.m_axis_tlast):
+                    expect_first = True
+
+    async def reset(self):
+        self.dut.reset.value = 1
+        await ClockCycles(self.dut.clock, 3)
+        self.dut.reset.value = 0
+        await RisingEdge(self.dut.clock)
+        self.model.reset()
+        self.imax = self.core["iterations"]
+        self.warm = self.core["warm_start"]
+        self.out_all = self.core["output_all"]
+
+    def backpressure(self, on: bool):
+        def gen(p):
+            while True:
+                yield self.rng.random() < p
+        for ep, prob in ((self.src, 0.3), (self.sink, 0.4)):
+            ep.set_pause_generator(gen(prob) if on else None)
+            if not on:
+                ep.pause = False
+
+    # ---- words
+    def to_word(self, v: int) -> int:
+        return int(v) & ((1 << self.sw) - 1)
+
+    def from_word(self, u: int) -> int:
+        return u - (1 << self.sw) if u >> (self.sw - 1) & 1 else u
+
+    def random_w(self, outside: float = 0.0) -> np.ndarray:
+        """Words of a random parameter in the box; with probability `outside` per word, far outside it."""
+        lo, hi = self.box
+        w = np.array([self.rng.randint(int(a), int(b)) for a, b in zip(lo, hi)], dtype=np.int64)
+        lim = (1 << (self.sw - 1)) - 1
+        for j in range(self.nw):
+            if self.rng.random() < outside:
+                w[j] = self.rng.choice([self.rng.randint(int(hi[j]) + 1, lim), self.rng.randint(-lim - 1, int(lo[j]) - 1)])
+        return w
+
+    # ---- AXI4-Lite
+    async def write(self, addr: int, value: int) -> AxiResp:
+        r = await self.axil.write(addr, (int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
+        return r.resp
+
+    async def read(self, addr: int) -> tuple[int, AxiResp]:
+        r = await self.axil.read(addr, 4)
+        return int.from_bytes(r.data, "little"), r.resp
+
+    async def status(self) -> dict:
+        v, resp = await self.read(self.rm["STATUS"])
+        assert resp == AxiResp.OKAY
+        return self.rm.status(v)
+
+    async def set_ctrl(self, warm: bool | None = None, out_all: bool | None = None, hold: bool = False):
+        self.warm = self.warm if warm is None else warm
+        self.out_all = self.out_all if out_all is None else out_all
+        v = int(self.warm) | int(hold) << 1 | int(self.out_all) << 2
+        assert await self.write(self.rm["CTRL"], v) == AxiResp.OKAY
+
+    async def set_imax(self, imax: int):
+        assert await self.write(self.rm["IMAX"], imax) == AxiResp.OKAY
+        self.imax = imax
+
+    # ---- streams
+    async def send(self, w):
+        await self.src.send(AxiStreamFrame(tdata=[self.to_word(v) for v in w]))
+
+    async def recv(self) -> list[int]:
+        f = await self.sink.recv()
+        return [self.from_word(x) for x in f.tdata]
+
+    def expect(self, w):
+        """Model result for the next solve, as the words the core sends."""
+        r = self.model.solve(w, imax=self.imax, warm=self.warm)
+        words = r.z if self.out_all else r.z[: self.nu]
+        return [int(x) for x in words], r
+
+    async def solve_and_check(self, w, tag=""):
+        exp, r = self.expect(w)
+        await self.send(w)
+        got = await self.recv()
+        assert got == exp, f"{tag}: RTL {got} != model {exp} for w={list(w)}"
+        return r

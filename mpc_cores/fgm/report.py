@@ -1,0 +1,119 @@
+"""core.json, the C header and the design report of an FGM core."""
+from __future__ import annotations
+
+
+import numpy as np
+
+from mpc_cores import header
+from mpc_cores.fgm.design import FgmDesign, roundoff_bound
+
+
+def _fmt(intb: int, b: int, width: int) -> dict:
+    return {"int_bits": intb, "frac_bits": b, "width": width}
+
+
+def core_json(d: FgmDesign, hw: dict) -> dict:
+    """Metadata of a generated core: the Python design and the generator's hw.json, checked against each other."""
+    for key, mine in (("cycles_per_iteration", d.cycles_per_iteration), ("multipliers", d.multipliers),
+                      ("cycles_per_solve", d.cycles_per_solve())):
+        if hw[key] != mine:
+            raise RuntimeError(f"generator and front end disagree on {key}: {hw[key]} vs {mine}")
+    b = d.b
+    one = 1 << b
+    signals = {}
+    descr = {"coef": "matrix words (I - H_n), Phi_n", "x": "state/reference word after saturation",
+             "z": "iterate z (and u)", "y": "iterate y", "sum": "products and adder-tree partial sums",
+             "t": "t = (I - H_n) y - Phi_n x", "beta": "beta and 1 + beta"}
+    for k, w in d.widths.items():
+        if k == "stream":
+            continue
+        signals[k] = {"width": w, "int_bits": w - 1 - b, "frac_bits": b, "bound": d.bounds[k] / one,
+                      "what": descr[k]}
+    from mpc_cores.fgm.certify import certify
+
+    sw = d.widths["stream"]
+    eta = roundoff_bound(d, d.iterations)
+    cert = certify(d, d.tol)
+    return {
+        "core": "fgm",
+        "name": d.name,
+        "module": hw["module"],
+        "sv": f"{hw['module']}.sv",
+        "header": f"{hw['module']}.h",
+        "n": d.n, "nu": d.nu, "nw": d.nw, "nx": d.problem.nx, "ny": d.problem.ny, "N": d.problem.N,
+        "P": d.P,
+        "frac_bits": b,
+        "int_bits": max(signals[k]["int_bits"] for k in ("y", "sum", "t")),
+        "x_format": _fmt(sw - 1 - b, b, sw),
+        "u_format": _fmt(sw - 1 - b, b, sw),
+        "stream_width": sw,
+        "lat_add": d.lat_add, "lat_mul": d.lat_mul,
+        "rounding": d.rounding,
+        "iterations": d.iterations,
+        "warm_start": d.warm_start,
+        "output_all": d.output_all,
+        "cycles_per_iteration": hw["cycles_per_iteration"],
+        "cycles_eq23": hw["cycles_eq23"],
+        "cycles_per_solve": hw["cycles_per_solve"],
+        "solve_overhead_cycles": hw["solve_overhead_cycles"],
+        "cycles_per_solve_formula": f"{hw['solve_overhead_cycles']} + IMAX * {hw['cycles_per_iteration']}",
+        "tree_inputs": hw["tree_inputs"], "tree_depth": hw["tree_depth"],
+        "multipliers": hw["multipliers"],
+        "signals": signals,
+        "prop1": d.prop1,
+        "normalisation": {"c": d.c, "lambda_max_HF": d.lam_max, "mu": d.mu,
+                          "kappa": float(1 / d.mu), "beta": d.beta / one},
+        "roundoff_bound_eq20": float(eta[-1]),
+        "certificate": {k: (None if isinstance(v, float) and v != v else v) for k, v in cert.as_dict().items()},
+        "box": {"u_lo": (d.lo / one).tolist(), "u_hi": (d.hi / one).tolist(),
+                "w_lo": (d.xlo / one).tolist(), "w_hi": (d.xhi / one).tolist()},
+        "axil_addr_width": hw["axil_addr_width"],
+        "p_bits": hw["p_bits"], "col_bits": hw["col_bits"],
+        "registers": hw["registers"],
+        "regions": hw["regions"],
+    }
+
+
+def c_header(core: dict) -> str:
+    pfx = core["module"].upper()
+    P = f"{pfx}_P"
+    mem = [
+        "/* Row i of a matrix lives in row unit i % P at slot i / P. */",
+        f"#define {pfx}_P_BITS{'':<18} {core['p_bits']}u",
+        f"#define {pfx}_COL_BITS{'':<16} {core['col_bits']}u",
+        f"#define {pfx}_SLOT(i) ((((uint32_t)(i) / {P}) << {pfx}_P_BITS) | ((uint32_t)(i) % {P}))",
+        "/* (I - H_n)[i][j] */",
+        f"#define {pfx}_MAT_A_ADDR(i, j) ({pfx}_MAT_A_BASE + ((({pfx}_SLOT(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
+        "/* Phi_n[i][j], j over (x, r) */",
+        f"#define {pfx}_MAT_F_ADDR(i, j) ({pfx}_MAT_F_BASE + ((({pfx}_SLOT(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
+        "/* bound of z_i: hi = 0 lower, 1 upper; a write clears the warm start */",
+        f"#define {pfx}_UBOX_ADDR(i, hi) ({pfx}_UBOX_BASE + ((({pfx}_SLOT(i) << 1) | (uint32_t)(hi)) << 2))",
+        "/* box of the accepted input word j of (x, r) */",
+        f"#define {pfx}_XBOX_ADDR(j, hi) ({pfx}_XBOX_BASE + ((((uint32_t)(j) << 1) | (uint32_t)(hi)) << 2))",
+    ]
+    return header.c_header(core, "FGM core (input-constrained MPC)", mem)
+
+
+def design_report(d: FgmDesign, core: dict | None = None) -> str:
+    b = d.b
+    one = 1 << b
+    eta = roundoff_bound(d, d.iterations)
+    lines = [
+        f"FGM core for '{d.name}': n = N*nu = {d.n} ({d.problem.N} x {d.nu}), nw = {d.nw} (x: {d.problem.nx}, r: {d.problem.ny})",
+        f"  P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}, {d.rounding} products, b = {b} fraction bits",
+        f"  Assumption 1 (002): c = {d.c:.6g}, lambda_max(H^_F) = {d.lam_max:.6g}, eig(H^_n) in [{d.mu:.4g}, "
+        f"{np.linalg.eigvalsh(d.Hn_hat)[-1]:.6f}], beta^ = {d.beta / one:.6f} (>= bound, < 1)",
+        "  Word widths (Prop. 1 of 002 on the quantised words; no overflow for any w in the box):",
+    ]
+    for k, w in d.widths.items():
+        if k == "stream":
+            continue
+        lines.append(f"    {k:<5} {w:>3} bits = Q{w - 1 - b}.{b}  |{k}| <= {d.bounds[k] / one:.6g}")
+    lines.append(f"    stream words {d.widths['stream']} bits")
+    lines += [
+        f"  Cycles: L_F = {d.cycles_per_iteration} per iteration (eq. (23): {d.cycles_eq23}); "
+        f"{d.cycles_per_solve()} per solve at Imax = {d.iterations} (= {3 + d.K} + Imax * {d.cycles_per_iteration})",
+        f"  Round-off bound eq. (20) after {d.iterations} iterations: ||z_fixed - z_exact||_2 <= {eta[-1]:.3g}",
+        f"  Multipliers: {d.multipliers} (P * max(n, nw) + 2P)",
+    ]
+    return "\n".join(lines)

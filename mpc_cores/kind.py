@@ -1,0 +1,72 @@
+"""The interface every core kind implements, so that the command line, the make targets, the generation flow, the
+tables and the benchmark iterate over the registry (mpc_cores.registry) instead of branching on names.
+
+A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala package src/main/scala/<kind>/:
+
+  name, title          CORE=<name> and a one-line description
+  spec_section         the keys of the spec's `solver:` section it reads (documentation and refusals)
+  overrides            the command-line overrides it accepts (P, frac_bits, lat_add, ...)
+  generator_main       the Scala object sbt runs: `<main> <config.json> <outDir> [...]`, writing the SV, hw.json
+                       and the SystemRDL register description
+  design(problem, **o) the design flow: a design object with .name, .P and .write_config(path)
+  core_json(d, hw)     core.json from the design and the generator's hw.json (checked against each other)
+  design_report(d, c)  the design report (text), with the generated core's facts when c is given
+  golden_model(cfg)    the bit-exact model of a generated core, from its config.json
+  testbench            the cocotb module of verif/ with its scenarios (cycle_contract among them)
+  bench                the module of mpc_bench with its section of the benchmark
+  controllers(d)       optional: the optimal (float64) and golden-model controllers of the closed loop and the
+                       reference schedule's holdability, for `make demo` with the RTL (None: no demo)
+
+Modules are named by strings and imported on use, so the registry imports no core package and no package
+imports the testbenches or the benchmark.
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+
+
+def load(ref: str):
+    """`package.module:attribute` (or a module name alone) -> the object."""
+    mod, _, attr = ref.partition(":")
+    obj = importlib.import_module(mod)
+    for a in attr.split(".") if attr else ():
+        obj = getattr(obj, a)
+    return obj
+
+
+@dataclass(frozen=True)
+class CoreKind:
+    name: str
+    title: str
+    generator_main: str
+    design_fn: str                 # "module:function"
+    report_module: str             # module with core_json(d, hw) and design_report(d, core=None)
+    model_fn: str                  # "module:callable" taking the config.json dict
+    testbench: str                 # cocotb test module
+    bench: str                     # benchmark section module
+    spec_section: tuple[str, ...] = ()
+    overrides: tuple[str, ...] = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations")
+    controllers_fn: str | None = None  # "module:function(design) -> (optimal, golden, holdable)" for the demo
+    tol_fn: str | None = None      # "module:function(problem, tol, **overrides)" for certified designs
+    rdl_id: str = ""               # the ID register's four characters
+    extra: dict = field(default_factory=dict)
+
+    def design(self, problem, **overrides):
+        return load(self.design_fn)(problem, **{k: v for k, v in overrides.items() if k in self.overrides})
+
+    def core_json(self, design, hw: dict) -> dict:
+        return load(self.report_module).core_json(design, hw)
+
+    def design_report(self, design, core: dict | None = None) -> str:
+        return load(self.report_module).design_report(design, core)
+
+    def golden_model(self, cfg: dict):
+        return load(self.model_fn)(cfg)
+
+    @property
+    def has_demo(self) -> bool:
+        return self.controllers_fn is not None
+
+    def controllers(self, design):
+        return load(self.controllers_fn)(design)

