@@ -13,6 +13,8 @@ B       ?=
 OUT     ?=
 TOL     ?=
 PYTEST_ARGS ?=
+# parallel test workers (pytest-xdist): one per core
+JOBS        ?= auto
 
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT))
 
@@ -40,7 +42,7 @@ design: setup
 
 ## test: the verification suite (golden models, RTL against them in Verilator, refusals)
 test: setup
-	$(PY) -m pytest tests -q $(PYTEST_ARGS)
+	$(PY) -m pytest tests -q -n $(JOBS) --dist loadgroup $(PYTEST_ARGS)
 
 ## test-slow: the long sweeps (cycles per iteration of masses for P = 1, 2, 4, 8, 40)
 test-slow: setup

@@ -5,6 +5,9 @@ One sbt invocation elaborates a batch of cores (sbt start-up dominates the cost 
 """
 from __future__ import annotations
 
+import contextlib
+import fcntl
+import hashlib
 import json
 import os
 import shutil
@@ -31,11 +34,39 @@ def sbt_launcher() -> Path:
     return jar
 
 
+@contextlib.contextmanager
+def locked(path: Path):
+    """An exclusive lock on `path` (created if needed), held for the block: parallel test workers and tools share
+    sbt's project folder and the build folders."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+SBT_LOCK = REPO / "build" / ".sbt.lock"
+
+
+def generator_digest() -> str:
+    """A digest of the generator's sources (Scala and build definition)."""
+    h = hashlib.sha256()
+    files = sorted((REPO / "src" / "main" / "scala").rglob("*.scala")) + [REPO / "build.sbt"]
+    for f in files:
+        h.update(f.relative_to(REPO).as_posix().encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()
+
+
 def run_generator(main: str, args: list[str]) -> str:
-    """Run `runMain main args` under sbt in the repository; return its output, raise GeneratorError on failure."""
+    """Run `runMain main args` under sbt in the repository; return its output, raise GeneratorError on failure.
+    One sbt run at a time on this checkout (a lock file under build/)."""
     cmd = ["java", "-Xss8m", "-jar", str(sbt_launcher()), f"runMain {main} " + " ".join(args)]
-    p = subprocess.run(cmd, cwd=REPO, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                       text=True)
+    with locked(SBT_LOCK):
+        p = subprocess.run(cmd, cwd=REPO, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                           text=True)
     if p.returncode != 0:
         reasons = [ln for ln in p.stdout.splitlines() if ln.startswith("REFUSED") or "Exception" in ln
                    or "[error]" in ln]
@@ -43,7 +74,7 @@ def run_generator(main: str, args: list[str]) -> str:
     return p.stdout
 
 
-def generate(kind, jobs: list[tuple[object, Path]], progress: bool = False) -> list[dict]:
+def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
     """Elaborate cores of one kind (a CoreKind or its name) in one sbt run: jobs are (design, out_dir). Writes per
     out_dir: config.json, <module>.sv, hw.json, core.json, the SystemRDL register description <module>.rdl and
     what PeakRDL makes of it (C header, register reference, IP-XACT), and the FuseSoC core file. Returns the
@@ -51,23 +82,37 @@ def generate(kind, jobs: list[tuple[object, Path]], progress: bool = False) -> l
     from mpc_cores import fusesoc, registry, regmap
 
     kind = registry.get(kind) if isinstance(kind, str) else kind
-    args = []
-    for d, out in jobs:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        d.write_config(out / "config.json")
-        args += [str((out / "config.json").resolve()), str(out.resolve())]
-    run_generator(kind.generator_main, args)
-    cores = []
-    for d, out in jobs:
-        out = Path(out)
-        hw = json.loads((out / "hw.json").read_text())
-        core = kind.core_json(d, hw)
-        core.update(regmap.export(out, core))
-        core.update(fusesoc.write_core(out, core))
-        (out / "core.json").write_text(json.dumps(core, indent=2))
-        cores.append(core)
-    return cores
+    src = generator_digest()
+    with locked(SBT_LOCK.with_name(".generate.lock")):
+        args, stamps = [], []
+        for d, out in jobs:
+            out = Path(out)
+            out.mkdir(parents=True, exist_ok=True)
+            cfg = json.dumps(d.config(), sort_keys=True)
+            stamp = hashlib.sha256((kind.generator_main + src + cfg).encode()).hexdigest()
+            done = out / ".generated"
+            if done.exists() and done.read_text() == stamp and (out / "hw.json").exists():
+                continue  # the same configuration from the same generator sources: its outputs are current
+            done.unlink(missing_ok=True)
+            d.write_config(out / "config.json")
+            args += [str((out / "config.json").resolve()), str(out.resolve())]
+            stamps.append((done, stamp))
+        if args:
+            run_generator(kind.generator_main, args)
+        for done, stamp in stamps:
+            done.write_text(stamp)
+        cores = []
+        for d, out in jobs:
+            out = Path(out)
+            hw = json.loads((out / "hw.json").read_text())
+            core = kind.core_json(d, hw)
+            core.update(regmap.export(out, core))
+            core.update(fusesoc.write_core(out, core))
+            tmp = out / "core.json.tmp"
+            tmp.write_text(json.dumps(core, indent=2))
+            tmp.replace(out / "core.json")
+            cores.append(core)
+        return cores
 
 
 def generate_fgm(jobs: list[tuple[object, Path]]) -> list[dict]:

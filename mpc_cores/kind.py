@@ -12,7 +12,7 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
   core_json(d, hw)     core.json from the design and the generator's hw.json (checked against each other)
   design_report(d, c)  the design report (text), with the generated core's facts when c is given
   golden_model(cfg)    the bit-exact model of a generated core, from its config.json
-  testbench            the cocotb module of verif/ with its scenarios (cycle_contract among them)
+  testbench            the cocotb module of verif/ with its scenarios, `cycle_test` among them (the cycle contract)
   bench                the module of mpc_bench with its section of the benchmark
   controllers(d)       optional: the optimal (float64) and golden-model controllers of the closed loop and the
                        reference schedule's holdability, for `make demo` with the RTL (None: no demo)
@@ -50,6 +50,7 @@ class CoreKind:
     controllers_fn: str | None = None  # "module:function(design) -> (optimal, golden, holdable)" for the demo
     tol_fn: str | None = None      # "module:function(problem, tol, **overrides)" for certified designs
     rdl_id: str = ""               # the ID register's four characters
+    cycle_test: str = "cycle_contract"  # the testbench's cocotb test that measures the cycle contract
     extra: dict = field(default_factory=dict)
 
     def design(self, problem, **overrides):

@@ -6,6 +6,8 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
+from mpc_cores.quiet import c_output_silenced
+
 from .problem import CondensedQP
 
 
@@ -30,7 +32,8 @@ def solve_qp_osqp(qp: CondensedQP, w, eps: float = 1e-10) -> np.ndarray:
     solver = osqp.OSQP()
     solver.setup(P=P, q=q, A=A, l=np.array(qp.lb, dtype=float), u=np.array(qp.ub, dtype=float),
                  eps_abs=eps, eps_rel=eps, polishing=True, verbose=False, max_iter=200_000)
-    res = solver.solve(raise_error=False)
+    with c_output_silenced():
+        res = solver.solve(raise_error=False)
     if res.info.status_val != osqp.SolverStatus.OSQP_SOLVED:
         raise RuntimeError(f"OSQP did not solve the QP: status {res.info.status!r}")
     # ADMM iterates may sit a rounding error outside the box.

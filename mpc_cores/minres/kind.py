@@ -13,4 +13,5 @@ KIND = CoreKind(
     spec_section=("minres_P", "minres_iterations"),
     overrides=("P", "iterations", "lat_add", "lat_mul"),
     rdl_id="MNR1",
+    cycle_test="cycles_per_iteration",
 )

@@ -37,12 +37,12 @@ class FStreamAcc(fmt: FloatFormat, nTerms: Int, latAdd: Int) extends Module {
   while (level.length > 1) {
     level = level.grouped(2).toSeq.map {
       case Seq(x, y) =>
-        val a = Module(new FAdd(fmt, latAdd))
-        a.in_valid := true.B
-        a.a        := x
-        a.b        := y
-        a.sub      := false.B
-        a.out
+        val tailAdd = Module(new FAdd(fmt, latAdd))
+        tailAdd.in_valid := true.B
+        tailAdd.a        := x
+        tailAdd.b        := y
+        tailAdd.sub      := false.B
+        tailAdd.out
       case Seq(x) => Stages.delay(x, latAdd)
     }
   }
