@@ -48,9 +48,9 @@ test: setup
 test-slow: setup
 	$(PY) -m pytest tests -q -s -m slow $(PYTEST_ARGS)
 
-## demo: generate the FGM core for PROBLEM and run it in a closed loop with the Verilator model
+## demo: generate CORE (fgm, admm) for PROBLEM and run it in a closed loop with the Verilator model (OUT: build/demo)
 demo: setup
-	$(MPC) demo --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B))
+	$(MPC) demo --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT))
 
 ## table2: closed-loop cost tables (Table II(a) of 002, Table I of 000), Fig. 5/6 and the RTL subset into
 ## build/reports (TABLE_ARGS, e.g. --no-rtl)

@@ -81,11 +81,14 @@ def cmd_design(a) -> None:
 
 def cmd_verilog(a) -> None:
     from mpc_cores.flow import generate
+    from mpc_cores.progress import stages
 
     kind, d = _design(a)
     out = Path(a.out or f"build/{kind.name}_{d.name}_p{d.P}")
     try:
-        core = generate(kind, [(d, out)])[0]
+        with stages(["elaborate (sbt) and export"], f"verilog {kind.name}") as step:
+            step("elaborate (sbt) and export")
+            core = generate(kind, [(d, out)])[0]
     except GeneratorError as e:
         refuse(str(e))
     print(kind.design_report(d, core))

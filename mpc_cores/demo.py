@@ -9,6 +9,7 @@ import numpy as np
 
 from mpc_cores.closedloop import reference_schedule, run_closed_loop
 from mpc_cores.flow import generate
+from mpc_cores.progress import stages
 from mpc_cores.sim import run_cocotb
 
 
@@ -21,19 +22,23 @@ def run_demo(kind, d, spec: Path, out: Path, steps: int, hold: int, seed: int) -
     and returns the report's table. Raises DemoError when the RTL fails or its words differ from the model's."""
     p = d.problem
     out = Path(out)
-    core = generate(kind, [(d, out / "core")])[0]
-    optimal, golden, holdable = kind.controllers(d)
-    refs = reference_schedule(p, steps, hold, seed, holdable=holdable)
-    x0 = np.zeros(p.nx)
-    print(f"\nClosed loop: {steps} steps of {p.Ts} s, references changing every {hold} steps, x0 = 0")
-    t_opt = run_closed_loop(p, optimal, x0, refs)
-    t_fix = run_closed_loop(p, golden, x0, refs)
     result = out / "closed_loop_rtl.json"
     result.unlink(missing_ok=True)
-    tests, failed = run_cocotb(out / "core" / core["sv"], core["module"], "mpc_cores.closedloop_tb", out / "sim",
-                               {"CORE_OUT": str((out / "core").resolve()), "CL_SPEC": str(Path(spec).resolve()),
-                                "CL_STEPS": str(steps), "CL_HOLD": str(hold), "CL_SEED": str(seed),
-                                "CL_HOLDABLE": str(holdable), "CL_RESULT": str(result.resolve())})
+    with stages(["generate (sbt)", "optimal and golden loops", "RTL loop (Verilator)"], "demo") as step:
+        step("generate (sbt)")
+        core = generate(kind, [(d, out / "core")])[0]
+        optimal, golden, holdable = kind.controllers(d)
+        refs = reference_schedule(p, steps, hold, seed, holdable=holdable)
+        x0 = np.zeros(p.nx)
+        step("optimal and golden loops")
+        t_opt = run_closed_loop(p, optimal, x0, refs)
+        t_fix = run_closed_loop(p, golden, x0, refs)
+        step("RTL loop (Verilator)")
+        tests, failed = run_cocotb(out / "core" / core["sv"], core["module"], "mpc_cores.closedloop_tb", out / "sim",
+                                   {"CORE_OUT": str((out / "core").resolve()), "CL_SPEC": str(Path(spec).resolve()),
+                                    "CL_STEPS": str(steps), "CL_HOLD": str(hold), "CL_SEED": str(seed),
+                                    "CL_HOLDABLE": str(holdable), "CL_RESULT": str(result.resolve())})
+    print(f"\nClosed loop: {steps} steps of {p.Ts} s, references changing every {hold} steps, x0 = 0")
     if tests != 1 or failed or not result.exists():
         raise DemoError(f"the RTL closed loop failed: see {out / 'sim' / 'sim.log'}")
     rtl = json.loads(result.read_text())

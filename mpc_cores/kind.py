@@ -37,21 +37,32 @@ def load(ref: str):
 
 @dataclass(frozen=True)
 class CoreKind:
+    """A core kind; the module references default to the layout's conventions for `name`: design function
+    mpc_cores.<name>.design:design_<name>, report module mpc_cores.<name>.report, testbench verif.<name>.tb,
+    benchmark section mpc_bench.<name>, generator main <name>.<Name>Main."""
     name: str
     title: str
-    generator_main: str
-    design_fn: str                 # "module:function"
-    report_module: str             # module with core_json(d, hw) and design_report(d, core=None)
     model_fn: str                  # "module:callable" taking the config.json dict
-    testbench: str                 # cocotb test module
-    bench: str                     # benchmark section module
+    generator_main: str = ""
+    design_fn: str = ""            # "module:function"
+    report_module: str = ""        # module with core_json(d, hw) and design_report(d, core=None)
+    testbench: str = ""            # cocotb test module
+    bench: str = ""                # benchmark section module
     spec_section: tuple[str, ...] = ()
     overrides: tuple[str, ...] = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations")
     controllers_fn: str | None = None  # "module:function(design) -> (optimal, golden, holdable)" for the demo
     tol_fn: str | None = None      # "module:function(problem, tol, **overrides)" for certified designs
-    rdl_id: str = ""               # the ID register's four characters
     cycle_test: str = "cycle_contract"  # the testbench's cocotb test that measures the cycle contract
     extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        n = self.name
+        for attr, default in (("generator_main", f"{n}.{n.capitalize()}Main"),
+                              ("design_fn", f"mpc_cores.{n}.design:design_{n}"),
+                              ("report_module", f"mpc_cores.{n}.report"), ("testbench", f"verif.{n}.tb"),
+                              ("bench", f"mpc_bench.{n}")):
+            if not getattr(self, attr):
+                object.__setattr__(self, attr, default)
 
     def design(self, problem, **overrides):
         return load(self.design_fn)(problem, **{k: v for k, v in overrides.items() if k in self.overrides})

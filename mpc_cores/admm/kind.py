@@ -4,16 +4,10 @@ from mpc_cores.kind import CoreKind
 KIND = CoreKind(
     name="admm",
     title="ADMM with input-rate and soft state constraints (Algorithm 2 of 002), fixed point",
-    generator_main="admm.AdmmMain",
-    design_fn="mpc_cores.admm.design:design_admm",
-    report_module="mpc_cores.admm.report",
     model_fn="mpc_cores.admm.model:AdmmFixed",
-    testbench="verif.admm.tb",
-    bench="mpc_bench.admm",
     spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all",
-                  "rho_log2", "safety", "stream_width"),
+                  "safety", "rho", "soft_scale", "du_scale", "sizing_seed", "sizing_solves"),
     controllers_fn="mpc_cores.admm.kind:controllers",
-    rdl_id="ADM1",
 )
 
 

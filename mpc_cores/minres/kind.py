@@ -4,14 +4,8 @@ from mpc_cores.kind import CoreKind
 KIND = CoreKind(
     name="minres",
     title="MINRES banded KKT solver of the interior-point method (001), binary32, P problems interleaved",
-    generator_main="minres.MinresMain",
-    design_fn="mpc_cores.minres.design:design_minres",
-    report_module="mpc_cores.minres.report",
     model_fn="mpc_cores.minres.model:MinresCoreModel.from_config",
-    testbench="verif.minres.tb",
-    bench="mpc_bench.minres",
     spec_section=("minres_P", "minres_iterations"),
     overrides=("P", "iterations", "lat_add", "lat_mul"),
-    rdl_id="MNR1",
     cycle_test="cycles_per_iteration",
 )

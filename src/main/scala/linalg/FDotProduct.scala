@@ -1,7 +1,7 @@
 package linalg
 
 import chisel3._
-import float.{FAdd, FMul, FloatFormat, Stages}
+import float.{FMul, FloatFormat}
 
 /** Floating-point dot product of k terms (Fig. 1 of 001): k parallel multipliers and a pairwise adder tree,
   * pairs (0,1), (2,3), ... at each level and an odd last element passed on (delayed to stay aligned), the order
@@ -20,24 +20,12 @@ class FDotProduct(val fmt: FloatFormat, val k: Int, val latMul: Int, val latAdd:
     val sum = Output(UInt(fmt.width.W))
   })
 
-  var level: Seq[UInt] = (0 until k).map { t =>
+  val products: Seq[UInt] = (0 until k).map { t =>
     val mul = Module(new FMul(fmt, latMul))
     mul.in_valid := true.B
     mul.a        := io.a(t)
     mul.b        := io.b(t)
     mul.out
   }
-  while (level.length > 1) {
-    level = level.grouped(2).toSeq.map {
-      case Seq(x, y) =>
-        val add = Module(new FAdd(fmt, latAdd))
-        add.in_valid := true.B
-        add.a        := x
-        add.b        := y
-        add.sub      := false.B
-        add.out
-      case Seq(x) => Stages.delay(x, latAdd)
-    }
-  }
-  io.sum := level.head
+  io.sum := FAddTree(products, fmt, latAdd)
 }

@@ -33,19 +33,6 @@ class FStreamAcc(fmt: FloatFormat, nTerms: Int, latAdd: Int) extends Module {
   when(vOut && idxOut >= (nTerms - L).U) { parts(idxOut - (nTerms - L).U) := add.out }
   val captured = RegNext(vOut && idxOut === (nTerms - 1).U, false.B)
 
-  var level: Seq[UInt] = parts
-  while (level.length > 1) {
-    level = level.grouped(2).toSeq.map {
-      case Seq(x, y) =>
-        val tailAdd = Module(new FAdd(fmt, latAdd))
-        tailAdd.in_valid := true.B
-        tailAdd.a        := x
-        tailAdd.b        := y
-        tailAdd.sub      := false.B
-        tailAdd.out
-      case Seq(x) => Stages.delay(x, latAdd)
-    }
-  }
-  io.sum  := level.head
+  io.sum  := linalg.FAddTree(parts, fmt, latAdd)
   io.done := Stages.delayValid(captured, latAdd * log2Ceil(L))
 }
