@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from mpc_bench import bench
+from mpc_bench import admm, admm_report, baselines, bench, fgm, parsers, qp, report
 
 ECP5_STAT = """
 3. Printing statistics.
@@ -83,14 +83,14 @@ OLD_STAT = """
 
 
 def test_yosys_stat_recent_layout():
-    cells = bench.parse_yosys_stat(ECP5_STAT)
+    cells = parsers.parse_yosys_stat(ECP5_STAT)
     assert "$scopeinfo" not in cells
-    assert bench.ecp5_resources(cells) == {"MULT18X18D": 42, "LUT4": 9437, "CCU2C": 1321, "FF": 5664,
+    assert parsers.ecp5_resources(cells) == {"MULT18X18D": 42, "LUT4": 9437, "CCU2C": 1321, "FF": 5664,
                                            "DP16KD": 21, "LUTRAM": 10}
 
 
 def test_yosys_stat_hierarchy_takes_totals():
-    res = bench.xc7_resources(bench.parse_yosys_stat(XC7_STAT_HIER))
+    res = parsers.xc7_resources(parsers.parse_yosys_stat(XC7_STAT_HIER))
     assert res["DSP48E1"] == 42
     assert res["LUT"] == 40 + 1316 + 1073 + 755 + 2044 + 838
     assert res["FF"] == 3957 + 743
@@ -99,9 +99,9 @@ def test_yosys_stat_hierarchy_takes_totals():
 
 
 def test_yosys_stat_old_layout_and_empty():
-    assert bench.parse_yosys_stat(OLD_STAT) == {"LUT4": 3, "TRELLIS_FF": 2}
+    assert parsers.parse_yosys_stat(OLD_STAT) == {"LUT4": 3, "TRELLIS_FF": 2}
     with pytest.raises(ValueError):
-        bench.parse_yosys_stat("nothing here\n")
+        parsers.parse_yosys_stat("nothing here\n")
 
 
 def test_memory_mapping():
@@ -111,10 +111,10 @@ using FF mapping for memory top.betaRam.mem
 mapping memory top.xboxRam.mem via $__TRELLIS_DPR16X4_
 mapping memory top.matRam_0.mem via $__PDPW16KD_
 """
-    assert bench.parse_memory_mapping(log) == {"top.betaRam.mem": "FF", "top.xboxRam.mem": "TRELLIS_DPR16X4",
+    assert parsers.parse_memory_mapping(log) == {"top.betaRam.mem": "FF", "top.xboxRam.mem": "TRELLIS_DPR16X4",
                                                "top.matRam_0.mem": "PDPW16KD"}
-    assert bench._mem_name("top.matRam_0.mem", "top") == "matRam_0"
-    assert bench._mem_name("top_mat0.mem", "top") == "mat0"
+    assert qp._mem_name("top.matRam_0.mem", "top") == "matRam_0"
+    assert qp._mem_name("top_mat0.mem", "top") == "mat0"
 
 
 def _step(kind, delay, cell, port="F", net=None):
@@ -144,7 +144,7 @@ REPORT = {
 
 
 def test_nextpnr_report():
-    r = bench.parse_nextpnr_report(REPORT)
+    r = parsers.parse_nextpnr_report(REPORT)
     assert r["fmax_mhz"] == 69.5 and r["target_mhz"] == 200
     assert r["utilisation"] == {"MULT18X18D": 42}
     cp = r["critical_path"]
@@ -155,7 +155,7 @@ def test_nextpnr_report():
     assert math.isclose(cp["routing_ns"], 3.9) and math.isclose(cp["logic_ns"], 0.31)
     assert cp["max_net"] == (2.8, "n2")
     with pytest.raises(ValueError):
-        bench.parse_nextpnr_report({"fmax": {}})
+        parsers.parse_nextpnr_report({"fmax": {}})
 
 
 def test_nextpnr_log_takes_last_fmax():
@@ -163,128 +163,128 @@ def test_nextpnr_log_takes_last_fmax():
 Info: Routing complete.
 ERROR: Max frequency for clock '$glbnet$clk': 69.57 MHz (FAIL at 200.00 MHz)
 """
-    assert bench.parse_nextpnr_log(log) == {"clock": "$glbnet$clk", "fmax_mhz": 69.57, "target_mhz": 200.0,
+    assert parsers.parse_nextpnr_log(log) == {"clock": "$glbnet$clk", "fmax_mhz": 69.57, "target_mhz": 200.0,
                                             "pass": False}
-    assert bench.parse_nextpnr_log("Info: Max frequency for clock 'c': 250.1 MHz (PASS at 200.00 MHz)")["pass"]
-    assert bench.parse_nextpnr_log("no timing here") is None
+    assert parsers.parse_nextpnr_log("Info: Max frequency for clock 'c': 250.1 MHz (PASS at 200.00 MHz)")["pass"]
+    assert parsers.parse_nextpnr_log("no timing here") is None
 
 
 def test_lpf_frequency():
-    assert bench.lpf_frequency('# one clock\nFREQUENCY PORT "clock" 200 MHZ;\n') == 200.0
-    assert bench.lpf_frequency('FREQUENCY PORT clock 87.5 MHz;') == 87.5
-    assert bench.lpf_frequency('LOCATE COMP "clock" SITE "P3";') is None
+    assert parsers.lpf_frequency('# one clock\nFREQUENCY PORT "clock" 200 MHZ;\n') == 200.0
+    assert parsers.lpf_frequency('FREQUENCY PORT clock 87.5 MHz;') == 87.5
+    assert parsers.lpf_frequency('LOCATE COMP "clock" SITE "P3";') is None
 
 
 def test_ecp5_fit():
     res = {"MULT18X18D": 168, "DP16KD": 40, "LUT4": 30000, "CCU2C": 4000, "FF": 20000, "LUTRAM": 10}
-    assert bench.ecp5_fit(res) == ["168 MULT18X18D needed, 156 on the LFE5U-85F"]
-    assert bench.ecp5_fit(dict(res, MULT18X18D=156)) == []
+    assert parsers.ecp5_fit(res) == ["168 MULT18X18D needed, 156 on the LFE5U-85F"]
+    assert parsers.ecp5_fit(dict(res, MULT18X18D=156)) == []
 
 
 def test_cycle_formulas_match_table3():
     # masses, n = 40, l_A = l_M = 1, Imax = 15: eq. (23) and Table III of 002 at 400 and 230 MHz
-    for P, (mult, v6, s6) in bench.PAPER_TABLE3.items():
-        cycles = 15 * bench.eq23(40, P, 1, 1)
-        assert bench.paper_multipliers(40, P) == mult
-        assert round(bench.latency_us(cycles, bench.F_V6_MHZ), 2) == pytest.approx(v6, abs=0.011)
-        assert round(bench.latency_us(cycles, bench.F_S6_MHZ), 2) == pytest.approx(s6, abs=0.011)
-    assert bench.eq23(40, 1, 1, 1) == 52
+    for P, (mult, v6, s6) in fgm.PAPER_TABLE3.items():
+        cycles = 15 * fgm.eq23(40, P, 1, 1)
+        assert fgm.paper_multipliers(40, P) == mult
+        assert round(report.latency_us(cycles, qp.F_V6_MHZ), 2) == pytest.approx(v6, abs=0.011)
+        assert round(report.latency_us(cycles, qp.F_S6_MHZ), 2) == pytest.approx(s6, abs=0.011)
+    assert fgm.eq23(40, 1, 1, 1) == 52
 
 
 def test_latency_and_ratio():
-    assert bench.latency_us(822, 69.57) == pytest.approx(11.815, abs=1e-3)
-    assert bench.latency_us(822, None) is None
-    assert bench.ratio(90.0, 11.8) == pytest.approx(7.627, abs=1e-3)
-    assert bench.ratio(None, 1.0) is None and bench.ratio(1.0, None) is None
+    assert report.latency_us(822, 69.57) == pytest.approx(11.815, abs=1e-3)
+    assert report.latency_us(822, None) is None
+    assert report.ratio(90.0, 11.8) == pytest.approx(7.627, abs=1e-3)
+    assert report.ratio(None, 1.0) is None and report.ratio(1.0, None) is None
 
 
 def test_mac_utilisation():
-    assert bench.useful_macs(40) == 1680
-    assert bench.mac_utilisation(40, 42, 52) == pytest.approx(1680 / 2184)
-    assert bench.mac_utilisation(40, 336, 18) == pytest.approx(1680 / 6048)
-    assert bench.mac_utilisation(1, 3, 1) == 1.0
+    assert fgm.useful_macs(40) == 1680
+    assert fgm.mac_utilisation(40, 42, 52) == pytest.approx(1680 / 2184)
+    assert fgm.mac_utilisation(40, 336, 18) == pytest.approx(1680 / 6048)
+    assert fgm.mac_utilisation(1, 3, 1) == 1.0
 
 
 def test_rtl_names_from_netlist_names():
     names = ["bndRam_0.mem.0.0", "bndRam_0.mem.0.0_DOA13[1]", "proj.io_out_r_TRELLIS_FF_Q_13_DI_PFUMX_Z_ALUT",
              "tokY_h_LUT4_D_1_Z[3]", "warmL_LUT4_C_Z[4]", "yReg_26_TRELLIS_FF_Q_DI", "yReg_26_TRELLIS_FF_Q"]
-    assert bench.rtl_names(names) == ["bndRam_0", "proj.io_out_r", "tokY_h", "warmL", "yReg_26"]
-    assert bench.parse_nextpnr_report(REPORT)["critical_path"]["signals"] == ["bndRam_0", "n1", "n2", "n3",
+    assert parsers.rtl_names(names) == ["bndRam_0", "proj.io_out_r", "tokY_h", "warmL", "yReg_26"]
+    assert parsers.parse_nextpnr_report(REPORT)["critical_path"]["signals"] == ["bndRam_0", "n1", "n2", "n3",
                                                                                "yReg_26"]
 
 
 def test_paper_memory_blocks():
-    assert bench.paper_memory_blocks(40, 8, 1) == (52, 40)
-    assert bench.paper_memory_blocks(40, 8, 3) == (156, 14)
+    assert fgm.paper_memory_blocks(40, 8, 1) == (52, 40)
+    assert fgm.paper_memory_blocks(40, 8, 3) == (156, 14)
 
 
 def test_step_kinds():
     def st(kind, cell, fp, tp):
         return {"type": kind, "delay": 0.1, "from": {"cell": cell, "port": fp}, "to": {"cell": cell, "port": tp}}
 
-    assert bench.step_kind(st("clk-to-q", "matRam_0.mem.0.4", "DOA8", "DOA8")) == "DP16KD read"
-    assert bench.step_kind(st("clk-to-q", "tokY_r_9_k_TRELLIS_FF_Q_1", "Q", "Q")) == "FF"
-    assert bench.step_kind(st("logic", "pb_DI_MULT18X18D_P26", "B15", "P22")) == "MULT18X18D"
-    assert bench.step_kind(st("logic", "x_CCU2C_S0$CCU2_COMB1", "FCI", "FCO")) == "CCU2C"
-    assert bench.step_kind(st("logic", "x_PFUMX_Z_BLUT_LUT4_Z", "M", "OFX")) == "PFUMX/L6MUX21"
-    assert bench.step_kind(st("logic", "x_LUT4_Z", "C", "F")) == "LUT4"
-    cp = bench.parse_nextpnr_report(REPORT)["critical_path"]
+    assert parsers.step_kind(st("clk-to-q", "matRam_0.mem.0.4", "DOA8", "DOA8")) == "DP16KD read"
+    assert parsers.step_kind(st("clk-to-q", "tokY_r_9_k_TRELLIS_FF_Q_1", "Q", "Q")) == "FF"
+    assert parsers.step_kind(st("logic", "pb_DI_MULT18X18D_P26", "B15", "P22")) == "MULT18X18D"
+    assert parsers.step_kind(st("logic", "x_CCU2C_S0$CCU2_COMB1", "FCI", "FCO")) == "CCU2C"
+    assert parsers.step_kind(st("logic", "x_PFUMX_Z_BLUT_LUT4_Z", "M", "OFX")) == "PFUMX/L6MUX21"
+    assert parsers.step_kind(st("logic", "x_LUT4_Z", "C", "F")) == "LUT4"
+    cp = parsers.parse_nextpnr_report(REPORT)["critical_path"]
     assert cp["source_kind"] == "DP16KD read"
     assert cp["kinds"] == {"LUT4": 2}
 
 
 def test_software_sessions_merge_and_best_median():
     def session(times, load):
-        r = bench.SwResult("OSQP tuned", "s", np.array(times, dtype=float), 1e-3, [5] * np.size(times))
+        r = baselines.SwResult("OSQP tuned", "s", np.array(times, dtype=float), 1e-3, [5] * np.size(times))
         return {"solvers": [r], "repeats": len(times), "load": load}
 
-    m = bench.merge_software(session([[30, 31, 90]], 2.5), session([[25, 26, 27], [40, 41, 42]], 0.1))
+    m = baselines.merge_software(session([[30, 31, 90]], 2.5), session([[25, 26, 27], [40, 41, 42]], 0.1))
     r = m["solvers"][0]
     assert r.times_us.shape == (3, 3) and m["repeats"] == 3 and m["load"] == [2.5, 0.1]
     assert r.median_us == 26.0
     assert len(r.iters) == 9
-    assert bench.merge_software(None, m) is m
+    assert baselines.merge_software(None, m) is m
 
 
 # ----------------------------------------------------------------------------------------- ADMM
 
 def test_eq24_and_table3b():
     # masses_rate_soft, n_A = 216, l_A = l_M = 1, Imax = 40: Table III(b) of 002 is Imax (eq. (24) + 1) cycles
-    assert bench.eq24(216, 1, 1, 1) == 216 + 8 + 1 + 6 + 2 == 233
-    assert bench.eq24(216, 4, 1, 1) == 71 and bench.eq24(216, 8, 1, 1) == 44
-    assert bench.eq24(19, 2, 2, 3) == 10 + 2 * 5 + 3 + 12 + 2
-    for P, (mult, v6, s6) in bench.PAPER_TABLE3_ADMM.items():
-        cycles = bench.table3b_cycles(216, P, 1, 1, 40)
-        assert cycles == 40 * (bench.eq24(216, P, 1, 1) + 1)
-        assert bench.paper_multipliers_admm(216, P) == mult
-        assert bench.latency_us(cycles, bench.F_V6_MHZ) == pytest.approx(v6, abs=0.006)
-        assert bench.latency_us(cycles, bench.F_S6_MHZ) == pytest.approx(s6, abs=0.006)
+    assert admm_report.eq24(216, 1, 1, 1) == 216 + 8 + 1 + 6 + 2 == 233
+    assert admm_report.eq24(216, 4, 1, 1) == 71 and admm_report.eq24(216, 8, 1, 1) == 44
+    assert admm_report.eq24(19, 2, 2, 3) == 10 + 2 * 5 + 3 + 12 + 2
+    for P, (mult, v6, s6) in admm_report.PAPER_TABLE3_ADMM.items():
+        cycles = admm_report.table3b_cycles(216, P, 1, 1, 40)
+        assert cycles == 40 * (admm_report.eq24(216, P, 1, 1) + 1)
+        assert admm_report.paper_multipliers_admm(216, P) == mult
+        assert report.latency_us(cycles, qp.F_V6_MHZ) == pytest.approx(v6, abs=0.006)
+        assert report.latency_us(cycles, qp.F_S6_MHZ) == pytest.approx(s6, abs=0.006)
     # Imax eq. (24) alone misses the table by one cycle per iteration
-    assert bench.latency_us(40 * bench.eq24(216, 1, 1, 1), bench.F_V6_MHZ) == pytest.approx(23.30)
+    assert report.latency_us(40 * admm_report.eq24(216, 1, 1, 1), qp.F_V6_MHZ) == pytest.approx(23.30)
 
 
 def test_admm_memory_blocks():
-    assert bench.paper_memory_blocks_admm(216, 1) == (224, 216)
-    assert bench.paper_memory_blocks_admm(216, 8) == (1792, 27)
-    assert bench.paper_memory_blocks_admm(19, 2) == (54, 10)
+    assert admm_report.paper_memory_blocks_admm(216, 1) == (224, 216)
+    assert admm_report.paper_memory_blocks_admm(216, 8) == (1792, 27)
+    assert admm_report.paper_memory_blocks_admm(19, 2) == (54, 10)
 
 
 def test_admm_mac_utilisation():
-    assert bench.admm_useful_macs(216) == 46656
+    assert admm_report.admm_useful_macs(216) == 46656
     # P = 1: 216 multipliers, L_A = 232
-    assert bench.admm_mac_utilisation(216, 216, 232) == pytest.approx(216 / 232)
-    assert bench.admm_mac_utilisation(216, 1728, 43) == pytest.approx(46656 / (1728 * 43))
-    assert bench.admm_mac_utilisation(1, 1, 1) == 1.0
+    assert admm_report.admm_mac_utilisation(216, 216, 232) == pytest.approx(216 / 232)
+    assert admm_report.admm_mac_utilisation(216, 1728, 43) == pytest.approx(46656 / (1728 * 43))
+    assert admm_report.admm_mac_utilisation(1, 1, 1) == 1.0
 
 
 def test_solve_cycles_from_a_short_simulation():
     # the cycle contract 2 + (Imax + 1) L_A, measured at Imax = 5 and carried to Imax = 40
     L = 232
     simulated = 2 + 6 * L
-    over = bench.solve_overhead(simulated, 5, L)
+    over = admm_report.solve_overhead(simulated, 5, L)
     assert over == 2 + L
-    assert bench.cycles_at(over, 40, L) == 2 + 41 * L == 9514
-    assert bench.cycles_at(bench.solve_overhead(822, 15, 52), 15, 52) == 822
+    assert admm_report.cycles_at(over, 40, L) == 2 + 41 * L == 9514
+    assert admm_report.cycles_at(admm_report.solve_overhead(822, 15, 52), 15, 52) == 822
 
 
 def test_soft_projection_closed_form():
@@ -296,7 +296,7 @@ def test_soft_projection_closed_form():
     # every case of Fig. 3b: inside, below the flat edge, beyond the corner, onto the slanted edge, and the borders
     x[:4], d[:4], c[:4], r[:4] = [0.2, 0.9, 3.0, 1.5], [0.5, -0.3, -4.0, 0.1], 0.0, 0.5
     x[4:6], d[4:6], c[4:6], r[4:6] = [0.5, -0.7], [0.0, 0.2], 0.0, 0.5
-    xo, do = bench.soft_projection(x, d, c, r)
+    xo, do = baselines.soft_projection(x, d, c, r)
     xe, de = project_soft(x, d, c, r)
     assert np.allclose(xo, xe, rtol=0, atol=1e-12) and np.allclose(do, de, rtol=0, atol=1e-12)
     assert np.all(do >= 0) and np.all(np.abs(xo - c) <= r + do + 1e-12)
@@ -306,7 +306,7 @@ def test_soft_projection_closed_form():
 def small_admm():
     from mpc_cores.admm.design import design_admm
 
-    return design_admm(bench.small_admm_problem(), sizing_solves=8)
+    return design_admm(admm.small_admm_problem(), sizing_solves=8)
 
 
 def test_small_admm_problem(small_admm):
@@ -319,7 +319,7 @@ def test_numpy_admm_is_admmfloat(small_admm):
 
     d = small_admm
     rng = np.random.default_rng(5)
-    a, f = bench.NumpyAdmm(d), AdmmFloat(d)
+    a, f = baselines.NumpyAdmm(d), AdmmFloat(d)
     lo, hi = d.qp.wlo, d.qp.whi
     for _ in range(8):           # warm-started sequence: the shift of (z, nu) included
         w = rng.uniform(lo, hi)
@@ -329,8 +329,8 @@ def test_numpy_admm_is_admmfloat(small_admm):
 def _admm_core(P, role="sweep", problem="masses_rate_soft", n=216, pnr=None, mult=None):
     from types import SimpleNamespace
 
-    L = bench.eq24(n, P, 1, 1) - 1
-    c = bench.Core("admm", problem, P, 18, None, SimpleNamespace(
+    L = admm_report.eq24(n, P, 1, 1) - 1
+    c = admm.Core("admm", problem, P, 18, None, SimpleNamespace(
         qp=SimpleNamespace(problem=SimpleNamespace(nx=2), nu=1, N=3, ns=1), multipliers=P * n), 40, role=role)
     c.core = {"n": n, "nw": 17, "ns": 4, "N": 10, "lat_add": 1, "lat_mul": 1, "cycles_per_iteration": L,
               "cycles_eq24": L + 1, "solve_overhead_cycles": 2 + L, "multipliers": P * n, "module": "AdmmCore_x",
@@ -338,28 +338,28 @@ def _admm_core(P, role="sweep", problem="masses_rate_soft", n=216, pnr=None, mul
     c.measured = {"cycles_per_iteration": L, "cycles_per_solve": 2 + 6 * L, "iterations": 5}
     c.ecp5 = {"MULT18X18D": mult or 4 * P * n, "LUT4": 1000, "CCU2C": 10, "FF": 900, "DP16KD": 2, "LUTRAM": 0}
     c.pnr = pnr
-    c.pnr_note = "" if pnr else "does not fit: " + "; ".join(bench.ecp5_fit(c.ecp5))
+    c.pnr_note = "" if pnr else "does not fit: " + "; ".join(parsers.ecp5_fit(c.ecp5))
     return c
 
 
 def test_admm_rows_and_report():
-    pnr = bench.parse_nextpnr_report(REPORT)
+    pnr = parsers.parse_nextpnr_report(REPORT)
     cores = [_admm_core(1), _admm_core(4), _admm_core(1, "fmax", "small_rate_soft", 19, pnr, 76)]
-    est, tag = bench.admm_fmax_estimate(cores)
+    est, tag = admm_report.admm_fmax_estimate(cores)
     assert est == 69.5 and "small_rate_soft" in tag
-    sw = {"solvers": [bench.SwResult(name, "s", np.array([[400.0, 500.0]]), 1e-2, None, 1e-3)
-                      for name in ("OSQP default", "OSQP tuned", bench.NumpyAdmm.name)]}
-    recs = bench.admm_rows(cores, sw, est)
+    sw = {"solvers": [baselines.SwResult(name, "s", np.array([[400.0, 500.0]]), 1e-2, None, 1e-3)
+                      for name in ("OSQP default", "OSQP tuned", baselines.NumpyAdmm.name)]}
+    recs = admm_report.admm_rows(cores, sw, est)
     r1, r4, rs = recs
     assert r1["cycles_per_solve_measured"] == 2 + 41 * 232 and r1["cycles_per_solve_table3b"] == 40 * 234
     assert r1["latency_us_v6_paper"] == 23.40 and r4["latency_us_s6_paper"] == 12.52
     assert r1["latency_us_ecp5_est"] == pytest.approx(9514 / 69.5) and rs["latency_us_ecp5_est"] is None
-    assert rs["latency_us_ecp5"] == pytest.approx((2 + 41 * (bench.eq24(19, 1, 1, 1) - 1)) / 69.5)
+    assert rs["latency_us_ecp5"] == pytest.approx((2 + 41 * (admm_report.eq24(19, 1, 1, 1) - 1)) / 69.5)
     assert r1["osqp_tuned_over_core"] == pytest.approx(450.0 / (9514 / 69.5))
     assert r1["numpy_admm_over_core_v6"] == pytest.approx(450.0 / (9514 / 400))
     assert rs["osqp_tuned_us"] is None
     assert r4["mac_utilisation"] == pytest.approx(216 * 216 / (864 * 70))
-    table = "\n".join(bench.admm_summary_table([r1, r4]))
+    table = "\n".join(admm_report.admm_summary_table([r1, r4]))
     assert "232 (233)" in table and "no: 864 MULT18X18D" in table and "23.79 (23.40)" in table
     info = {"machine": {"cpu": "cpu", "cores": 2, "logical": 2, "system": "Linux", "python": "3"}, "date": "d",
             "quick": True, "Ps": (), "bs": (), "admm_Ps": (1, 4), "admm_bs": (18,), "admm_small_Ps": (1,),
@@ -377,28 +377,28 @@ def test_admm_rows_and_report():
 def test_memory_list_counts_unnamed():
     mems = {"top.mat0.mem": "PDPW16KD", "cc:155:do_switch$11153": "FF", "cc:155:do_switch$11157": "FF",
             "top_w_box.mem": "TRELLIS_DPR16X4"}
-    assert bench._mem_list(mems, "top") == "mat0 -> PDPW16KD, w_box -> TRELLIS_DPR16X4, 2 unnamed -> FF"
+    assert qp._mem_list(mems, "top") == "mat0 -> PDPW16KD, w_box -> TRELLIS_DPR16X4, 2 unnamed -> FF"
 
 
 def test_admm_estimate_moves_cycles_to_the_small_cores_latencies():
-    pnr = bench.parse_nextpnr_report(REPORT)
+    pnr = parsers.parse_nextpnr_report(REPORT)
     small = _admm_core(1, "fmax", "small_rate_soft", 19, pnr, 76)
     small.core.update(lat_add=2, lat_mul=3)
     big = _admm_core(4)
-    recs = bench.admm_rows([big, small], None, 69.5)
+    recs = admm_report.admm_rows([big, small], None, 69.5)
     # eq. (24) at l_A = 2, l_M = 3 against 1, 1 for n_A = 216: 2 more cycles of multiplier, 8 + 6 of adders
-    delta = bench.eq24(216, 4, 2, 3) - bench.eq24(216, 4, 1, 1)
+    delta = admm_report.eq24(216, 4, 2, 3) - admm_report.eq24(216, 4, 1, 1)
     assert delta == 2 + 8 + 6
     assert recs[0]["cycles_per_solve_est"] == recs[0]["cycles_per_solve_measured"] + 41 * delta
     assert recs[0]["latency_us_ecp5_est"] == pytest.approx(recs[0]["cycles_per_solve_est"] / 69.5)
     assert recs[0]["est_lat"] == (2, 3) and recs[1]["cycles_per_solve_est"] is None
-    assert "l_A = 2, l_M = 3" in bench._est_lat_text(recs)
+    assert "l_A = 2, l_M = 3" in admm_report._est_lat_text(recs)
 
 
 def test_fmax_table_names_kind_latencies_and_formula():
-    pnr = bench.parse_nextpnr_report(REPORT)
+    pnr = parsers.parse_nextpnr_report(REPORT)
     small = _admm_core(1, "fmax", "small_rate_soft", 19, pnr, 76)
     small.core.update(lat_add=2, lat_mul=3)
-    r = bench.admm_rows([small], None, None)[0]
-    table = "\n".join(bench.fmax_summary_table([r]))
+    r = admm_report.admm_rows([small], None, None)[0]
+    table = "\n".join(admm_report.fmax_summary_table([r]))
     assert "| ADMM | small_rate_soft | 19 | 1 | 18 | 2, 3 |" in table and "eq. (24)" in table and "69.5" in table

