@@ -42,7 +42,7 @@ class TB:
         out = Path(os.environ["CORE_OUT"])
         self.core = json.loads((out / "core.json").read_text())
         self.cfg = json.loads((out / "config.json").read_text())
-        self.rm = Regmap(self.core)
+        self.rm = Regmap.for_core(out, self.core)
         self.sw = self.core["stream_width"]
         self.n, self.nu, self.nw = self.core["n"], self.core["nu"], self.core["nw"]
         self.rng = random.Random(seed)
@@ -133,7 +133,8 @@ class TB:
     async def set_ctrl(self, warm: bool | None = None, out_all: bool | None = None, hold: bool = False):
         self.warm = self.warm if warm is None else warm
         self.out_all = self.out_all if out_all is None else out_all
-        v = int(self.warm) | int(hold) << 1 | int(self.out_all) << 2
+        bit = self.rm.CTRL_BITS
+        v = int(self.warm) << bit["WARM_START"] | int(hold) << bit["HOLD"] | int(self.out_all) << bit["OUT_ALL"]
         assert await self.write(self.rm["CTRL"], v) == AxiResp.OKAY
 
     async def set_imax(self, imax: int):

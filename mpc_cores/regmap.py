@@ -1,70 +1,224 @@
-"""Byte addresses of a core's AXI4-Lite registers and data memories, from its core.json (the same arithmetic as
-the macros of the generated C header)."""
+"""The register map of a generated core, from its SystemRDL description <module>.rdl (written by the generator from
+the same description as the RTL register file): the PeakRDL exports (C header, register reference, IP-XACT) and
+`Regmap`, the byte addresses and bit positions the testbenches use.
+
+Data memories are `external` register arrays: element [i0][i1]..[ik] of an array at byte address B with
+dimensions [d0][d1]..[dk] and stride s is at B + s ((i0 d1 + i1) d2 + .. + ik).
+"""
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    lsb: int
+    width: int
+    sw: str              # "r", "rw" or "w"
+    w1c: bool            # writing 1 clears it
+    reset: int | None
+    desc: str
+
+    @property
+    def readable(self) -> bool:
+        return self.sw != "w"
+
+    @property
+    def writable(self) -> bool:
+        return self.sw != "r"
+
+    @property
+    def mask(self) -> int:
+        return ((1 << self.width) - 1) << self.lsb
+
+
+@dataclass(frozen=True)
+class Register:
+    name: str
+    offset: int                      # byte address; of the first element for an array
+    fields: dict[str, Field]
+    desc: str
+    dims: tuple[int, ...] = ()       # array dimensions (external data memories); () for a register
+    stride: int = 4
+
+    @property
+    def readable(self) -> bool:
+        return any(f.readable for f in self.fields.values())
+
+    @property
+    def writable(self) -> bool:
+        return any(f.writable for f in self.fields.values())
+
+    @property
+    def external(self) -> bool:
+        return bool(self.dims)
+
+    def addr(self, *idx: int) -> int:
+        """Byte address of element idx of an array."""
+        if len(idx) != len(self.dims):
+            raise IndexError(f"{self.name}{''.join(f'[{d}]' for d in self.dims)}: {len(idx)} indices given")
+        flat = 0
+        for i, d in zip(idx, self.dims):
+            if not 0 <= i < d:
+                raise IndexError(f"{self.name}: index {tuple(idx)} outside {self.dims}")
+            flat = flat * d + i
+        return self.offset + self.stride * flat
+
+
+def _access(f) -> str:
+    return "rw" if f.is_sw_readable and f.is_sw_writable else ("r" if f.is_sw_readable else "w")
+
+
+@lru_cache(maxsize=16)
+def _compile(path: str, mtime_ns: int):
+    from systemrdl import RDLCompiler
+
+    rdlc = RDLCompiler()
+    rdlc.compile_file(path)
+    return rdlc.elaborate().top
+
+
+def compile_rdl(path) -> "systemrdl.node.AddrmapNode":  # noqa: F821
+    """The elaborated top addrmap of a .rdl file (cached while the file is unchanged)."""
+    p = Path(path).resolve()
+    return _compile(str(p), p.stat().st_mtime_ns)
+
+
+def read_rdl(path) -> tuple[str, dict[str, Register]]:
+    """(addrmap name, registers and arrays by name, in address order) of a .rdl file."""
+    from systemrdl.rdltypes import OnWriteType
+
+    top = compile_rdl(path)
+    regs = {}
+    for r in top.registers(unroll=False):
+        fields = {f.inst_name: Field(f.inst_name, f.lsb, f.width, _access(f),
+                                     f.get_property("onwrite") == OnWriteType.woclr, f.get_property("reset"),
+                                     f.get_property("desc") or "")
+                  for f in r.fields()}
+        dims = tuple(r.array_dimensions) if r.is_array else ()
+        regs[r.inst_name] = Register(r.inst_name, r.raw_absolute_address, fields, r.get_property("desc") or "", dims,
+                                     r.array_stride if r.is_array else 4)
+    return top.inst_name, dict(sorted(regs.items(), key=lambda kv: kv[1].offset))
 
 
 class Regmap:
-    STATUS_BITS = {"BUSY": 0, "SAT": 1, "OVERFLOW": 2, "WRITE_REJECTED": 3, "TLAST_ERROR": 4, "WARM_VALID": 5}
-    CTRL_BITS = {"WARM_START": 0, "HOLD": 1, "OUT_ALL": 2}
+    """Byte addresses and bit positions of a core's registers and data memories, from its .rdl.
 
-    def __init__(self, core: dict):
-        self.core = core
-        self.reg = {r["name"]: r["offset"] for r in core["registers"]}
-        self.base = {k: v["offset"] for k, v in core["regions"].items()}
-        self.P = core["P"]
-        self.pb = core.get("p_bits", 0)
-        self.cb = core["col_bits"]
+    rm["STATUS"] is a register's byte address (an array's base), rm.addr("MAT_A", k, u, j) an element's;
+    rm.STATUS_BITS and rm.CTRL_BITS give bit positions by field name; mat_a, mat_f, ubox, xbox (FGM) and mat_m,
+    mat_g, bnd, wbox (ADMM) address the data memories by matrix row and column."""
+
+    def __init__(self, rdl):
+        self.name, self.regs = read_rdl(rdl)
+        self.STATUS_BITS = self.bits("STATUS")
+        self.CTRL_BITS = self.bits("CTRL")
+        self.P = self.reset("CONFIG0", "P")
+        mat = next((self.regs[k] for k in ("MAT_A", "MAT_M") if k in self.regs), None)
+        self.cb = int(math.log2(mat.dims[-1])) if mat else 0   # column bits of the matrix memories
+
+    @classmethod
+    def for_core(cls, out, core: dict) -> "Regmap":
+        """The register map of the core generated into `out` (core.json's "rdl")."""
+        return cls(Path(out) / core.get("rdl", f"{core['module']}.rdl"))
 
     def __getitem__(self, name: str) -> int:
-        return self.reg[name]
+        return self.regs[name].offset
 
-    def slot(self, i: int) -> int:
-        return ((i // self.P) << self.pb) | (i % self.P)
+    def __contains__(self, name: str) -> bool:
+        return name in self.regs
 
-    def mat_a(self, i: int, j: int) -> int:
-        """(I - H_n)[i][j]"""
-        return self.base["MAT_A"] + (((self.slot(i) << self.cb) | j) << 2)
+    def addr(self, name: str, *idx: int) -> int:
+        return self.regs[name].addr(*idx)
 
-    def mat_f(self, i: int, j: int) -> int:
-        """Phi_n[i][j]"""
-        return self.base["MAT_F"] + (((self.slot(i) << self.cb) | j) << 2)
+    def bits(self, reg: str) -> dict[str, int]:
+        """Bit position of each one-bit field of `reg`."""
+        return {f.name: f.lsb for f in self.regs[reg].fields.values() if f.width == 1}
 
-    def ubox(self, i: int, hi: bool) -> int:
-        return self.base["UBOX"] + (((self.slot(i) << 1) | int(hi)) << 2)
-
-    def xbox(self, j: int, hi: bool) -> int:
-        return self.base["XBOX"] + (((j << 1) | int(hi)) << 2)
-
-    # ---- ADMM: rows addressed by component index
-    def _row(self, region: str, i: int, j: int) -> int:
-        return self.base[region] + (((i << self.cb) | j) << 2)
-
-    def mat_m(self, i: int, j: int) -> int:
-        """M11[i][j]"""
-        return self._row("MAT_M", i, j)
-
-    def mat_g(self, i: int, j: int) -> int:
-        """G~[i][j], j over (x, u_prev, r, 1)"""
-        return self._row("MAT_G", i, j)
-
-    def bnd(self, i: int, hi: bool) -> int:
-        """(lo, hi) of a box component, (centre, radius) at a soft pair's slack"""
-        return self.base["BND"] + (((i << 1) | int(hi)) << 2)
-
-    def wbox(self, j: int, hi: bool) -> int:
-        return self.base["WBOX"] + (((j << 1) | int(hi)) << 2)
+    def reset(self, reg: str, field: str) -> int | None:
+        return self.regs[reg].fields[field].reset
 
     def status(self, word: int) -> dict:
         return {k: bool(word >> b & 1) for k, b in self.STATUS_BITS.items()}
 
+    # ---- FGM: row i of a matrix lives in row unit i % P at slot i / P
+    def mat_a(self, i: int, j: int) -> int:
+        """(I - H_n)[i][j]"""
+        return self.addr("MAT_A", i // self.P, i % self.P, j)
+
+    def mat_f(self, i: int, j: int) -> int:
+        """Phi_n[i][j]"""
+        return self.addr("MAT_F", i // self.P, i % self.P, j)
+
+    def ubox(self, i: int, hi: bool) -> int:
+        return self.addr("UBOX", i // self.P, i % self.P, int(hi))
+
+    def xbox(self, j: int, hi: bool) -> int:
+        return self.addr("XBOX", j, int(hi))
+
+    # ---- ADMM: rows addressed by component index
+    def mat_m(self, i: int, j: int) -> int:
+        """M11[i][j]"""
+        return self.addr("MAT_M", i, j)
+
+    def mat_g(self, i: int, j: int) -> int:
+        """G~[i][j], j over (x, u_prev, r, 1)"""
+        return self.addr("MAT_G", i, j)
+
+    def bnd(self, i: int, hi: bool) -> int:
+        """(lo, hi) of a box component, (centre, radius) at a soft pair's slack"""
+        return self.addr("BND", i, int(hi))
+
+    def wbox(self, j: int, hi: bool) -> int:
+        return self.addr("WBOX", j, int(hi))
+
+
+def _markdown_exporter():
+    """PeakRDL-markdown, with each register array described once (its dimensions and stride) instead of once per
+    element: a data memory has up to tens of thousands of elements."""
+    from peakrdl_markdown import MarkdownExporter
+
+    class Exporter(MarkdownExporter):
+        def _add_addrmap_regfile_mem(self, node, msg, depth):
+            children = node.children
+
+            def folded(unroll=False, skip_not_present=True):
+                for c in children(unroll=False, skip_not_present=skip_not_present):
+                    if getattr(c, "is_array", False):
+                        c.current_idx = [0] * len(c.array_dimensions)
+                    yield c
+
+            node.children = folded
+            try:
+                return super()._add_addrmap_regfile_mem(node, msg, depth)
+            finally:
+                del node.children
+
+        def _addrnode_table_row(self, node):
+            row = super()._addrnode_table_row(node)
+            if node.is_array:
+                row["Identifier"] = node.inst_name + "".join(f"[{d}]" for d in node.array_dimensions)
+            return row
+
+    return Exporter()
+
 
 def export(out, core: dict) -> dict:
-    """Register-map outputs of a generated core in `out`; returns the core.json entries naming them."""
-    from pathlib import Path
+    """Compile <out>/<module>.rdl and write what PeakRDL makes of it: the C header <module>.h, the register
+    reference <module>_regs.md and IP-XACT <module>.xml. Returns the core.json entries naming the four files."""
+    from peakrdl_cheader.exporter import CHeaderExporter
+    from peakrdl_ipxact import IPXACTExporter
 
-    from mpc_cores import registry
-    from mpc_cores.kind import load
+    from mpc_cores.fusesoc import VENDOR, VERSION
 
-    kind = registry.get(core["core"])
-    (Path(out) / core["header"]).write_text(load(kind.report_module).c_header(core))
-    return {}
+    out = Path(out)
+    m = core["module"]
+    files = {"rdl": f"{m}.rdl", "header": f"{m}.h", "regmap_doc": f"{m}_regs.md", "ipxact": f"{m}.xml"}
+    top = compile_rdl(out / files["rdl"])
+    CHeaderExporter().export(top, str(out / files["header"]))
+    _markdown_exporter().export(top, str(out / files["regmap_doc"]), input_files=[files["rdl"]])
+    IPXACTExporter(vendor=VENDOR, library=core["core"], version=VERSION).export(top, str(out / files["ipxact"]))
+    return files

@@ -16,7 +16,8 @@ import pytest
 from conftest import random_problem
 from mpc_cores.flow import REPO, GeneratorError, run_generator
 from mpc_cores.minres.design import design_minres
-from mpc_cores.minres.report import c_header, core_json
+from mpc_cores import regmap
+from mpc_cores.minres.report import core_json
 from mpc_cores.problem import load_spec
 from mpc_cores.sim import run_cocotb
 
@@ -64,8 +65,8 @@ def minres_cores():
     for cid, d in designs.items():
         out = BUILD / cid
         core = core_json(d, json.loads((out / "hw.json").read_text()))
+        core.update(regmap.export(out, core))
         (out / "core.json").write_text(json.dumps(core, indent=2))
-        (out / core["header"]).write_text(c_header(core))
         cores[cid] = (out, core)
     return cores, str(e.value), bdir, list(bad)
 
@@ -87,7 +88,8 @@ def test_masses_core_json(minres_cores):
     assert core["storage_words"] <= core["storage_bound_001"] < core["storage_dense_cds"]
     assert core["storage_dense_cds"] == 2 * 4 * 216 * 20
     assert (out / core["sv"]).exists() and (out / core["header"]).exists()
-    assert re.search(r"MINRESCORE_MASSES_N8_M4_T10_P4_N\s+216u", (out / core["header"]).read_text())
+    # the header is PeakRDL's from the core's .rdl: N is the reset value of CONFIG0.N (216 = 0xd8)
+    assert re.search(r"MINRESCORE_MASSES_N8_M4_T10_P4__CONFIG0__N_reset\s+0xd8\b", (out / core["header"]).read_text())
 
 
 @pytest.mark.parametrize("cid", list(RTL_CASES))

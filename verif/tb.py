@@ -16,7 +16,6 @@ from cocotb.triggers import ClockCycles
 from cocotbext.axi import AxiResp, AxiStreamFrame
 
 from mpc_cores.driver import TB, TIMEOUT_MS  # noqa: F401
-from mpc_cores.regmap import Regmap
 
 
 def _measure(record: dict):
@@ -127,7 +126,7 @@ async def saturation_flag(dut):
     assert not r.sat and not (await tb.status())["SAT"]
     r = await tb.solve_and_check(tb.random_w(outside=1.0), "outside")
     assert r.sat and (await tb.status())["SAT"]
-    assert await tb.write(tb.rm["STATUS"], 1 << Regmap.STATUS_BITS["SAT"]) == AxiResp.OKAY
+    assert await tb.write(tb.rm["STATUS"], 1 << tb.rm.STATUS_BITS["SAT"]) == AxiResp.OKAY
     assert not (await tb.status())["SAT"]
 
 

@@ -1,7 +1,6 @@
-"""core.json, the C header and the design report of an ADMM core."""
+"""core.json and the design report of an ADMM core."""
 from __future__ import annotations
 
-from mpc_cores import header
 from mpc_cores.admm.design import AdmmDesign
 
 _WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (x, u_prev, r) after saturation, and the word 1",
@@ -29,7 +28,6 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
         "name": d.name,
         "module": hw["module"],
         "sv": f"{hw['module']}.sv",
-        "header": f"{hw['module']}.h",
         "n": d.n, "nu": d.nu, "nw": d.nw, "nx": q.nx, "ns": q.ns, "N": d.N,
         "P": d.P, "K": hw["K"],
         "frac_bits": b,
@@ -57,22 +55,6 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
         "registers": hw["registers"],
         "regions": hw["regions"],
     }
-
-
-def c_header(core: dict) -> str:
-    pfx = core["module"].upper()
-    mem = [
-        f"#define {pfx}_COL_BITS{'':<16} {core['col_bits']}u",
-        "/* M11[i][j] and G~[i][j] (j over (x, u_prev, r, 1)), i and j component indices of z */",
-        f"#define {pfx}_MAT_M_ADDR(i, j) ({pfx}_MAT_M_BASE + ((((uint32_t)(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
-        f"#define {pfx}_MAT_G_ADDR(i, j) ({pfx}_MAT_G_BASE + ((((uint32_t)(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
-        "/* component i: (lo, hi) of a box component, (centre, radius) at the slack of a soft pair (hi = 0 first,",
-        "   1 second); other components: DECERR. A write clears the warm start. */",
-        f"#define {pfx}_BND_ADDR(i, hi) ({pfx}_BND_BASE + ((((uint32_t)(i) << 1) | (uint32_t)(hi)) << 2))",
-        "/* box of the accepted input word j of (x, u_prev, r) */",
-        f"#define {pfx}_WBOX_ADDR(j, hi) ({pfx}_WBOX_BASE + ((((uint32_t)(j) << 1) | (uint32_t)(hi)) << 2))",
-    ]
-    return header.c_header(core, "ADMM core (input, input-rate and soft state constraints)", mem)
 
 
 def design_report(d: AdmmDesign, core: dict | None = None) -> str:

@@ -1,10 +1,8 @@
-"""core.json, the C header and the design report of an FGM core."""
+"""core.json and the design report of an FGM core."""
 from __future__ import annotations
-
 
 import numpy as np
 
-from mpc_cores import header
 from mpc_cores.fgm.design import FgmDesign, roundoff_bound
 
 
@@ -39,7 +37,6 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
         "name": d.name,
         "module": hw["module"],
         "sv": f"{hw['module']}.sv",
-        "header": f"{hw['module']}.h",
         "n": d.n, "nu": d.nu, "nw": d.nw, "nx": d.problem.nx, "ny": d.problem.ny, "N": d.problem.N,
         "P": d.P,
         "frac_bits": b,
@@ -72,26 +69,6 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
         "registers": hw["registers"],
         "regions": hw["regions"],
     }
-
-
-def c_header(core: dict) -> str:
-    pfx = core["module"].upper()
-    P = f"{pfx}_P"
-    mem = [
-        "/* Row i of a matrix lives in row unit i % P at slot i / P. */",
-        f"#define {pfx}_P_BITS{'':<18} {core['p_bits']}u",
-        f"#define {pfx}_COL_BITS{'':<16} {core['col_bits']}u",
-        f"#define {pfx}_SLOT(i) ((((uint32_t)(i) / {P}) << {pfx}_P_BITS) | ((uint32_t)(i) % {P}))",
-        "/* (I - H_n)[i][j] */",
-        f"#define {pfx}_MAT_A_ADDR(i, j) ({pfx}_MAT_A_BASE + ((({pfx}_SLOT(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
-        "/* Phi_n[i][j], j over (x, r) */",
-        f"#define {pfx}_MAT_F_ADDR(i, j) ({pfx}_MAT_F_BASE + ((({pfx}_SLOT(i) << {pfx}_COL_BITS) | (uint32_t)(j)) << 2))",
-        "/* bound of z_i: hi = 0 lower, 1 upper; a write clears the warm start */",
-        f"#define {pfx}_UBOX_ADDR(i, hi) ({pfx}_UBOX_BASE + ((({pfx}_SLOT(i) << 1) | (uint32_t)(hi)) << 2))",
-        "/* box of the accepted input word j of (x, r) */",
-        f"#define {pfx}_XBOX_ADDR(j, hi) ({pfx}_XBOX_BASE + ((((uint32_t)(j) << 1) | (uint32_t)(hi)) << 2))",
-    ]
-    return header.c_header(core, "FGM core (input-constrained MPC)", mem)
 
 
 def design_report(d: FgmDesign, core: dict | None = None) -> str:

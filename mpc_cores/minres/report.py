@@ -1,4 +1,4 @@
-"""core.json and C header of a generated MINRES core."""
+"""core.json and the design report of a generated MINRES core."""
 from __future__ import annotations
 
 from mpc_cores.minres.kkt import dense_cds_words, paper_bound_words
@@ -6,7 +6,7 @@ from mpc_cores.minres.kkt import dense_cds_words, paper_bound_words
 
 def core_json(d, hw: dict) -> dict:
     c = {"core": "minres", "name": d.name, "module": hw["module"], "sv": f"{hw['module']}.sv",
-         "header": f"{hw['module']}.h", "n": d.n, "m": d.m, "T": d.T, "iterations": d.iterations,
+         "n": d.n, "m": d.m, "T": d.T, "iterations": d.iterations,
          "flush_cycles": d.flush_cycles, "stream_width": 32, "format": "binary32", **d.lat}
     for k in ("N", "M", "P", "P_eq15", "k1", "k2", "slot_cycles", "cycles_per_iteration", "cycles_bound",
               "batch_cycles_formula", "batch_cycles_imax0", "schedule", "storage_words", "storage_variable",
@@ -18,31 +18,6 @@ def core_json(d, hw: dict) -> dict:
     c["eq15"] = (f"P = ceil((2N + M + k1 ceil(log2(2M-1)) + k2) / N), k1 = {c['k1']}, k2 = {c['k2']} "
                  f"(001: 3N, k1 = 24, k2 = 154)")
     return c
-
-
-def c_header(core: dict) -> str:
-    m = core["module"]
-    pfx = m.upper()
-    L = [f"/* {m}: register map and constants of a generated MINRES core ({core['name']}). */",
-         f"#ifndef {pfx}_H", f"#define {pfx}_H", "", "#include <stdint.h>", ""]
-    for k in ("n", "m", "T", "N", "M", "P", "iterations", "frame_words", "cycles_per_iteration", "storage_words"):
-        L.append(f"#define {pfx}_{k.upper():<24} {core[k]}u")
-    L.append(f"/* batch cycles = {core['batch_cycles_formula']} */")
-    L.append("/* input frame: id (31 bits), diagonal of the primal rows (T(n+m)+n words), b (N words), raw binary32;")
-    L.append("   output frame: id (bit 31 = NONFINITE), z (N words) */")
-    L.append("")
-    L.append("/* Register byte offsets (32-bit words on AXI4-Lite). */")
-    for r in core["registers"]:
-        L.append(f"#define {pfx}_{r['name']:<24} 0x{r['offset']:04x}u /* {r['access']}: {r['desc']} */")
-    L.append("")
-    L.append("/* STATUS bits */")
-    for i, nm in enumerate(("BUSY", "SAT", "OVERFLOW", "WRITE_REJECTED", "TLAST_ERROR", "WARM_VALID", "NONFINITE")):
-        L.append(f"#define {pfx}_STATUS_{nm:<16} (1u << {i})")
-    L.append(f"#define {pfx}_CTRL_HOLD{'':<14} (1u << 1)")
-    L.append(f"#define {pfx}_ID_NONFINITE{'':<10} (1u << 31)")
-    L.append("")
-    L.append(f"#endif /* {pfx}_H */")
-    return "\n".join(L) + "\n"
 
 
 def design_report(d, core: dict | None = None) -> str:

@@ -6,7 +6,6 @@ import cocotb
 from cocotb.triggers import ClockCycles
 from cocotbext.axi import AxiResp
 
-from mpc_cores.regmap import Regmap
 from verif.tb import (TB, TIMEOUT_MS, back_to_back, bitexact_random, cycle_contract, output_all,  # noqa: F401
                       reset_mid_solve, saturation_flag, tlast_error)
 

@@ -30,7 +30,7 @@ class MinresTB:
         out = Path(os.environ["CORE_OUT"])
         self.core = json.loads((out / "core.json").read_text())
         self.cfg = json.loads((out / "config.json").read_text())
-        self.rm = Regmap(dict(self.core, col_bits=0))
+        self.rm = Regmap.for_core(out, self.core)
         c = self.core
         self.N, self.P, self.n, self.m, self.T = c["N"], c["P"], c["n"], c["m"], c["T"]
         self.model = MinresCoreModel.from_config(self.cfg)

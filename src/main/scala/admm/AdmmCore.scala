@@ -7,7 +7,7 @@ import fixed.FixedOps
 import linalg.{DotProductParams, DotProductTree}
 import mem.InitRam
 import proj.{BoxProjection, SoftProjection}
-import shell.{FrameIn, PassSequencer, RowToken, SolverRegs}
+import shell.{Field, FrameIn, PassSequencer, RegMap, Region, RowToken, SolverRegs}
 
 /** Fixed-point ADMM (Algorithm 2 of 002) for MPC with input, input-rate and soft state constraints, after Fig. 1
   * and 3 of 002. mpc_cores/admm/model.py (AdmmFixed) is its bit-exact model.
@@ -41,8 +41,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val L = p.cyclesPerIteration
 
   // ------------------------------------------------------------------ registers, input frame, sequencer
-  val regs = new SolverRegs(s_axil, AdmmRegs.IdValue, Cat(P.U(16.W), n.U(16.W)), Cat(nu.U(8.W), b.U(8.W), nw.U(16.W)),
-    L, p.imaxDefault, p.warmDefault, p.outAllDefault)
+  val regs = new SolverRegs(s_axil, AdmmRegs.map(p))
   val frameIn = Module(new FrameIn(p.moduleName + "_w", nw, p.wW, p.streamW, p.wlo.zip(p.whi)))
   frameIn.io.s_axis <> s_axis
   frameIn.io.hold := regs.ctrlHold
@@ -298,7 +297,33 @@ class AdmmCore(val p: AdmmParams) extends Module {
   )
 }
 
-/** ADMM core identity (the registers are the shared ones of shell.SolverRegs). */
+/** The register map of an ADMM core: the shared registers of shell.SolverRegs and the data memories, addressed by
+  * component index. */
 object AdmmRegs {
-  val IdValue = 0x41444d31L // "ADM1"
+  def map(p: AdmmParams): RegMap = {
+    val shared = SolverRegs.registers("ADM1",
+      config0 = Seq(Field.const("n_A", 0, 16, p.n, "components of z"), Field.const("P", 16, 16, p.P, "row units")),
+      config1 = Seq(Field.const("nw", 0, 16, p.nw, "parameter words per solve, w = (x, u_prev, r)"),
+        Field.const("frac_bits", 16, 8, p.fracBits, "fraction bits of the data and stream words"),
+        Field.const("nu", 24, 8, p.nu, "inputs per stage")),
+      ctrl = SolverRegs.ctrlFields(p.warmDefault, p.outAllDefault, "du_0 (nu words)",
+        warmText = "start from the previous z and nu shifted by one stage when STATUS.WARM_VALID, else cold"),
+      status = SolverRegs.statusFields(),
+      cyclesPerIteration = p.cyclesPerIteration, imaxDefault = p.imaxDefault)
+    val word = s"signed, ${p.fracBits} fraction bits, sign-extended to 32 bits"
+    val sizes = p.regionSizes.toMap
+    def region(nm: String, dims: Seq[Int], desc: String, w: Int) =
+      Region(nm, p.regionBase(nm), sizes(nm), dims, desc, Field.data(s"$word; must fit $w bits, else SLVERR"))
+    val cols = 1 << p.cBits
+    RegMap(p.moduleName, s"ADMM core ${p.moduleName}: control, status and write-only data memories. ${SolverRegs.rules}",
+      shared, Seq(
+        region("MAT_M", Seq(p.n, cols), "M11: element (i, j) is row i, column j (component indices of z); columns " +
+          "from n_A on: DECERR", p.coefW),
+        region("MAT_G", Seq(p.n, cols), "G~: element (i, j) is row i, column j over (x, u_prev, r, 1); columns from " +
+          "nw + 1 on: DECERR", p.coefW),
+        region("BND", Seq(p.n, 2), "component i: (i, 0) lower and (i, 1) upper bound of a box component, centre " +
+          "and radius at the slack of a soft pair; other components: DECERR; a write drops the warm start", p.zW),
+        region("WBOX", Seq(p.nw, 2), "parameter box: element (j, 0) the lower, (j, 1) the upper bound of word j of " +
+          "w = (x, u_prev, r); words outside saturate and set STATUS.SAT", p.wW)))
+  }
 }

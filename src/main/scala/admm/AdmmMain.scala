@@ -1,19 +1,18 @@
 package admm
 
 /** Generator entry point: `runMain admm.AdmmMain <config.json> <outDir> [<config.json> <outDir> ...]`.
-  * Writes <outDir>/<module>.sv and <outDir>/hw.json (module name, cycle counts, register map, row placement).
+  * Writes <outDir>/<module>.sv, <outDir>/hw.json (module name, cycle counts, register map, row placement) and the
+  * SystemRDL register description <outDir>/<module>.rdl.
   */
 object AdmmMain extends App {
   gen.CoreMain.run(args, "admm.AdmmMain") { (cfg, out) =>
     val p = AdmmParams.fromJson(cfg)
     gen.Emit.systemVerilog(new AdmmCore(p), out, p.moduleName)
-    gen.Emit.writeText(s"$out/hw.json", hwJson(p))
+    gen.CoreMain.writeOutputs(out, hwJson(p), AdmmRegs.map(p))
   }
 
   def hwJson(p: AdmmParams): String = {
-    val regs = shell.SolverRegs.descriptions("0x41444D31 ('ADM1')", "[15:0] n_A, [31:16] P",
-      "[15:0] nw, [23:16] frac_bits, [31:24] nu", "du_0")
-    val (regJson, regions) = gen.CoreMain.registerJson(regs, p.regionSizes, p.regionBase)
+    val (regJson, regions) = gen.CoreMain.registerJson(AdmmRegs.map(p))
     val o = ujson.Obj(
       "module" -> p.moduleName,
       "n" -> p.n,

@@ -7,7 +7,7 @@ import fixed.FixedOps
 import linalg.{DotProductParams, DotProductTree}
 import mem.InitRam
 import proj.BoxProjection
-import shell.{FrameIn, PassSequencer, RowToken, SolverRegs}
+import shell.{Field, FrameIn, PassSequencer, RegMap, Region, Register, RowToken, SolverRegs}
 
 /** Fixed-point fast gradient method (Algorithm 1 of 002) for input-constrained MPC, after Fig. 1/2 of 002.
   *
@@ -34,8 +34,7 @@ class FgmCore(val p: FgmParams) extends Module {
   val b = p.fracBits
 
   // ------------------------------------------------------------------ registers, input frame, sequencer
-  val regs = new SolverRegs(s_axil, FgmRegs.IdValue, Cat(P.U(16.W), n.U(16.W)), Cat(nu.U(8.W), b.U(8.W), nw.U(16.W)),
-    p.cyclesPerIteration, p.imaxDefault, p.warmDefault, p.outAllDefault)
+  val regs = new SolverRegs(s_axil, FgmRegs.map(p))
   /** w = (x, r), saturated to the state box */
   val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi)))
   frameIn.io.s_axis <> s_axis
@@ -265,9 +264,40 @@ class FgmCore(val p: FgmParams) extends Module {
   )
 }
 
-/** Register word addresses (byte address = 4 x word address): the shared ones of shell.SolverRegs, then beta. */
+/** The register map of an FGM core: the shared registers of shell.SolverRegs, beta, and the data memories. */
 object FgmRegs {
-  val IdValue       = 0x46474d31L // "FGM1"
-  val BETA          = shell.SolverRegs.FirstCoreReg
+  val BETA          = SolverRegs.FirstCoreReg
   val ONE_PLUS_BETA = BETA + 1
+
+  def map(p: FgmParams): RegMap = {
+    val shared = SolverRegs.registers("FGM1",
+      config0 = Seq(Field.const("n", 0, 16, p.n, "decision variables n = N nu"),
+        Field.const("P", 16, 16, p.P, "row units")),
+      config1 = Seq(Field.const("nw", 0, 16, p.nw, "parameter words per solve, w = (x, r)"),
+        Field.const("frac_bits", 16, 8, p.fracBits, "fraction bits of the data and stream words"),
+        Field.const("nu", 24, 8, p.nu, "inputs per stage")),
+      ctrl = SolverRegs.ctrlFields(p.warmDefault, p.outAllDefault, "u0 (nu words)"),
+      status = SolverRegs.statusFields(),
+      cyclesPerIteration = p.cyclesPerIteration, imaxDefault = p.imaxDefault)
+    val word = s"signed, ${p.fracBits} fraction bits, sign-extended to 32 bits"
+    def fits(w: Int) = s"$word; must fit $w bits, else SLVERR"
+    val beta = Seq(
+      Register("BETA", BETA, "beta of the y update", Seq(Field.data(s"beta, ${fits(p.betaW)}"))),
+      Register("ONE_PLUS_BETA", ONE_PLUS_BETA, "1 + beta", Seq(Field.data(s"1 + beta, ${fits(p.betaW)}"))))
+    val sizes = p.regionSizes.toMap
+    def region(nm: String, dims: Seq[Int], desc: String, w: Int) =
+      Region(nm, p.regionBase(nm), sizes(nm), dims, desc, Field.data(fits(w)))
+    val (rows, units, cols) = (p.K, 1 << p.pBits, 1 << p.cBits)
+    val row = "row k P + u (row unit u, slot k)"
+    RegMap(p.moduleName, s"FGM core ${p.moduleName}: control, status and write-only data memories. ${SolverRegs.rules}",
+      shared ++ beta, Seq(
+        region("MAT_A", Seq(rows, units, cols), s"(I - H_n): element (k, u, j) is $row, column j; u from P on, rows from n on " +
+          "and columns from n on: DECERR", p.coefW),
+        region("MAT_F", Seq(rows, units, cols), s"Phi_n: element (k, u, j) is $row, column j of w = (x, r); u from P " +
+          "on, rows from n on and columns from nw on: DECERR", p.coefW),
+        region("UBOX", Seq(rows, units, 2), s"input bounds: element (k, u, 0) the lower, (k, u, 1) the upper bound " +
+          s"of z at $row; u from P on, rows from n on: DECERR; a write drops the warm start", p.zW),
+        region("XBOX", Seq(p.nw, 2), "parameter box: element (j, 0) the lower, (j, 1) the upper bound of word j of " +
+          "w = (x, r); words outside saturate and set STATUS.SAT", p.xW)))
+  }
 }

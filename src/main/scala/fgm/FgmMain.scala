@@ -1,22 +1,18 @@
 package fgm
 
 /** Generator entry point: `runMain fgm.FgmMain <config.json> <outDir> [<config.json> <outDir> ...]`.
-  * Writes <outDir>/<module>.sv and <outDir>/hw.json (module name, cycle counts, register map) per pair.
+  * Writes <outDir>/<module>.sv, <outDir>/hw.json (module name, cycle counts, register map) and the SystemRDL
+  * register description <outDir>/<module>.rdl per pair.
   */
 object FgmMain extends App {
   gen.CoreMain.run(args, "fgm.FgmMain") { (cfg, out) =>
     val p = FgmParams.fromJson(cfg)
     gen.Emit.systemVerilog(new FgmCore(p), out, p.moduleName)
-    gen.Emit.writeText(s"$out/hw.json", hwJson(p))
+    gen.CoreMain.writeOutputs(out, hwJson(p), FgmRegs.map(p))
   }
 
   def hwJson(p: FgmParams): String = {
-    val regs = shell.SolverRegs.descriptions("0x46474D31 ('FGM1')", "[15:0] n, [31:16] P",
-      "[15:0] nw, [23:16] frac_bits, [31:24] nu", "u0") ++ Seq(
-      ("BETA", FgmRegs.BETA, "WO", "beta, Q-format with frac_bits fraction bits"),
-      ("ONE_PLUS_BETA", FgmRegs.ONE_PLUS_BETA, "WO", "1 + beta")
-    )
-    val (regJson, regions) = gen.CoreMain.registerJson(regs, p.regionSizes, p.regionBase)
+    val (regJson, regions) = gen.CoreMain.registerJson(FgmRegs.map(p))
     val o = ujson.Obj(
       "module" -> p.moduleName,
       "n" -> p.n,

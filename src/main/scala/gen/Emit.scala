@@ -65,10 +65,29 @@ object CoreMain {
     if (refused.nonEmpty) sys.exit(1)
   }
 
-  /** The register list and regions of hw.json. */
-  def registerJson(regs: Seq[(String, Int, String, String)], sizes: Seq[(String, Int)], base: Map[String, Int]): (ujson.Arr, ujson.Obj) = {
-    val r = regs.map { case (nm, a, acc, d) => ujson.Obj("name" -> nm, "offset" -> 4 * a, "access" -> acc, "desc" -> d) }
-    val g = sizes.map { case (nm, sz) => nm -> ujson.Obj("offset" -> 4 * base(nm), "bytes" -> 4 * sz) }
+  /** The register list and regions of hw.json, from the core's register map: per register its byte offset, access
+    * summary (RO, RW, WO, RO/W1C), description and fields; per region its byte offset, span and array dimensions.
+    */
+  def registerJson(map: shell.RegMap): (ujson.Arr, ujson.Obj) = {
+    def field(f: shell.Field) = {
+      val o = ujson.Obj("name" -> f.name, "lsb" -> f.lsb, "width" -> f.width, "sw" -> f.sw, "desc" -> f.desc)
+      f.reset.foreach(v => o("reset") = ujson.Num(v.toDouble))
+      if (f.w1c) o("w1c") = true
+      o
+    }
+    val r = map.regs.sortBy(_.word).map { r =>
+      ujson.Obj("name" -> r.name, "offset" -> 4 * r.word, "access" -> r.access, "desc" -> r.desc,
+        "fields" -> ujson.Arr(r.fields.sortBy(_.lsb).map(field): _*))
+    }
+    val g = map.regions.map { g =>
+      g.name -> ujson.Obj("offset" -> 4 * g.word, "bytes" -> 4 * g.size, "dims" -> ujson.Arr(g.dims.map(ujson.Num(_)): _*))
+    }
     (ujson.Arr(r: _*), ujson.Obj.from(g))
+  }
+
+  /** Write the core's outputs beside its SystemVerilog: hw.json and the SystemRDL register description. */
+  def writeOutputs(out: String, hwJson: String, map: shell.RegMap): Unit = {
+    Emit.writeText(s"$out/hw.json", hwJson)
+    Rdl.write(out, map)
   }
 }

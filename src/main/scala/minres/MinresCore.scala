@@ -5,7 +5,7 @@ import chisel3.util._
 import bus.{AxiLiteIO, AxiStreamIO}
 import float.{FloatFormat, Stages}
 import linalg.FDotProduct
-import shell.SolverRegs
+import shell.{Field, RegMap, SolverRegs}
 
 /** Control word of one element of a pass: problem slot, element (row) index, iteration (0 = the init pass), and
   * for the feed the position of the row in the MPC structure (row r of stage k, primal index).
@@ -85,8 +85,9 @@ class MinresCore(val p: MinresParams) extends Module {
   val s_axil = IO(Flipped(new AxiLiteIO(p.axiAddrW)))
 
   require(n < 256 && m < 256 && T < 65536, s"CONFIG1 holds n, m < 256 and T < 65536: got n=$n, m=$m, T=$T")
-  val regs = new SolverRegs(s_axil, MinresRegs.IdValue, Cat(P.U(16.W), N.U(16.W)), Cat(T.U(16.W), m.U(8.W), n.U(8.W)),
-    p.cyclesPerIteration, p.imaxDefault, warmDefault = false, outAllDefault = false)
+  /** STATUS.NONFINITE: a non-finite input word or solution (write 1 to clear) */
+  val nonfinite = RegInit(false.B)
+  val regs = new SolverRegs(s_axil, MinresRegs.map(p), Seq("NONFINITE" -> nonfinite))
 
   private val ops = new TimedOps(fmt, p.latAdd, p.latMul, p.latDiv, p.latSqrt)
   import ops.{add, div, mul, sqrt, sub}
@@ -120,7 +121,6 @@ class MinresCore(val p: MinresParams) extends Module {
   val cnt    = Reg(Vec(2, UInt(log2Ceil(P + 1).W)))
   val ids    = Reg(Vec(2 * P, UInt(31.W))) // bank * P + slot
   val inBad  = Reg(Vec(2 * P, Bool()))
-  val nonfinite = RegInit(false.B)
 
   s_axis.tready := !full(ldBank) && !(regs.ctrlHold && ldWord === 0.U)
   private val d = s_axis.tdata
@@ -334,15 +334,28 @@ class MinresCore(val p: MinresParams) extends Module {
     }
   }
 
-  // ---- registers: the shared ones, STATUS bit 6 NONFINITE (write 1 to clear)
+  // ---- registers: the shared ones and STATUS.NONFINITE (MinresRegs)
   regs.busy := state =/= sIdle || full.asUInt.orR || ldWord =/= 0.U || ldSlot =/= 0.U || s_axis.fire
-  when(regs.axil.rd.addr === SolverRegs.STATUS.U) {
-    regs.axil.rd.data := Cat(nonfinite, false.B, regs.stTlast, regs.stRej, regs.stOvf, regs.stSat, regs.busyR)
-  }
-  when(regs.axil.wr.valid && regs.wA === SolverRegs.STATUS.U && regs.wD(6)) { nonfinite := false.B }
   regs.writes()
 }
 
+/** The register map of a MINRES core: the shared registers of shell.SolverRegs (no warm start, no output choice,
+  * no data memories) with STATUS bit 6 NONFINITE. */
 object MinresRegs {
-  val IdValue: Long = 0x4d4e5231L // 'MNR1'
+  def map(p: MinresParams): RegMap = {
+    val none = "no effect on this core"
+    val regs = SolverRegs.registers("MNR1",
+      config0 = Seq(Field.const("N", 0, 16, p.N, "order of the KKT matrix"),
+        Field.const("P", 16, 16, p.P, "problems per batch")),
+      config1 = Seq(Field.const("n", 0, 8, p.n, "states"), Field.const("m", 8, 8, p.m, "inputs"),
+        Field.const("T", 16, 16, p.T, "horizon")),
+      ctrl = SolverRegs.ctrlFields(warmDefault = false, outAllDefault = false, "", warmText = none, outText = none),
+      status = SolverRegs.statusFields(warm = false, unused = Set("SAT", "OVERFLOW", "WRITE_REJECTED"),
+        extra = Seq(Field.w1c("NONFINITE", 6, "a non-finite input word or solution; the problem's output id has " +
+          "bit 31 set"))),
+      cyclesPerIteration = p.cyclesPerIteration, imaxDefault = p.imaxDefault,
+      lastCycles = "cycles of the last batch", solves = "problems solved since reset")
+    RegMap(p.moduleName, s"MINRES core ${p.moduleName}: control and status, 32-bit registers on AXI4-Lite, no " +
+      "data memories; an unmapped address: DECERR.", regs, Nil)
+  }
 }

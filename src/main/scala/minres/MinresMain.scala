@@ -1,19 +1,18 @@
 package minres
 
-/** Generator entry point: `runMain minres.MinresMain <config.json> <outDir> [...pairs]`. Writes <outDir>/<module>.sv
-  * and <outDir>/hw.json (module, P, schedule, cycle counts, storage, register map).
+/** Generator entry point: `runMain minres.MinresMain <config.json> <outDir> [...pairs]`. Writes <outDir>/<module>.sv,
+  * <outDir>/hw.json (module, P, schedule, cycle counts, storage, register map) and the SystemRDL register
+  * description <outDir>/<module>.rdl.
   */
 object MinresMain extends App {
   gen.CoreMain.run(args, "minres.MinresMain") { (cfg, out) =>
     val p = MinresParams.fromJson(cfg)
     gen.Emit.systemVerilog(new MinresCore(p), out, p.moduleName)
-    gen.Emit.writeText(s"$out/hw.json", hwJson(p))
+    gen.CoreMain.writeOutputs(out, hwJson(p), MinresRegs.map(p))
   }
 
   def hwJson(p: MinresParams): String = {
-    val regs = shell.SolverRegs.descriptions("0x4D4E5231 ('MNR1')", "[15:0] N, [31:16] P", "[7:0] n, [15:8] m, [31:16] T",
-      "(unused)")
-    val (regJson, regions) = gen.CoreMain.registerJson(regs, Nil, Map.empty)
+    val (regJson, regions) = gen.CoreMain.registerJson(MinresRegs.map(p))
     val o = ujson.Obj(
       "module" -> p.moduleName,
       "N" -> p.N,

@@ -5,8 +5,8 @@ import chisel3.util._
 import bus.{AxiLiteIO, AxiLiteResp, AxiLiteSlave}
 import fixed.FixedOps
 
-/** Register word addresses shared by the solver cores (byte address = 4 x word address), their descriptions for
-  * hw.json, and the placement of the data regions above them.
+/** Register word addresses shared by the solver cores (byte address = 4 x word address), their description (the
+  * register map every core extends, see RegMap) and the placement of the data regions above them.
   */
 object SolverRegs {
   val ID              = 0
@@ -23,19 +23,59 @@ object SolverRegs {
   /** Data regions start at this word address. */
   val RegionStart = 16
 
-  /** (name, word offset, access, description) of the shared registers; `config` describes CONFIG0/1. */
-  def descriptions(idText: String, config0: String, config1: String, what: String): Seq[(String, Int, String, String)] =
+  /** The ID word of four ASCII characters, the first in the top byte ("FGM1" = 0x46474D31). */
+  def idValue(id: String): BigInt = {
+    require(id.length == 4 && id.forall(c => c >= ' ' && c < 127), s"an ID is four ASCII characters: got '$id'")
+    id.foldLeft(BigInt(0))((a, c) => (a << 8) | c.toInt)
+  }
+
+  /** CTRL: `out` says what is streamed without OUT_ALL; the texts of a core without warm start or output choice
+    * say so. */
+  def ctrlFields(warmDefault: Boolean, outAllDefault: Boolean, out: String,
+      warmText: String = "start from the previous solution shifted by one stage when STATUS.WARM_VALID, else cold",
+      outText: String = ""): Seq[Field] = Seq(
+    Field.ctrl("WARM_START", 0, 1, if (warmDefault) 1 else 0, warmText),
+    Field.ctrl("HOLD", 1, 1, 0, "finish the current solve, accept no new frame"),
+    Field.ctrl("OUT_ALL", 2, 1, if (outAllDefault) 1 else 0,
+      if (outText.nonEmpty) outText else s"stream all n words of z, else $out"))
+
+  /** STATUS: BUSY and the sticky flags; WARM_VALID where the core has a warm start; `extra` the core's own bits;
+    * `unused` the flags the core never sets. */
+  def statusFields(warm: Boolean = true, extra: Seq[Field] = Nil, unused: Set[String] = Set()): Seq[Field] = {
+    def flag(nm: String, lsb: Int, desc: String) =
+      Field.w1c(nm, lsb, if (unused(nm)) s"$desc (never set by this core)" else desc)
     Seq(
-      ("ID", ID, "RO", idText),
-      ("CONFIG0", CONFIG0, "RO", config0),
-      ("CONFIG1", CONFIG1, "RO", config1),
-      ("CTRL", CTRL, "RW", s"[0] WARM_START, [1] HOLD (finish the current solve, accept no new frame), [2] OUT_ALL (stream all n words of z, else $what)"),
-      ("IMAX", IMAX, "RW", "iterations per solve, 1..65535 (writing 0 or more than 65535: SLVERR, ignored); latched at the start of each solve"),
-      ("STATUS", STATUS, "RO/W1C", "[0] BUSY, [1] SAT (a parameter word was outside its box and saturated), [2] OVERFLOW (a datapath word saturated), [3] WRITE_REJECTED, [4] TLAST_ERROR, [5] WARM_VALID; write 1 to clear bits 1-4"),
-      ("SOLVES", SOLVES, "RO", "solves completed since reset"),
-      ("LAST_CYCLES", LAST_CYCLES, "RO", "cycles of the last solve, first pass to last iteration"),
-      ("CYCLES_PER_ITER", CYCLES_PER_ITER, "RO", "cycles per iteration")
-    )
+      Field.status("BUSY", 0, 1, "a frame is arriving, a solve runs or its result waits: data writes are rejected"),
+      flag("SAT", 1, "a parameter word was outside its box and saturated"),
+      flag("OVERFLOW", 2, "a datapath word saturated"),
+      flag("WRITE_REJECTED", 3, "a data write was refused: while busy, or a value that does not fit its word"),
+      flag("TLAST_ERROR", 4, "an input frame's tlast was not on its last word")
+    ) ++ (if (warm) Seq(Field.status("WARM_VALID", 5, 1,
+      "a solve finished since reset and the last bounds write: the next solve can start warm")) else Nil) ++ extra
+  }
+
+  /** The shared registers, ID to CYCLES_PER_ITER, of a core with the given identity and CONFIG fields. */
+  def registers(id: String, config0: Seq[Field], config1: Seq[Field], ctrl: Seq[Field], status: Seq[Field],
+      cyclesPerIteration: Int, imaxDefault: Int,
+      lastCycles: String = "cycles of the last solve, first pass to last iteration",
+      solves: String = "solves completed since reset"): Seq[Register] = Seq(
+    Register("ID", ID, "core identity", Seq(Field.const("ID", 0, 32, idValue(id), s"'$id' in ASCII"))),
+    Register("CONFIG0", CONFIG0, "sizes of the core", config0),
+    Register("CONFIG1", CONFIG1, "sizes and word format of the core", config1),
+    Register("CTRL", CTRL, "control", ctrl),
+    Register("IMAX", IMAX, "iterations per solve; writing 0 or more than 65535: SLVERR, ignored",
+      Seq(Field.ctrl("IMAX", 0, 16, imaxDefault, "iterations per solve, 1..65535, latched at the start of each solve"))),
+    Register("STATUS", STATUS, "status; writing 1 clears a sticky flag", status),
+    Register("SOLVES", SOLVES, solves, Seq(Field.status("COUNT", 0, 32, solves))),
+    Register("LAST_CYCLES", LAST_CYCLES, lastCycles, Seq(Field.status("CYCLES", 0, 32, lastCycles))),
+    Register("CYCLES_PER_ITER", CYCLES_PER_ITER, "cycles per iteration",
+      Seq(Field.const("CYCLES", 0, 32, cyclesPerIteration, "cycles per iteration")))
+  )
+
+  /** Rules of the shared register file, for the description of a core's map. */
+  val rules: String = "32-bit registers on AXI4-Lite. Data memories are write-only (reads: DECERR) and written only " +
+    "while STATUS.BUSY is 0 (else SLVERR and STATUS.WRITE_REJECTED); a value that does not fit its word: SLVERR; " +
+    "an unmapped address or a data element without a word: DECERR."
 
   private def pow2(x: Int): Int = 1 << log2Ceil(math.max(1, x))
 
@@ -56,26 +96,30 @@ object SolverRegs {
 }
 
 /** The control and status registers of a solver core and its AXI4-Lite register file, built inside the core's
-  * module. The core drives `busy` and the status pulses; it adds its data regions through `writes`.
+  * module from the core's register map (constants, reset values, field positions). The core drives `busy` and
+  * the status pulses; it adds its data regions through `writes`, and its own sticky STATUS bits (write 1 to
+  * clear) as `extraStatus`, by field name.
   *
   * Rules common to the cores: the data memories are write-only; a data write while busy gets SLVERR and sets
   * WRITE_REJECTED, a value that does not fit its word gets SLVERR, an unmapped address DECERR.
   */
-class SolverRegs(
-    s_axil: AxiLiteIO,
-    idValue: Long,
-    config0: UInt,
-    config1: UInt,
-    cyclesPerIteration: Int,
-    imaxDefault: Int,
-    warmDefault: Boolean,
-    outAllDefault: Boolean) {
+class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)] = Nil) {
   import SolverRegs._
 
-  val ctrlWarm   = RegInit(warmDefault.B)
-  val ctrlHold   = RegInit(false.B)
-  val ctrlOutAll = RegInit(outAllDefault.B)
-  val imaxReg    = RegInit(imaxDefault.U(16.W))
+  private val ctrlR   = map.reg("CTRL")
+  private val imaxF   = map.reg("IMAX").field("IMAX")
+  private val statusR = map.reg("STATUS")
+  require(ctrlR.fields.map(_.name).toSet == Set("WARM_START", "HOLD", "OUT_ALL"),
+    s"CTRL holds WARM_START, HOLD and OUT_ALL: got ${ctrlR.fields.map(_.name)}")
+  require(imaxF.lsb == 0, "IMAX is the low bits of its register")
+  require(map.regs.filter(_.readable).map(_.word).sorted == (0 until FirstCoreReg),
+    "the readable registers are words 0 to CYCLES_PER_ITER (reads from FirstCoreReg on: DECERR)")
+  private def resetBit(f: String): Bool = (ctrlR.field(f).reset.get != 0).B
+
+  val ctrlWarm   = RegInit(resetBit("WARM_START"))
+  val ctrlHold   = RegInit(resetBit("HOLD"))
+  val ctrlOutAll = RegInit(resetBit("OUT_ALL"))
+  val imaxReg    = RegInit(imaxF.reset.get.U(imaxF.width.W))
   val stSat      = RegInit(false.B)
   val stOvf      = RegInit(false.B)
   val stRej      = RegInit(false.B)
@@ -97,6 +141,30 @@ class SolverRegs(
     warmValid  := true.B
   }
 
+  /** The sticky STATUS flags, cleared by writing 1 to their bit. */
+  private val w1cFlags: Map[String, Bool] =
+    Map("SAT" -> stSat, "OVERFLOW" -> stOvf, "WRITE_REJECTED" -> stRej, "TLAST_ERROR" -> stTlast) ++ extraStatus
+  /** What the fields the core sets read: "REGISTER.FIELD" -> signal (constants come from the map). */
+  private val sources: Map[String, UInt] = Map(
+    "CTRL.WARM_START" -> ctrlWarm, "CTRL.HOLD" -> ctrlHold, "CTRL.OUT_ALL" -> ctrlOutAll, "IMAX.IMAX" -> imaxReg,
+    "STATUS.BUSY" -> busyR, "STATUS.WARM_VALID" -> warmValid, "SOLVES.COUNT" -> solves,
+    "LAST_CYCLES.CYCLES" -> lastCycles) ++ w1cFlags.map { case (k, v) => s"STATUS.$k" -> v.asUInt }
+  for (f <- statusR.fields if f.w1c) require(w1cFlags.contains(f.name), s"STATUS.${f.name}: no flag drives it")
+
+  /** The word a register reads: its readable fields at their bits, 0 between them. */
+  private def readWord(r: Register): UInt = {
+    var at = 0
+    val parts = r.fields.filter(_.readable).sortBy(_.lsb).flatMap { f =>
+      val gap = if (f.lsb > at) Seq(0.U((f.lsb - at).W)) else Nil
+      at = f.msb + 1
+      val v = if (f.hw == "na") f.reset.get.U(f.width.W)
+        else sources.getOrElse(s"${r.name}.${f.name}", throw new IllegalArgumentException(
+          s"${map.name}: ${r.name}.${f.name} has no signal in the register file"))
+      gap :+ v
+    }
+    Cat(parts.reverse)
+  }
+
   val axil = Module(new AxiLiteSlave(s_axil.addrW))
   axil.axi <> s_axil
 
@@ -104,17 +172,8 @@ class SolverRegs(
   private val rdA = axil.rd.addr
   axil.rd.resp := AxiLiteResp.OKAY
   axil.rd.data := 0.U
-  switch(rdA) {
-    is(ID.U) { axil.rd.data := idValue.U }
-    is(CONFIG0.U) { axil.rd.data := config0 }
-    is(CONFIG1.U) { axil.rd.data := config1 }
-    is(CTRL.U) { axil.rd.data := Cat(ctrlOutAll, ctrlHold, ctrlWarm) }
-    is(IMAX.U) { axil.rd.data := imaxReg }
-    is(STATUS.U) { axil.rd.data := Cat(warmValid, stTlast, stRej, stOvf, stSat, busyR) }
-    is(SOLVES.U) { axil.rd.data := solves }
-    is(LAST_CYCLES.U) { axil.rd.data := lastCycles }
-    is(CYCLES_PER_ITER.U) { axil.rd.data := cyclesPerIteration.U }
-  }
+  // from the highest word down: the last connection wins, so the multiplexer tests word 0 first
+  for (r <- map.regs.filter(_.readable).sortBy(-_.word)) when(rdA === r.word.U) { axil.rd.data := readWord(r) }
   when(rdA >= FirstCoreReg.U) { axil.rd.resp := AxiLiteResp.DECERR }
 
   // ---- writes
@@ -145,22 +204,20 @@ class SolverRegs(
 
   /** Decode the shared registers, then the core's (condition, action) cases in order; anything else is DECERR. */
   def writes(cases: (Bool, () => Unit)*): Unit = {
+    def bit(f: String) = wD(ctrlR.field(f).lsb)
     val shared = when(wA === CTRL.U) {
       when(axil.wr.valid) {
-        ctrlWarm   := wD(0)
-        ctrlHold   := wD(1)
-        ctrlOutAll := wD(2)
+        ctrlWarm   := bit("WARM_START")
+        ctrlHold   := bit("HOLD")
+        ctrlOutAll := bit("OUT_ALL")
       }
     }.elsewhen(wA === IMAX.U) {
-      when(wD === 0.U || wD > 65535.U) {
+      when(wD === 0.U || wD > ((BigInt(1) << imaxF.width) - 1).U) {
         axil.wr.resp := AxiLiteResp.SLVERR
       }.elsewhen(axil.wr.valid) { imaxReg := wD }
     }.elsewhen(wA === STATUS.U) {
       when(axil.wr.valid) {
-        when(wD(1)) { stSat := false.B }
-        when(wD(2)) { stOvf := false.B }
-        when(wD(3)) { stRej := false.B }
-        when(wD(4)) { stTlast := false.B }
+        for (f <- statusR.fields.filter(_.w1c).sortBy(_.lsb)) when(wD(f.lsb)) { w1cFlags(f.name) := false.B }
       }
     }
     cases.foldLeft(shared) { case (ctx, (cond, body)) => ctx.elsewhen(cond)(body()) }.otherwise {

@@ -1,0 +1,142 @@
+"""cocotb test of a generated core's AXI4-Lite register file against its SystemRDL description (any core kind):
+reset values, access rules (read-only, read-write, write-1-to-clear, write-only) and the error responses of reads
+from write-only registers, data memories and unmapped words.
+
+Environment: CORE_OUT = the generator's output folder (core.json and the <module>.rdl it names).
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import cocotb
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, RisingEdge
+from cocotbext.axi import AxiLiteBus, AxiLiteMaster, AxiResp
+
+from mpc_cores.regmap import Regmap
+
+TIMEOUT_MS = 50
+PATTERNS = (0xFFFFFFFF, 0x55555555, 0xAAAAAAAA)
+
+
+class RegsTB:
+    def __init__(self, dut):
+        self.dut = dut
+        out = Path(os.environ["CORE_OUT"])
+        self.core = json.loads((out / "core.json").read_text())
+        self.rm = Regmap.for_core(out, self.core)
+        cocotb.start_soon(Clock(dut.clock, 10, unit="ns").start())
+        dut.s_axis_tvalid.value = 0
+        dut.s_axis_tdata.value = 0
+        dut.s_axis_tlast.value = 0
+        dut.m_axis_tready.value = 1
+        self.axil = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axil"), dut.clock, dut.reset)
+
+    async def reset(self):
+        self.dut.reset.value = 1
+        await ClockCycles(self.dut.clock, 3)
+        self.dut.reset.value = 0
+        await RisingEdge(self.dut.clock)
+
+    async def read(self, addr: int) -> tuple[int, AxiResp]:
+        r = await self.axil.read(addr, 4)
+        return int.from_bytes(r.data, "little"), r.resp
+
+    async def write(self, addr: int, value: int) -> AxiResp:
+        r = await self.axil.write(addr, (value & 0xFFFFFFFF).to_bytes(4, "little"))
+        return r.resp
+
+    def registers(self, pred):
+        return [r for r in self.rm.regs.values() if not r.external and pred(r)]
+
+
+def _fields(word: int, reg) -> dict[str, int]:
+    return {f.name: (word & f.mask) >> f.lsb for f in reg.fields.values() if f.readable}
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def reset_values(dut):
+    """After reset every readable register reads OKAY, every field with a reset value reads it (ID, CONFIG0/1,
+    CTRL, IMAX, STATUS, SOLVES, LAST_CYCLES, CYCLES_PER_ITER) and bits outside the fields read 0."""
+    tb = RegsTB(dut)
+    await tb.reset()
+    regs = tb.registers(lambda r: r.readable)
+    assert {"ID", "CONFIG0", "CONFIG1", "CTRL", "IMAX", "STATUS", "SOLVES", "LAST_CYCLES",
+            "CYCLES_PER_ITER"} <= {r.name for r in regs}
+    for r in regs:
+        word, resp = await tb.read(r.offset)
+        assert resp == AxiResp.OKAY, f"{r.name}: read response {resp}"
+        for f in r.fields.values():
+            if f.readable and f.reset is not None:
+                got = (word & f.mask) >> f.lsb
+                assert got == f.reset, f"{r.name}.{f.name} = {got:#x} after reset, the RDL says {f.reset:#x}"
+        used = sum(f.mask for f in r.fields.values() if f.readable)
+        assert word & ~used == 0, f"{r.name} = {word:#010x}: bits outside its fields are set"
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def access_rules(dut):
+    """Writes to read-only registers change nothing; read-write fields read back what was written (restored
+    after); write-1-to-clear bits stay 0 after writing 1 when clear, and a STATUS write leaves its read-only bits."""
+    tb = RegsTB(dut)
+    await tb.reset()
+    for r in tb.registers(lambda r: r.readable and not r.writable):
+        before, _ = await tb.read(r.offset)
+        for v in (0xFFFFFFFF, 0):
+            await tb.write(r.offset, v)
+            after, resp = await tb.read(r.offset)
+            assert resp == AxiResp.OKAY and after == before, \
+                f"read-only {r.name}: {before:#010x} became {after:#010x} after writing {v:#010x}"
+    for r in tb.registers(lambda r: any(f.sw == "rw" and not f.w1c for f in r.fields.values())):
+        rw = [f for f in r.fields.values() if f.sw == "rw" and not f.w1c]
+        before, _ = await tb.read(r.offset)
+        for p in PATTERNS:
+            v = sum(p & f.mask for f in rw)
+            assert await tb.write(r.offset, v) == AxiResp.OKAY, f"{r.name}: writing {v:#x} refused"
+            got, resp = await tb.read(r.offset)
+            assert resp == AxiResp.OKAY
+            for f in rw:
+                assert got & f.mask == v & f.mask, f"{r.name}.{f.name}: wrote {v:#x}, read {got:#x}"
+            others = [f for f in r.fields.values() if f.readable and f not in rw]
+            assert all(got & f.mask == before & f.mask for f in others), f"{r.name}: a read-only field changed"
+        restore = sum(f.reset << f.lsb for f in rw)
+        assert await tb.write(r.offset, restore) == AxiResp.OKAY
+        got, _ = await tb.read(r.offset)
+        assert got == before, f"{r.name}: {got:#x} after restoring {before:#x}"
+    for r in tb.registers(lambda r: any(f.w1c for f in r.fields.values())):
+        before, _ = await tb.read(r.offset)
+        for f in (f for f in r.fields.values() if f.w1c):
+            assert before & f.mask == 0, f"{r.name}.{f.name} set after reset"
+            assert await tb.write(r.offset, f.mask) == AxiResp.OKAY
+            got, resp = await tb.read(r.offset)
+            assert resp == AxiResp.OKAY
+            assert got & f.mask == 0, f"{r.name}.{f.name}: writing 1 to a clear write-1-to-clear bit set it"
+            assert got == before, f"{r.name}: {before:#x} became {got:#x} after writing 1 to {f.name}"
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def read_errors(dut):
+    """Reads from write-only registers, from the data memories (first, middle and last element of each array)
+    and from unmapped words below the data memories return DECERR."""
+    tb = RegsTB(dut)
+    await tb.reset()
+    for r in tb.registers(lambda r: not r.readable):
+        _, resp = await tb.read(r.offset)
+        assert resp == AxiResp.DECERR, f"write-only {r.name}: read response {resp}"
+    arrays = [r for r in tb.rm.regs.values() if r.external]
+    for a in arrays:
+        n = 1
+        for d in a.dims:
+            n *= d
+        for flat in sorted({0, n // 2, n - 1}):
+            addr = a.offset + a.stride * flat
+            _, resp = await tb.read(addr)
+            assert resp == AxiResp.DECERR, f"{a.name} element {flat} at {addr:#x}: read response {resp}"
+    top = min([a.offset for a in arrays] + [16 * 4])
+    mapped = {r.offset for r in tb.rm.regs.values() if not r.external}
+    for addr in range(0, top, 4):
+        if addr not in mapped:
+            _, resp = await tb.read(addr)
+            assert resp == AxiResp.DECERR, f"unmapped {addr:#x}: read response {resp}"
