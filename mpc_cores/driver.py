@@ -36,26 +36,65 @@ def golden_model(cfg: dict):
     return registry.get(cfg.get("core", "fgm")).golden_model(cfg)
 
 
-class TB:
+class AxiDriver:
+    """Any generated core: its core.json, config.json and register map (from its .rdl), the clock, a reset pulse,
+    the AXI4-Stream source and sink (random backpressure on request) and the AXI4-Lite master."""
+
     def __init__(self, dut, seed: int = 1):
         self.dut = dut
-        out = Path(os.environ["CORE_OUT"])
+        self.out = out = Path(os.environ["CORE_OUT"])
         self.core = json.loads((out / "core.json").read_text())
         self.cfg = json.loads((out / "config.json").read_text())
         self.rm = Regmap.for_core(out, self.core)
-        self.sw = self.core["stream_width"]
-        self.n, self.nu, self.nw = self.core["n"], self.core["nu"], self.core["nw"]
         self.rng = random.Random(seed)
-        self.model = golden_model(self.cfg)
-        # box of the accepted parameter words
-        self.box = (self.model.xlo, self.model.xhi) if self.core["core"] == "fgm" else (self.model.wlo, self.model.whi)
         self.imax = self.core["iterations"]
-        self.warm = self.core["warm_start"]
-        self.out_all = self.core["output_all"]
         cocotb.start_soon(Clock(dut.clock, 10, unit="ns").start())
         self.src = AxiStreamSource(AxiStreamBus.from_prefix(dut, "s_axis"), dut.clock, dut.reset, byte_lanes=1)
         self.sink = AxiStreamSink(AxiStreamBus.from_prefix(dut, "m_axis"), dut.clock, dut.reset, byte_lanes=1)
         self.axil = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axil"), dut.clock, dut.reset)
+
+    async def reset(self):
+        self.dut.reset.value = 1
+        await ClockCycles(self.dut.clock, 3)
+        self.dut.reset.value = 0
+        await RisingEdge(self.dut.clock)
+        self.imax = self.core["iterations"]
+
+    def backpressure(self, on: bool):
+        def gen(p):
+            while True:
+                yield self.rng.random() < p
+        for ep, prob in ((self.src, 0.3), (self.sink, 0.4)):
+            ep.set_pause_generator(gen(prob) if on else None)
+            if not on:
+                ep.pause = False
+
+    # ---- AXI4-Lite
+    async def write(self, addr: int, value: int) -> AxiResp:
+        r = await self.axil.write(addr, (int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
+        return r.resp
+
+    async def read(self, addr: int) -> tuple[int, AxiResp]:
+        r = await self.axil.read(addr, 4)
+        return int.from_bytes(r.data, "little"), r.resp
+
+    async def set_imax(self, imax: int):
+        assert await self.write(self.rm["IMAX"], imax) == AxiResp.OKAY
+        self.imax = imax
+
+
+class TB(AxiDriver):
+    """A fixed-point core (FGM, ADMM) with its golden model beside it and a monitor of the stream handshakes."""
+
+    def __init__(self, dut, seed: int = 1):
+        super().__init__(dut, seed)
+        self.sw = self.core["stream_width"]
+        self.n, self.nu, self.nw = self.core["n"], self.core["nu"], self.core["nw"]
+        self.model = golden_model(self.cfg)
+        # box of the accepted parameter words
+        self.box = (self.model.xlo, self.model.xhi) if self.core["core"] == "fgm" else (self.model.wlo, self.model.whi)
+        self.warm = self.core["warm_start"]
+        self.out_all = self.core["output_all"]
         self.cycle = 0
         self.in_done: list[int] = []     # cycles of the input tlast handshakes
         self.out_start: list[int] = []   # cycles where an output frame's first word is valid
@@ -81,23 +120,10 @@ class TB:
                     expect_first = True
 
     async def reset(self):
-        self.dut.reset.value = 1
-        await ClockCycles(self.dut.clock, 3)
-        self.dut.reset.value = 0
-        await RisingEdge(self.dut.clock)
+        await super().reset()
         self.model.reset()
-        self.imax = self.core["iterations"]
         self.warm = self.core["warm_start"]
         self.out_all = self.core["output_all"]
-
-    def backpressure(self, on: bool):
-        def gen(p):
-            while True:
-                yield self.rng.random() < p
-        for ep, prob in ((self.src, 0.3), (self.sink, 0.4)):
-            ep.set_pause_generator(gen(prob) if on else None)
-            if not on:
-                ep.pause = False
 
     # ---- words
     def to_word(self, v: int) -> int:
@@ -116,15 +142,6 @@ class TB:
                 w[j] = self.rng.choice([self.rng.randint(int(hi[j]) + 1, lim), self.rng.randint(-lim - 1, int(lo[j]) - 1)])
         return w
 
-    # ---- AXI4-Lite
-    async def write(self, addr: int, value: int) -> AxiResp:
-        r = await self.axil.write(addr, (int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
-        return r.resp
-
-    async def read(self, addr: int) -> tuple[int, AxiResp]:
-        r = await self.axil.read(addr, 4)
-        return int.from_bytes(r.data, "little"), r.resp
-
     async def status(self) -> dict:
         v, resp = await self.read(self.rm["STATUS"])
         assert resp == AxiResp.OKAY
@@ -136,10 +153,6 @@ class TB:
         bit = self.rm.CTRL_BITS
         v = int(self.warm) << bit["WARM_START"] | int(hold) << bit["HOLD"] | int(self.out_all) << bit["OUT_ALL"]
         assert await self.write(self.rm["CTRL"], v) == AxiResp.OKAY
-
-    async def set_imax(self, imax: int):
-        assert await self.write(self.rm["IMAX"], imax) == AxiResp.OKAY
-        self.imax = imax
 
     # ---- streams
     async def send(self, w):

@@ -65,3 +65,10 @@ def tree_sum(terms: np.ndarray, width: int) -> tuple[np.ndarray, bool]:
         flag |= f
         level = np.concatenate([s, level[..., m - 1 :]], axis=-1) if m % 2 else s
     return level[..., 0], flag
+
+
+def run_time_fields(d, stream_width: int) -> dict:
+    """The core.json entries every fixed-point design has: stream width, pipeline latencies, rounding, and the
+    reset values of the run-time settings (IMAX, CTRL.WARM_START, CTRL.OUT_ALL)."""
+    return {"stream_width": stream_width, "lat_add": d.lat_add, "lat_mul": d.lat_mul, "rounding": d.rounding,
+            "iterations": d.iterations, "warm_start": d.warm_start, "output_all": d.output_all}

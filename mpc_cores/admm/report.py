@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from mpc_cores.admm.design import AdmmDesign
+from mpc_cores.fixed import run_time_fields
 
 _WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (x, u_prev, r) after saturation, and the word 1",
          "v": "operand v = rho z - nu", "y": "y = M11 v + G~ (w, 1)", "q": "q = y + nu / rho", "z": "iterate z",
@@ -31,12 +32,7 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
         "n": d.n, "nu": d.nu, "nw": d.nw, "nx": q.nx, "ns": q.ns, "N": d.N,
         "P": d.P, "K": hw["K"],
         "frac_bits": b,
-        "stream_width": sw,
-        "lat_add": d.lat_add, "lat_mul": d.lat_mul,
-        "rounding": d.rounding,
-        "iterations": d.iterations,
-        "warm_start": d.warm_start,
-        "output_all": d.output_all,
+        **run_time_fields(d, sw),
         "rho_log2": d.rho_log2,
         "shifts": hw["shifts"],
         "cycles_per_iteration": L,

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from mpc_cores.fgm.design import FgmDesign, roundoff_bound
+from mpc_cores.fixed import run_time_fields
 
 
 def _fmt(intb: int, b: int, width: int) -> dict:
@@ -43,12 +44,7 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
         "int_bits": max(signals[k]["int_bits"] for k in ("y", "sum", "t")),
         "x_format": _fmt(sw - 1 - b, b, sw),
         "u_format": _fmt(sw - 1 - b, b, sw),
-        "stream_width": sw,
-        "lat_add": d.lat_add, "lat_mul": d.lat_mul,
-        "rounding": d.rounding,
-        "iterations": d.iterations,
-        "warm_start": d.warm_start,
-        "output_all": d.output_all,
+        **run_time_fields(d, sw),
         "cycles_per_iteration": hw["cycles_per_iteration"],
         "cycles_eq23": hw["cycles_eq23"],
         "cycles_per_solve": hw["cycles_per_solve"],

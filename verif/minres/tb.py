@@ -8,72 +8,30 @@ from __future__ import annotations
 
 import json
 import os
-import random
-from pathlib import Path
 
 import cocotb
 import numpy as np
-from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles, RisingEdge
-from cocotbext.axi import AxiLiteBus, AxiLiteMaster, AxiResp, AxiStreamBus, AxiStreamFrame, AxiStreamSink, AxiStreamSource
+from cocotbext.axi import AxiResp, AxiStreamFrame
 
-from mpc_cores.minres.model import MinresCoreModel, from_words, words
-from mpc_cores.regmap import Regmap
+from mpc_cores.driver import AxiDriver
+from mpc_cores.minres.model import MinresCoreModel, words
 
 TIMEOUT_MS = 400
 STATUS_NONFINITE = 6
 
 
-class MinresTB:
+class MinresTB(AxiDriver):
     def __init__(self, dut, seed: int = 1):
-        self.dut = dut
-        out = Path(os.environ["CORE_OUT"])
-        self.core = json.loads((out / "core.json").read_text())
-        self.cfg = json.loads((out / "config.json").read_text())
-        self.rm = Regmap.for_core(out, self.core)
+        super().__init__(dut, seed)
         c = self.core
         self.N, self.P, self.n, self.m, self.T = c["N"], c["P"], c["n"], c["m"], c["T"]
         self.model = MinresCoreModel.from_config(self.cfg)
         self.h = np.array(self.cfg["h_diag"])
-        self.rng = random.Random(seed)
         self.nrng = np.random.default_rng(seed)
-        self.imax = c["iterations"]
-        cocotb.start_soon(Clock(dut.clock, 10, unit="ns").start())
-        self.src = AxiStreamSource(AxiStreamBus.from_prefix(dut, "s_axis"), dut.clock, dut.reset, byte_lanes=1)
-        self.sink = AxiStreamSink(AxiStreamBus.from_prefix(dut, "m_axis"), dut.clock, dut.reset, byte_lanes=1)
-        self.axil = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axil"), dut.clock, dut.reset)
 
     @property
     def M(self) -> int:
         return self.core["M"]
-
-    async def reset(self):
-        self.dut.reset.value = 1
-        await ClockCycles(self.dut.clock, 3)
-        self.dut.reset.value = 0
-        await RisingEdge(self.dut.clock)
-        self.imax = self.core["iterations"]
-
-    def backpressure(self, on: bool):
-        def gen(p):
-            while True:
-                yield self.rng.random() < p
-        for ep, prob in ((self.src, 0.3), (self.sink, 0.4)):
-            ep.set_pause_generator(gen(prob) if on else None)
-            if not on:
-                ep.pause = False
-
-    async def write(self, addr: int, value: int) -> AxiResp:
-        r = await self.axil.write(addr, (int(value) & 0xFFFFFFFF).to_bytes(4, "little"))
-        return r.resp
-
-    async def read(self, addr: int) -> tuple[int, AxiResp]:
-        r = await self.axil.read(addr, 4)
-        return int.from_bytes(r.data, "little"), r.resp
-
-    async def set_imax(self, imax: int):
-        assert await self.write(self.rm["IMAX"], imax) == AxiResp.OKAY
-        self.imax = imax
 
     def random_problem(self):
         """diag = H_ii + W_ii with random interior-point weights, b random (float32)."""
