@@ -13,7 +13,8 @@ B       ?=
 OUT     ?=
 TOL     ?=
 PYTEST_ARGS ?=
-# parallel test workers (pytest-xdist): one per core
+# parallel test workers (pytest-xdist, one per core); a test file runs on one worker (its module fixtures
+# regenerate cores in place)
 JOBS        ?= auto
 
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT))
@@ -42,7 +43,7 @@ design: setup
 
 ## test: the verification suite (golden models, RTL against them in Verilator, refusals)
 test: setup
-	$(PY) -m pytest tests -q -n $(JOBS) --dist loadgroup $(PYTEST_ARGS)
+	$(PY) -m pytest tests -q -n $(JOBS) --dist loadfile --durations=15 $(PYTEST_ARGS)
 
 ## test-slow: the long sweeps (cycles per iteration of masses for P = 1, 2, 4, 8, 40)
 test-slow: setup

@@ -74,7 +74,16 @@ def run_generator(main: str, args: list[str]) -> str:
     return p.stdout
 
 
-def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
+def _outputs_present(out: Path) -> bool:
+    """The generator's outputs in `out`: hw.json and the SystemVerilog and SystemRDL files of the module it names."""
+    try:
+        module = json.loads((out / "hw.json").read_text())["module"]
+    except (OSError, ValueError, KeyError):
+        return False
+    return (out / f"{module}.sv").exists() and (out / f"{module}.rdl").exists()
+
+
+def generate(kind: list[tuple[object, Path]]) -> list[dict]:
     """Elaborate cores of one kind (a CoreKind or its name) in one sbt run: jobs are (design, out_dir). Writes per
     out_dir: config.json, <module>.sv, hw.json, core.json, the SystemRDL register description <module>.rdl and
     what PeakRDL makes of it (C header, register reference, IP-XACT), and the FuseSoC core file. Returns the
@@ -91,7 +100,7 @@ def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
             cfg = json.dumps(d.config(), sort_keys=True)
             stamp = hashlib.sha256((kind.generator_main + src + cfg).encode()).hexdigest()
             done = out / ".generated"
-            if done.exists() and done.read_text() == stamp and (out / "hw.json").exists():
+            if done.exists() and done.read_text() == stamp and _outputs_present(out):
                 continue  # the same configuration from the same generator sources: its outputs are current
             done.unlink(missing_ok=True)
             d.write_config(out / "config.json")

@@ -8,7 +8,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from mpc_cores.admm.design import design_admm  # noqa: E402
 from mpc_cores.fgm.design import design_fgm  # noqa: E402
-from mpc_cores.flow import REPO, generate_admm, generate_fgm  # noqa: E402
+from mpc_cores.flow import REPO, generate_admm, generate_fgm, generate_minres  # noqa: E402
 from mpc_cores.problem import load_spec, problem_from_dict  # noqa: E402
 
 BUILD = REPO / "build" / "tests" / "fgm"
@@ -29,16 +29,6 @@ def record_property(record_property):
     def record(name, value):
         record_property(name, _plain(value))
     return record
-
-
-# Files whose module fixtures regenerate their cores in place: under pytest-xdist each runs on one worker.
-SERIAL_FILES = ("test_minres_rtl.py", "test_float_rtl.py")
-
-
-def pytest_collection_modifyitems(config, items):
-    for it in items:
-        if it.path.name in SERIAL_FILES:
-            it.add_marker(pytest.mark.xdist_group(it.path.stem))
 
 
 def pytest_addoption(parser):
@@ -123,6 +113,20 @@ ADMM_CASES = {
     "rand_rate_n19_p5": (lambda: random_problem("rr19", 3, 1, 4, 1, 7, input_rate=RATE),
                          dict(P=5, frac_bits=15), 40),
 }
+
+
+@pytest.fixture(scope="session")
+def small_cores(cores, admm_cores):
+    """A small generated core of each kind, as (out_dir, core.json): the FGM and ADMM ones of the RTL suite (their
+    Verilator models are shared with it) and a small MINRES core."""
+    import json
+
+    from mpc_cores.minres.design import design_minres
+
+    out = REPO / "build" / "tests" / "small" / "minres"
+    generate_minres([(design_minres(random_problem("ra", 2, 1, 3, 0, 5), P=0, iterations=8), out)])
+    dirs = {"fgm": cores["rand_n4_p4_b10"], "admm": admm_cores["rand_rate_n19_p5"], "minres": out}
+    return {k: (d, json.loads((d / "core.json").read_text())) for k, d in dirs.items()}
 
 
 @pytest.fixture(scope="session")

