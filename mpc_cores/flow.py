@@ -83,7 +83,7 @@ def _outputs_present(out: Path) -> bool:
     return (out / f"{module}.sv").exists() and (out / f"{module}.rdl").exists()
 
 
-def generate(kind: list[tuple[object, Path]]) -> list[dict]:
+def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
     """Elaborate cores of one kind (a CoreKind or its name) in one sbt run: jobs are (design, out_dir). Writes per
     out_dir: config.json, <module>.sv, hw.json, core.json, the SystemRDL register description <module>.rdl and
     what PeakRDL makes of it (C header, register reference, IP-XACT), and the FuseSoC core file. Returns the
