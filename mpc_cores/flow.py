@@ -60,11 +60,40 @@ def generator_digest() -> str:
     return h.hexdigest()
 
 
+CLASSPATH_FILE = REPO / "build" / ".generator-classpath.json"
+
+
+def _sbt(command: str) -> subprocess.CompletedProcess:
+    return subprocess.run(["java", "-Xss8m", "-jar", str(sbt_launcher()), command], cwd=REPO, stdin=subprocess.DEVNULL,
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+
+def generator_classpath() -> str:
+    """The generator's compiled classes and dependencies, for running a generator main with java directly (sbt's
+    start-up is most of the cost of a small design). sbt compiles and exports it when the generator sources have
+    changed since the last export; call with SBT_LOCK held."""
+    digest = generator_digest()
+    try:
+        saved = json.loads(CLASSPATH_FILE.read_text())
+        if saved["digest"] == digest and all(Path(e).exists() for e in saved["classpath"].split(os.pathsep)):
+            return saved["classpath"]
+    except (OSError, ValueError, KeyError):
+        pass
+    p = _sbt("export Runtime/fullClasspath")
+    lines = [ln for ln in p.stdout.splitlines() if ln and not ln.startswith("[")]
+    if p.returncode != 0 or not lines:
+        errors = [ln for ln in p.stdout.splitlines() if "[error]" in ln]
+        raise GeneratorError("the generator does not compile:\n" + "\n".join(errors[:20] or p.stdout.splitlines()[-30:]))
+    CLASSPATH_FILE.parent.mkdir(parents=True, exist_ok=True)
+    CLASSPATH_FILE.write_text(json.dumps({"digest": digest, "classpath": lines[-1]}))
+    return lines[-1]
+
+
 def run_generator(main: str, args: list[str]) -> str:
-    """Run `runMain main args` under sbt in the repository; return its output, raise GeneratorError on failure.
-    One sbt run at a time on this checkout (a lock file under build/)."""
-    cmd = ["java", "-Xss8m", "-jar", str(sbt_launcher()), f"runMain {main} " + " ".join(args)]
+    """Run the generator object `main` with `args` (compiled by sbt when its sources changed); return its output,
+    raise GeneratorError on failure. One generator or sbt run at a time on this checkout (a lock under build/)."""
     with locked(SBT_LOCK):
+        cmd = ["java", "-Xss8m", "-cp", generator_classpath(), main, *args]
         p = subprocess.run(cmd, cwd=REPO, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                            text=True)
     if p.returncode != 0:

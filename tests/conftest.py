@@ -117,13 +117,13 @@ ADMM_CASES = {
 
 @pytest.fixture(scope="session")
 def small_cores(cores, admm_cores):
-    """A small generated core of each kind, as (out_dir, core.json): the FGM and ADMM ones of the RTL suite (their
-    Verilator models are shared with it) and a small MINRES core."""
+    """A small generated core of each kind, as (out_dir, core.json): ones of the RTL suites (their Verilator models
+    are shared with them; the MINRES one is case n2_m1_t3_pauto of tests/test_minres_rtl.py)."""
     import json
 
     from mpc_cores.minres.design import design_minres
 
-    out = REPO / "build" / "tests" / "small" / "minres"
+    out = REPO / "build" / "tests" / "minres" / "n2_m1_t3_pauto"
     generate_minres([(design_minres(random_problem("ra", 2, 1, 3, 0, 5), P=0, iterations=8), out)])
     dirs = {"fgm": cores["rand_n4_p4_b10"], "admm": admm_cores["rand_rate_n19_p5"], "minres": out}
     return {k: (d, json.loads((d / "core.json").read_text())) for k, d in dirs.items()}

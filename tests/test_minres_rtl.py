@@ -2,8 +2,8 @@
 through AXI4-Stream and AXI4-Lite; the cycle contract; core.json of the masses core (the issue's example);
 generator refusals.
 
-One sbt run elaborates every core of this file and the refused configurations (session fixture); each RTL case
-builds its Verilator model once and runs the scenarios of verif/minres/tb.py.
+One generator run elaborates every core of this file, another the refused configurations (session fixture); each
+RTL case builds its Verilator model once and runs the scenarios of verif/minres/tb.py.
 """
 from __future__ import annotations
 
@@ -14,10 +14,8 @@ from pathlib import Path
 import pytest
 
 from conftest import random_problem
-from mpc_cores.flow import REPO, GeneratorError, run_generator
+from mpc_cores.flow import REPO, GeneratorError, generate_minres, run_generator
 from mpc_cores.minres.design import design_minres
-from mpc_cores import regmap
-from mpc_cores.minres.report import core_json
 from mpc_cores.problem import load_spec
 from mpc_cores.sim import run_cocotb
 
@@ -42,15 +40,10 @@ def minres_cores():
     jobs = {cid: (f(), ov) for cid, (f, ov, _) in RTL_CASES.items()}
     jobs.update({cid: (f(), ov) for cid, (f, ov) in OTHER.items()})
     designs = {cid: design_minres(p, **ov) for cid, (p, ov) in jobs.items()}
+    generated = generate_minres([(d, BUILD / cid) for cid, d in designs.items()])
+    cores = {cid: (BUILD / cid, core) for cid, core in zip(designs, generated)}
+    # refused configurations in one generator run
     args = []
-    for cid, d in designs.items():
-        out = BUILD / cid
-        out.mkdir(parents=True, exist_ok=True)
-        for f in out.glob("*.sv"):
-            f.unlink()
-        d.write_config(out / "config.json")
-        args += [str(out / "config.json"), str(out)]
-    # refused configurations in the same sbt run
     base = designs["n2_m1_t3_pauto"].config()
     bad = {"lat_add0": dict(base, lat_add=0), "p_big": dict(base, P=65),
            "rom_shape": dict(base, rom=base["rom"][:-1])}
@@ -61,13 +54,6 @@ def minres_cores():
         args += [str(bdir / f"{k}.json"), str(bdir / k)]
     with pytest.raises(GeneratorError) as e:
         run_generator("minres.MinresMain", args)
-    cores = {}
-    for cid, d in designs.items():
-        out = BUILD / cid
-        core = core_json(d, json.loads((out / "hw.json").read_text()))
-        core.update(regmap.export(out, core))
-        (out / "core.json").write_text(json.dumps(core, indent=2))
-        cores[cid] = (out, core)
     return cores, str(e.value), bdir, list(bad)
 
 
