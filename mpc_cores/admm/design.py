@@ -24,7 +24,6 @@ sequences) times a safety factor; the static ones (coefficients, w, G~ w) are bo
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 
@@ -33,8 +32,9 @@ import scipy.linalg
 
 from mpc_cores.admm.model import ESTIMATED, AdmmFixed, wide_widths
 from mpc_cores.admm.problem import BOX, AdmmQP, build_admm_qp
+from mpc_cores.design_base import FixedPointDesign, check_run_options, run_options, solver_opt
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError
-from mpc_cores.fixed import ROUNDING_MODES, bits_for, quantize
+from mpc_cores.fixed import bits_for, quantize
 from mpc_cores.problem import MpcProblem
 
 # Defaults of the example (tuned on masses_rate_soft, closed loop, warm start, Imax = 40).
@@ -48,16 +48,8 @@ ANALYTIC = ("coef", "w", "gsum")
 
 
 @dataclass
-class AdmmDesign:
-    problem: MpcProblem
-    qp: AdmmQP
-    b: int
-    P: int
-    lat_add: int
-    lat_mul: int
-    rounding: str
-    iterations: int
-    warm_start: bool
+class AdmmDesign(FixedPointDesign):
+    """qp: the AdmmQP (sparse form (8) of 002)."""
     rho_log2: int
     shift: np.ndarray          # k_j: rho_j = 2^k_j (n,)
     M11f: np.ndarray           # unquantised M11 (n x n)
@@ -78,18 +70,6 @@ class AdmmDesign:
     bounds: dict = field(default_factory=dict)      # integer-word bounds per signal
     observed: dict = field(default_factory=dict)    # largest words seen in the sizing runs
     estimated: tuple = ESTIMATED
-
-    @property
-    def n(self) -> int:
-        return self.qp.n
-
-    @property
-    def nw(self) -> int:
-        return self.qp.nw
-
-    @property
-    def nu(self) -> int:
-        return self.qp.nu
 
     @property
     def N(self) -> int:
@@ -127,15 +107,8 @@ class AdmmDesign:
         """What an ADMM core generator needs, analogous to FgmDesign.config()."""
         q = self.qp
         return {
-            "core": "admm",
-            "name": self.name,
-            "n": self.n, "nu": self.nu, "nx": q.nx, "ns": q.ns, "N": self.N, "nw": self.nw, "P": self.P,
-            "frac_bits": self.b, "lat_add": self.lat_add, "lat_mul": self.lat_mul,
-            "rounding": self.rounding,
-            "widths": self.widths,
-            "iterations": self.iterations,
-            "warm_start": self.warm_start,
-            "output_all": self.output_all,
+            **self.common_config("admm"),
+            "nx": q.nx, "ns": q.ns, "N": self.N,
             "rho_log2": self.rho_log2,
             "shift": self.shift.tolist(),
             "M11": self.M11.tolist(), "G": self.G.tolist(),
@@ -147,15 +120,7 @@ class AdmmDesign:
             "safety": self.safety, "estimated": list(self.estimated),
         }
 
-    def write_config(self, path) -> None:
-        with open(path, "w") as f:
-            json.dump(self.config(), f)
 
-
-def _solver_opt(problem: MpcProblem, overrides: dict, key: str, default):
-    if key in overrides and overrides[key] is not None:
-        return overrides[key]
-    return problem.solver.get(key, default)
 
 
 def _pow2_exponent(v, what: str) -> int:
@@ -192,17 +157,11 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     """Build the ADMM core description. Keyword overrides take precedence over the spec's `solver:` section:
     frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, rho, soft_scale, du_scale, safety,
     sizing_solves (random parameters per sizing run), sizing_seed."""
-    opt = lambda k, d: _solver_opt(problem, overrides, k, d)  # noqa: E731
-    b = int(opt("frac_bits", 18))
-    P = int(opt("P", 1))
-    lat_add = int(opt("lat_add", 1))
-    lat_mul = int(opt("lat_mul", 1))
+    opt = lambda k, d: solver_opt(problem, overrides, k, d)  # noqa: E731
     # nearest by default: truncating each of the n_A products of a row biases every y by about -n_A/2 LSB per
     # iteration and the multiplier update integrates it (measured in tests/test_admm_model.py)
-    rounding = str(opt("rounding", "nearest"))
-    iterations = int(opt("iterations", 40))
-    warm_start = bool(opt("warm_start", True))
-    output_all = bool(opt("output_all", False))
+    b, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all = run_options(
+        problem, overrides, frac_bits=18, rounding="nearest", iterations=40)
     safety = float(opt("safety", SAFETY_DEFAULT))
     try:
         qp = build_admm_qp(problem)
@@ -210,16 +169,7 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
         raise DesignError(str(e)) from None
     n = qp.n
 
-    if not 1 <= P <= n:
-        raise DesignError(f"P must be in [1, n_A] (one row unit per variable at most): got P={P}, n_A={n}")
-    if b < 1:
-        raise DesignError(f"frac_bits must be >= 1: got {b}")
-    if lat_add < 0 or lat_mul < 0:
-        raise DesignError(f"lat_add and lat_mul must be >= 0: got lat_add={lat_add}, lat_mul={lat_mul}")
-    if rounding not in ROUNDING_MODES:
-        raise DesignError(f"rounding must be one of {ROUNDING_MODES}: got {rounding!r}")
-    if not 1 <= iterations <= 65535:
-        raise DesignError(f"iterations must be in [1, 65535]: got {iterations}")
+    check_run_options(n, "n_A", b, P, lat_add, lat_mul, rounding, iterations)
     if not safety >= 1:
         raise DesignError(f"safety must be >= 1 (it multiplies the largest simulated magnitudes): got {safety}")
     if qp.ns and not qp.sigma2 > 0:

@@ -7,28 +7,20 @@ integers with one LSB of slack per rounded product, so that no word can overflow
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from mpc_cores.design_base import FixedPointDesign, check_run_options, run_options, solver_opt
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError  # noqa: F401  (DesignError: part of this API)
-from mpc_cores.fixed import ROUNDING_MODES, bits_for, quantize
-from mpc_cores.problem import CondensedQP, MpcProblem, condense
+from mpc_cores.fixed import bits_for, quantize
+from mpc_cores.problem import MpcProblem, condense
 
 
 @dataclass
-class FgmDesign:
-    problem: MpcProblem
-    qp: CondensedQP
-    b: int
-    P: int
-    lat_add: int
-    lat_mul: int
-    rounding: str
-    iterations: int
-    warm_start: bool
+class FgmDesign(FixedPointDesign):
+    """qp: the CondensedQP."""
     output_all: bool
     c: float
     lam_max: float            # lambda_max of the quantised H_F
@@ -44,18 +36,6 @@ class FgmDesign:
     widths: dict = field(default_factory=dict)
     bounds: dict = field(default_factory=dict)   # integer-word bounds per signal
     prop1: dict = field(default_factory=dict)    # Prop. 1 bounds in real units
-
-    @property
-    def n(self) -> int:
-        return self.qp.n
-
-    @property
-    def nw(self) -> int:
-        return self.qp.nw
-
-    @property
-    def nu(self) -> int:
-        return self.qp.nu
 
     @property
     def m(self) -> int:
@@ -105,44 +85,22 @@ class FgmDesign:
     def config(self) -> dict:
         """The JSON the Chisel generator reads (fgm.FgmParams.fromJson)."""
         return {
-            "core": "fgm",
-            "name": self.name,
-            "n": self.n, "nu": self.nu, "nw": self.nw, "P": self.P,
-            "frac_bits": self.b, "lat_add": self.lat_add, "lat_mul": self.lat_mul,
-            "rounding": self.rounding,
-            "widths": self.widths,
-            "iterations": self.iterations,
-            "warm_start": self.warm_start,
-            "output_all": self.output_all,
+            **self.common_config("fgm"),
             "A": self.A.tolist(), "F": self.F.tolist(),
             "lo": self.lo.tolist(), "hi": self.hi.tolist(),
             "xlo": self.xlo.tolist(), "xhi": self.xhi.tolist(),
             "beta": int(self.beta), "one_plus_beta": int(self.one_plus_beta),
         }
 
-    def write_config(self, path) -> None:
-        with open(path, "w") as f:
-            json.dump(self.config(), f)
 
-
-def _solver_opt(problem: MpcProblem, overrides: dict, key: str, default):
-    if key in overrides and overrides[key] is not None:
-        return overrides[key]
-    return problem.solver.get(key, default)
 
 
 def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     """Build the FGM core description. Keyword overrides take precedence over the spec's `solver:` section:
     frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all, c, int_bits, stream_width, tol."""
-    opt = lambda k, d: _solver_opt(problem, overrides, k, d)  # noqa: E731
-    b = int(opt("frac_bits", 16))
-    P = int(opt("P", 1))
-    lat_add = int(opt("lat_add", 1))
-    lat_mul = int(opt("lat_mul", 1))
-    rounding = str(opt("rounding", "truncate"))
-    iterations = int(opt("iterations", 15))
-    warm_start = bool(opt("warm_start", True))
-    output_all = bool(opt("output_all", False))
+    opt = lambda k, d: solver_opt(problem, overrides, k, d)  # noqa: E731
+    b, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all = run_options(
+        problem, overrides, frac_bits=16, rounding="truncate", iterations=15)
     extra = [k for k in ("input_rate", "soft_states", "hard_states") if getattr(problem, k, None) is not None]
     if extra:
         raise DesignError(f"the FGM core solves input-constrained MPC only (box on u): the spec also has "
@@ -150,16 +108,7 @@ def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     qp = condense(problem)
     n, nw = qp.n, qp.nw
 
-    if not 1 <= P <= n:
-        raise DesignError(f"P must be in [1, n] (one row unit per variable at most): got P={P}, n={n}")
-    if b < 1:
-        raise DesignError(f"frac_bits must be >= 1: got {b}")
-    if lat_add < 0 or lat_mul < 0:
-        raise DesignError(f"lat_add and lat_mul must be >= 0: got lat_add={lat_add}, lat_mul={lat_mul}")
-    if rounding not in ROUNDING_MODES:
-        raise DesignError(f"rounding must be one of {ROUNDING_MODES}: got {rounding!r}")
-    if not 1 <= iterations <= 65535:
-        raise DesignError(f"iterations must be in [1, 65535]: got {iterations}")
+    check_run_options(n, "n", b, P, lat_add, lat_mul, rounding, iterations)
 
     H = qp.H
     lam_min_H = float(np.linalg.eigvalsh(H)[0])
