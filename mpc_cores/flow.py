@@ -80,7 +80,9 @@ def generator_classpath() -> str:
     except (OSError, ValueError, KeyError):
         pass
     p = _sbt("export Runtime/fullClasspath")
-    lines = [ln for ln in p.stdout.splitlines() if ln and not ln.startswith("[")]
+    # the classpath is the line of sbt's output listing the compiled classes and the jars
+    lines = [ln.strip() for ln in p.stdout.splitlines()
+             if not ln.startswith("[") and "classes" in ln and ".jar" in ln and os.pathsep in ln]
     if p.returncode != 0 or not lines:
         errors = [ln for ln in p.stdout.splitlines() if "[error]" in ln]
         raise GeneratorError("the generator does not compile:\n" + "\n".join(errors[:20] or p.stdout.splitlines()[-30:]))
