@@ -7,7 +7,6 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
-import os
 import pickle
 import shutil
 import subprocess
@@ -69,12 +68,6 @@ def _cached(key_file: Path, key: str, outputs: list[Path]) -> bool:
     return key_file.exists() and key_file.read_text() == key and all(p.exists() for p in outputs)
 
 
-def _generator_digest() -> str:
-    """Everything the Chisel generator's output depends on besides config.json."""
-    files = sorted((REPO / "src").rglob("*.scala")) + [REPO / "build.sbt"]
-    return _digest(*[f.relative_to(REPO).as_posix().encode() + b"\0" + f.read_bytes() for f in files if f.exists()])
-
-
 def hardware_revision() -> str:
     """The commit the cores were generated from, and whether the generator sources differ from it."""
     try:
@@ -126,28 +119,6 @@ def cached_design(folder: Path, name: str, key_parts: tuple, make):
     return d
 
 
-def _other_sbt() -> list[int]:
-    """Process ids of sbt launchers working in this repository (sbt must not run twice in one build)."""
-    pids = []
-    for p in Path("/proc").iterdir():
-        if not p.name.isdigit() or int(p.name) == os.getpid():
-            continue
-        with contextlib.suppress(OSError):
-            if b"sbt-launch" in (p / "cmdline").read_bytes() and os.readlink(p / "cwd") == str(REPO):
-                pids.append(int(p.name))
-    return pids
-
-
-def wait_for_sbt(log, poll_s: float = 10.0) -> None:
-    """Wait while another sbt works in this repository (a test run, `make verilog`)."""
-    pids = _other_sbt()
-    if pids:
-        log(f"waiting for sbt (pid {', '.join(map(str, pids))}) to finish in {REPO}")
-    while pids:
-        time.sleep(poll_s)
-        pids = _other_sbt()
-
-
 # ----------------------------------------------------------------------------------------- one core
 
 @dataclass(kw_only=True)
@@ -178,34 +149,20 @@ class ToolResults:
 
 
 def generate(cores: list[ToolResults], log: Log) -> None:
-    """Elaborate the cores whose config or generator sources changed since the last run, one sbt call per kind."""
+    """Elaborate the cores, one generator run per kind; mpc_cores.flow.generate skips a core whose configuration and
+    generator sources are unchanged, and waits while another generator run works in this checkout."""
     from mpc_cores.flow import generate as generate_kind
 
-    gen = _generator_digest()
     todo: dict[str, list] = {}
     for c in cores:
-        key = _digest(json.dumps(c.design.config(), sort_keys=True), gen)
-        kf = c.out / "bench_gen.key"
-        if _cached(kf, key, [c.out / "core.json"]):
-            core = json.loads((c.out / "core.json").read_text())
-            if (c.out / core["sv"]).exists():
-                c.core = core
-                continue
-        todo.setdefault(c.kind, []).append((c, kf, key))
-    if not todo:
-        log("cores up to date (generator sources and configs unchanged)")
+        todo.setdefault(c.kind, []).append(c)
     for kind, items in todo.items():
-        wait_for_sbt(log)
-        log(f"generating {len(items)} {kind.upper()} core(s) with sbt: " + ", ".join(c.tag for c, _, _ in items))
+        log(f"generating {len(items)} {kind.upper()} core(s): " + ", ".join(c.tag for c in items))
         t = time.perf_counter()
-        for c, kf, _ in items:
-            kf.unlink(missing_ok=True)
-        outs = generate_kind(kind, [(c.design, c.out) for c, _, _ in items])
-        for (c, kf, key), core in zip(items, outs):
+        for c, core in zip(items, generate_kind(kind, [(c.design, c.out) for c in items])):
             c.core = core
-            kf.write_text(key)
         dt = time.perf_counter() - t
-        for c, _, _ in items:
+        for c in items:
             c.seconds["sbt"] = dt / len(items)
         log(f"generated in {dt:.0f} s")
 

@@ -61,20 +61,19 @@ def cmd_design(a) -> None:
     if a.tol is None:
         kind, d = _design(a)
         print(kind.design_report(d))
-        extra = kind.extra.get("design_extra")
-        if extra:
+        if kind.certificate_fn:
             from mpc_cores.kind import load
-            print(load(extra)(d))
+            print(load(kind.certificate_fn)(d))
         return
     kind = _kind(a)
     if kind.tol_fn is None:
         with_tol = [k.name for k in registry.kinds().values() if k.tol_fn]
         refuse(f"CORE={kind.name}: TOL (certified design) is available for {', '.join(with_tol)} only: run "
                f"`make design CORE={kind.name}` without TOL")
-    from mpc_cores.fgm.certify import write_certified_spec
+    from mpc_cores.kind import load
 
     try:
-        write_certified_spec(kind, a.problem, a.tol, _overrides(a), a.out)
+        load(kind.tol_fn)(kind, a.problem, a.tol, _overrides(a), a.out)
     except (DesignError, SpecError) as e:
         refuse(str(e))
 
@@ -120,7 +119,7 @@ def _forward(module: str, argv: list[str]) -> None:
     load(module).main(argv)
 
 
-def cmd_test(a, rest: list[str]) -> None:
+def cmd_test(rest: list[str]) -> None:
     import subprocess
 
     tests = REPO / "tests"
@@ -159,7 +158,7 @@ def main(argv=None) -> None:
     if argv and argv[0] in ("table2", "bench", "test"):
         cmd, rest = argv[0], argv[1:]
         if cmd == "test":
-            return cmd_test(None, rest)
+            return cmd_test(rest)
         return _forward({"table2": "mpc_bench.tables", "bench": "mpc_bench.bench"}[cmd], rest)
     a = ap.parse_args(argv)
     if a.cmd == "demo" and not a.out:

@@ -14,6 +14,7 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
   golden_model(cfg)    the bit-exact model of a generated core, from its config.json
   testbench            the cocotb module of verif/ with its scenarios, `cycle_test` among them (the cycle contract)
   bench                the module of mpc_bench with its section of the benchmark
+  certificate(d)       optional: the guarantees of a design, printed by `make design` after its report
   controllers(d)       optional: the optimal (float64) and golden-model controllers of the closed loop and the
                        reference schedule's holdability, for `make demo` with the RTL (None: no demo)
 
@@ -23,7 +24,7 @@ imports the testbenches or the benchmark.
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 
 def load(ref: str):
@@ -51,9 +52,9 @@ class CoreKind:
     spec_section: tuple[str, ...] = ()
     overrides: tuple[str, ...] = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations")
     controllers_fn: str | None = None  # "module:function(design) -> (optimal, golden, holdable)" for the demo
-    tol_fn: str | None = None      # "module:function(problem, tol, **overrides)" for certified designs
+    tol_fn: str | None = None      # "module:function(kind, spec_path, tol, overrides, out)": `make design TOL=...`
     cycle_test: str = "cycle_contract"  # the testbench's cocotb test that measures the cycle contract
-    extra: dict = field(default_factory=dict)
+    certificate_fn: str | None = None  # "module:function(design) -> text" printed after the design report
 
     def __post_init__(self):
         n = self.name

@@ -8,8 +8,8 @@ KIND = CoreKind(
     spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all",
                   "c", "int_bits", "stream_width", "tol"),
     controllers_fn="mpc_cores.fgm.kind:controllers",
-    tol_fn="mpc_cores.fgm.certify:design_for_tolerance",
-    extra={"design_extra": "mpc_cores.fgm.certify:certificate_text"},
+    tol_fn="mpc_cores.fgm.certify:write_certified_spec",
+    certificate_fn="mpc_cores.fgm.certify:certificate_text",
 )
 
 
