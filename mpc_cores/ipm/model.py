@@ -31,7 +31,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mpc_cores.ipm.sparse import Sample, SparseMpc, sample, u0
+from mpc_cores.ipm.machine import Machine
+from mpc_cores.ipm.program import build
+from mpc_cores.ipm.sparse import SparseMpc
 from mpc_cores.minres.kkt import const_rom
 from mpc_cores.minres.model import MinresCoreModel, tree
 
@@ -56,19 +58,6 @@ def acc(terms: np.ndarray, L: int) -> np.float32:
 
 
 @dataclass
-class State:
-    """The iterate of one problem (float32), kept in Stage 1 between samples (warm start, unshifted)."""
-    z: np.ndarray
-    lu: np.ndarray
-    ll: np.ndarray
-    su: np.ndarray
-    sl: np.ndarray
-
-    def copy(self) -> "State":
-        return State(*(a.copy() for a in (self.z, self.lu, self.ll, self.su, self.sl)))
-
-
-@dataclass
 class Status:
     iterations: int = 0
     mu: float = 0.0
@@ -78,126 +67,98 @@ class Status:
 
 
 class IpmModel:
-    """The core's arithmetic for one problem. lat_add: the accumulators' partial sums (as MINRES)."""
+    """The core's arithmetic: the Stage 1 programs (mpc_cores.ipm.program) on the interpreter of the Stage 1
+    engine (mpc_cores.ipm.machine) and the warm-started, preconditioned MINRES below, for `slots` problems (each
+    slot keeps its iterate between samples: the warm start of 001, unshifted). lat_add: the accumulators' partial
+    sums (as MINRES)."""
 
     def __init__(self, s: SparseMpc, i_nw: int, i_mr: int, sigma: float = 0.1, tau: float = 0.99,
-                 precondition: bool = True, lat_add: int = 4, start_value: float = 1.0):
+                 precondition: bool = True, lat_add: int = 4, start_value: float = 1.0, slots: int = 1,
+                 warm_floor: float = 1e-2):
         p = s.problem
         self.s, self.i_nw, self.i_mr, self.L = s, i_nw, i_mr, lat_add
-        self.sigma, self.tau, self.pre = f32(sigma), f32(tau), precondition
         self.mr = MinresCoreModel(p.nx, p.nu, p.N, const_rom(p.A, p.B, p.Q, p.R, p.QN, p.N), lat_add)
-        self.N = s.N
-        self.primal = s.primal
-        self.brow = s.primal[s.bounded]                 # rows of the boxed variables
-        eq = np.ones(s.N, bool)
-        eq[s.primal] = False
-        self.eq = eq
-        self.Hd = np.diag(s.K0)[s.primal].astype(f32)
-        off = np.abs(self.mr.matrix(np.zeros(len(s.primal))) - np.diag(np.diag(self.mr.matrix(np.zeros(len(s.primal))))))
-        self.off = off.max(axis=1).astype(f32)          # largest off-diagonal of every row (a constant)
-        with np.errstate(divide="ignore"):
-            self.d_eq = (f32(1) / np.sqrt(self.off[eq])).astype(f32)
-        self.inv_ineq = f32(1.0 / s.n_ineq)
-        self.start_value = f32(start_value)
+        self.N, self.npr = s.N, len(s.primal)
+        self.st1 = build(s, sigma, tau, precondition, start_value, warm_floor)
+        self.machine = Machine(slots, self.st1.slot_words, self.st1.const_words, self.st1.tables, lat_add)
+        self.started = [False] * slots
 
-    def cold(self) -> State:
-        nb = len(self.s.bounded)
-        v = np.full(nb, self.start_value, dtype=f32)
-        return State(np.zeros(self.N, dtype=f32), v.copy(), v.copy(), v.copy(), v.copy())
-
-    # ---- Stage 1
-    def linearise(self, st: State, smp: Sample):
-        L = self.L
-        lo, hi = smp.lo.astype(f32), smp.hi.astype(f32)
-        th = st.z[self.brow]
-        lu, ll, su, sl = st.lu, st.ll, st.su, st.sl
-        mu = (acc(lu * su, L) + acc(ll * sl, L)) * self.inv_ineq
-        smu = self.sigma * mu
-        rGu = (hi - th) - su
-        rGl = (th - lo) - sl
-        rSu = smu - lu * su
-        rSl = smu - ll * sl
-        wu, wl = lu / su, ll / sl
-        tu = (rSu - lu * rGu) / su
-        tl = (rSl - ll * rGl) / sl
-        w = wu + wl
-        diag = self.Hd.copy()
-        diag[self.s.bounded] = self.Hd[self.s.bounded] + w
-        bt = np.zeros(self.N, dtype=f32)
-        bt[self.eq] = smp.f[self.eq].astype(f32)
-        bt[self.brow] = ((ll - lu) - (tu - tl)) + w * th
-        d = np.ones(self.N, dtype=f32)
-        if self.pre:
-            d[self.primal] = f32(1) / np.sqrt(np.maximum(self.off[self.primal], diag))
-            d[self.eq] = self.d_eq
-        bh = d * bt
-        return diag, d, bh, (rGu, rGl, wu, wl, tu, tl, mu)
-
-    # ---- Stage 2
     def minres(self, diag, d, bh, z0):
+        """Stage 2: MINRES on (D A_k D) y = D bt from y_0 = D^-1 z0; returns x = y - y_0 and ||r_0||."""
         mr, L = self.mr, self.L
         band = mr.band(diag)
         zero = np.zeros(self.N, dtype=f32)
-        y = d * mr.matvec(band, z0)
-        u = bh - y
-        nrm2 = acc(u * u, L)
-        g = np.sqrt(nrm2)
-        res = g
-        v = u / g
-        vprev, w, wprev, x = zero, zero, zero, zero
-        c = cp = f32(1.0)
-        s = sp = f32(0.0)
-        eta = g
-        for j in range(1, self.i_mr + 1):
-            y = d * mr.matvec(band, d * v)
-            delta = acc(v * y, L)
-            u = (y - delta * v) - g * vprev
-            nrm2 = acc(u * u, L)
-            g1 = np.sqrt(nrm2)
-            a0 = c * delta - (cp * s) * g
-            a1 = np.sqrt(a0 * a0 + nrm2)
-            a2 = s * delta + (cp * c) * g
-            a3 = sp * g
-            c1 = a0 / a1
-            s1 = g1 / a1
-            ceta = c1 * eta
-            eta = -(s1 * eta)
-            vnew = u / g1
-            wnew = ((v - a3 * wprev) - a2 * w) / a1
-            x = x + ceta * wnew
-            vprev, v = v, vnew
-            wprev, w = w, wnew
-            cp, c = c, c1
-            sp, s = s, s1
-            g = g1
-        return d * x, res
-
-    # ---- Stage 1
-    def update(self, st: State, dz, saved) -> tuple[State, np.float32]:
-        rGu, rGl, wu, wl, tu, tl, _ = saved
-        dth = dz[self.brow]
-        dlu = wu * dth + tu
-        dll = tl - wl * dth
-        dsu = rGu - dth
-        dsl = rGl + dth
-        v = np.concatenate([st.lu, st.ll, st.su, st.sl])
-        dv = np.concatenate([dlu, dll, dsu, dsl])
-        q = v / dv
-        cand = np.where(dv < 0, -q, INF)
-        amax = np.minimum(f32(1.0), cand.min()) if len(cand) else f32(1.0)
-        a = self.tau * amax
-        return State(st.z + a * dz, st.lu + a * dlu, st.ll + a * dll, st.su + a * dsu, st.sl + a * dsl), a
-
-    def solve(self, smp: Sample, start: State | None = None) -> tuple[State, Status]:
-        st = (start or self.cold()).copy()
-        status = Status()
         with np.errstate(all="ignore"):
-            for k in range(self.i_nw):
-                diag, d, bh, saved = self.linearise(st, smp)
-                dz, res = self.minres(diag, d, bh, st.z)
-                st, a = self.update(st, dz, saved)
-                status.alphas.append(float(a))
-                status.mu, status.residual = float(saved[-1]), float(res)
+            y = d * mr.matvec(band, z0)
+            u = bh - y
+            nrm2 = acc(u * u, L)
+            g = np.sqrt(nrm2)
+            res = g
+            v = u / g
+            vprev, w, wprev, x = zero, zero, zero, zero
+            c = cp = f32(1.0)
+            s = sp = f32(0.0)
+            eta = g
+            for _ in range(self.i_mr):
+                y = d * mr.matvec(band, d * v)
+                delta = acc(v * y, L)
+                u = (y - delta * v) - g * vprev
+                nrm2 = acc(u * u, L)
+                g1 = np.sqrt(nrm2)
+                a0 = c * delta - (cp * s) * g
+                a1 = np.sqrt(a0 * a0 + nrm2)
+                a2 = s * delta + (cp * c) * g
+                a3 = sp * g
+                c1 = a0 / a1
+                s1 = g1 / a1
+                ceta = c1 * eta
+                eta = -(s1 * eta)
+                vnew = u / g1
+                wnew = ((v - a3 * wprev) - a2 * w) / a1
+                x = x + ceta * wnew
+                vprev, v = v, vnew
+                wprev, w = w, wnew
+                cp, c = c, c1
+                sp, s = s, s1
+                g = g1
+        return x, res
+
+    def solve(self, x, r=None, slot: int = 0, cold: bool = False) -> tuple[np.ndarray, Status]:
+        """One sample on problem slot `slot`: u0 (float32) and the status."""
+        M, P = self.machine, self.st1.programs
+        p = self.s.problem
+        M.inq.extend(np.asarray(x, dtype=f32).tolist())
+        if p.ny:
+            M.inq.extend(np.asarray(r, dtype=f32).tolist())
+        M.run(P["sample"], slot)
+        if cold or not self.started[slot]:
+            M.run(P["cold"], slot)
+            self.started[slot] = True
+        else:
+            M.run(P["warm"], slot)
+        status = Status()
+        for _ in range(self.i_nw):
+            M.run(P["linearise"], slot)
+            out = np.asarray(M.outq, dtype=f32)
+            M.outq.clear()
+            npr, N = self.npr, self.N
+            diag, d, bh, z0 = out[:npr], out[npr:npr + N], out[npr + N:npr + 2 * N], out[npr + 2 * N:]
+            xs, res = self.minres(diag, d, bh, z0)
+            M.inq.extend(xs.tolist())
+            M.run(P["update"], slot)
+            status.residual = float(res)
+        M.run(P["output"], slot)
+        out = np.asarray(M.outq, dtype=f32)
+        M.outq.clear()
+        m = p.nu
         status.iterations = self.i_nw
-        status.nonfinite = not all(np.all(np.isfinite(a)) for a in (st.z, st.lu, st.ll, st.su, st.sl))
-        return st, status
+        status.mu = float(out[m])
+        mem = M.mem[slot]
+        status.nonfinite = not bool(np.all(np.isfinite(mem[: self.st1.slot["V"] + 4 * len(self.s.bounded)])))
+        return out[:m], status
+
+    def iterate(self, slot: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """(z, (lu, ll, su, sl)) of a slot."""
+        a, nb = self.st1.slot, len(self.s.bounded)
+        mem = self.machine.mem[slot]
+        return mem[a["z"]: a["z"] + self.N].copy(), mem[a["V"]: a["V"] + 4 * nb].copy()
