@@ -181,3 +181,25 @@ def test_slots_are_independent(masses):
     ua, _ = a.solve(x2, r, slot=1)
     ub, _ = b.solve(x2, r, slot=0)
     assert words(ua) == words(ub)
+
+
+def test_parallel_multiplexed_mpc_regulation(masses):
+    """Algorithm 2 (parallel multiplexed MPC) on masses from a displaced state: each sample re-optimises one input
+    channel (the best of m copies); the closed loop stays within 0.5 % of conventional MPC (0.11 % measured) and
+    more than one channel gets chosen."""
+    from mpc_cores.closedloop import Controller, OsqpController, run_closed_loop
+    from mpc_cores.ipm.multiplexed import ParallelMmpc
+
+    p = masses
+    m = ParallelMmpc(p)
+
+    class Ctrl(Controller):
+        async def step(self, x, r):
+            return m.step(x, r)
+
+    refs = np.zeros((40, p.ny))
+    x0 = np.array([1.0, -0.5, 0.8, 0.2, 0, 0, 0, 0])
+    J0 = run_closed_loop(p, OsqpController(p), x0, refs).cost
+    J = run_closed_loop(p, Ctrl(), x0, refs).cost
+    assert 0 <= J / J0 - 1 < 5e-3, J / J0 - 1
+    assert len(set(m.chosen[1:])) > 1
