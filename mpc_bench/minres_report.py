@@ -312,8 +312,9 @@ def minres_section(cores: list, recs: list[dict], sw: dict | None, info: dict) -
           "or memory counts for a given problem (Fig. 6 plots them against n for a Virtex-6 VSX475T synthesised "
           "with XST), so there is nothing to put beside the Yosys counts. ECP5: `synth_ecp5`; xc7: `synth_xilinx "
           "-family xc7 -flatten` (RAMB in 36 Kb blocks); Yosys gives no timing for the Xilinx part. The vector "
-          "memories have asynchronous reads and up to five read ports, which no block RAM offers: Yosys builds "
-          "them from distributed RAM or flip-flops, which is why FF and LUT4 grow with P.", "",
+          "memories are simple-dual-port block RAMs (one write and one registered read port each; v is kept in "
+          "three copies, one per reader, and w in two banks by the parity of the iteration), so their words go to "
+          "DP16KD / RAMB and FF and LUT4 hardly grow with P; the constant ROM of the band stays in logic.", "",
           "Memories as Yosys inferred them (memory_libmap):", ""]
     L += [f"- {c.tag}: ECP5 {mem_list(c.ecp5_mem) or '-'}; xc7 {mem_list(c.xc7_mem) or '-'}" for c in cores
           if c.ecp5_mem or c.xc7_mem] or ["- (none reported)"]

@@ -19,6 +19,13 @@ class MinresCtl(p: MinresParams) extends Bundle {
   val prim = UInt(log2Ceil(p.nPrimal + 1).W)
 }
 
+/** A word of the output stream on its way to m_axis. */
+class MinresOutWord extends Bundle {
+  val data  = UInt(32.W)
+  val last  = Bool()
+  val badId = Bool() // an id word with bit 31 set (STATUS.NONFINITE when it is sent)
+}
+
 /** Counter of a pass: elements 0..S-1 of slots 0..P-1 of iterations 0..Imax, one element per cycle. `abort` stops
   * it: a new batch starts while the passes of the previous one may still count through the idle end (e >= N) of
   * their last slot, which is the case when S is stretched well beyond N. Left running, such a pass would compare
@@ -96,13 +103,19 @@ class MinresCore(val p: MinresParams) extends Module {
   private val negOne = "hbf800000".U(32.W)
   private def finite(w: UInt): Bool = w(30, 23) =/= "hff".U
 
-  // ---- memories (asynchronous read; addresses slot-major)
-  val vmem = Mem(2 * P * N, UInt(32.W)) // v_j / v_{j-1} (and u), buffer j % 2 holds v_j
-  val wmem = Mem(2 * P * N, UInt(32.W)) // w_j / w_{j-1}
-  val xmem = Mem(P * N, UInt(32.W))
-  val ymem = Mem(P * N, UInt(32.W))     // A v_j
-  val bmem = Mem(2 * P * N, UInt(32.W)) // right-hand sides, double-buffered
-  val dmem = Mem(2 * P * nPrimal, UInt(32.W)) // variable column (primal diagonal), double-buffered
+  // ---- vector memories: block RAM, one write and one registered read port per memory (VecRam), addresses
+  // slot-major. Single-buffered where the schedule reads a word before it is overwritten (v_j by the feed and
+  // passes B and C before pass C writes v_{j+1} over it); w alternates between two banks by the parity of j, so
+  // that w_j and w_{j-1} come from different memories.
+  private val W = 32
+  val vmem  = new VecRam("vmem", P * N, W, copies = 3)  // v_j: copy 0 feed, 1 pass B, 2 pass C (written by pass C)
+  val vpmem = new VecRam("vpmem", P * N, W)             // v_{j-1} for pass B (pass B copies v_j into it)
+  val umem  = new VecRam("umem", P * N, W)              // u, from pass B to pass C
+  val wmem  = Seq(new VecRam("wmem0", P * N, W), new VecRam("wmem1", P * N, W)) // w_j in bank j % 2
+  val xmem  = new VecRam("xmem", P * N, W)              // x: pass C, then the output stream
+  val ymem  = new VecRam("ymem", P * N, W)              // A v_j, from the matvec to pass B
+  val bmem  = new VecRam("bmem", 2 * P * N, W)          // right-hand sides, double-buffered (load bank)
+  val dmem  = new VecRam("dmem", 2 * P * nPrimal, W)    // variable column (primal diagonal), double-buffered
   private def adr2(buf: UInt, slot: UInt, e: UInt, len: Int): UInt = (buf * P.U +& slot) * len.U +& e
   private def adr1(slot: UInt, e: UInt): UInt = slot * N.U +& e
   private def inN(e: UInt): UInt = Mux(e < N.U, e, 0.U)
@@ -124,8 +137,12 @@ class MinresCore(val p: MinresParams) extends Module {
 
   s_axis.tready := !full(ldBank) && !(regs.ctrlHold && ldWord === 0.U)
   private val d = s_axis.tdata
+  private val lastWord = ldWord === (p.frameWords - 1).U
+  // one write port each: the load bank's words as they arrive
+  private val ldData = s_axis.fire && ldWord =/= 0.U
+  dmem.write(ldData && ldWord <= nPrimal.U, adr2(ldBank, ldSlot, ldWord - 1.U, nPrimal), d)
+  bmem.write(ldData && ldWord > nPrimal.U, adr2(ldBank, ldSlot, ldWord - (nPrimal + 1).U, N), d)
   when(s_axis.fire) {
-    val lastWord = ldWord === (p.frameWords - 1).U
     when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
     when(ldWord === 0.U) {
       ids(ldBank * P.U + ldSlot)   := d(30, 0)
@@ -134,11 +151,6 @@ class MinresCore(val p: MinresParams) extends Module {
       when(!finite(d)) {
         inBad(ldBank * P.U + ldSlot) := true.B
         nonfinite := true.B
-      }
-      when(ldWord <= nPrimal.U) {
-        dmem(adr2(ldBank, ldSlot, ldWord - 1.U, nPrimal)) := d
-      }.otherwise {
-        bmem(adr2(ldBank, ldSlot, ldWord - (nPrimal + 1).U, N)) := d
       }
     }
     ldWord := Mux(lastWord, 0.U, ldWord + 1.U)
@@ -188,25 +200,30 @@ class MinresCore(val p: MinresParams) extends Module {
   when(state === sRun) { g := g + 1.U }
   private def startAt(t: Int): Bool = if (t == 0) startBatch else state === sRun && g === (t - 1).U
 
+  // The memories have a registered read: passes B and C count one cycle ahead (address phase, counters pbA and
+  // pcA) and their words and control meet one cycle later (bc, cc), at the offsets tB and tC. The feed's first
+  // shift-register stage is the read register of its vmem copy.
   val feed = new PassCounter(p); feed.tick(startAt(0), imax, false.B)
-  val pb   = new PassCounter(p); pb.tick(startAt(p.tB), imax, startBatch)
+  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - 1), imax, startBatch)
   val ps   = new PassCounter(p); ps.tick(startAt(p.tS), imax, startBatch)
-  val pc   = new PassCounter(p); pc.tick(startAt(p.tC), imax, startBatch)
+  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - 1), imax, startBatch)
 
   // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
-  val sr = Reg(Vec(taps, UInt(32.W)))
-  sr(0) := vmem(adr2(feed.c.j(0), feed.c.slot, inN(feed.c.e), N))
-  for (t <- 1 until taps) sr(t) := sr(t - 1)
-  val row      = Stages.delay(feed.c, M)
+  private val sr0 = vmem.read(0, adr1(feed.c.slot, inN(feed.c.e)))
+  val sr = VecInit(Seq.iterate(sr0, taps)(RegNext(_)))
+  val rowPre   = Stages.delay(feed.c, M - 1) // address phase of the variable column's read
+  val row      = Stages.delay(rowPre, 1)
   val rowValid = Stages.delayValid(feed.valid, M)
 
-  // ---- band coefficients of row i: column 0 variable, 1..M-1 constant (ROM) or generated (lambda rows)
+  // ---- band coefficients of row i: column 0 variable (dmem), 1..M-1 constant or generated (lambda rows). The
+  // constant columns stay a ROM in logic: (2n+m) rows, M-1 words read at once (too wide for one block RAM).
   private val isLam  = row.r < n.U
   private val romRow = Mux(isLam, 0.U, Mux(row.k === T.U, row.r + m.U, row.r - n.U))
   // one multiplexer per ROM column (no nested arrays in the emitted Verilog)
-  private val romSel = (0 until M - 1).map(c => VecInit(p.rom.map(_(c).U(32.W)))(romRow))
-  val colU = Wire(Vec(M, UInt(32.W)))
-  colU(0) := Mux(isLam, zero, dmem(adr2(runBank, row.slot, Mux(isLam, 0.U, row.prim), nPrimal)))
+  private val romSel = (0 until M - 1).map(c => VecInit(p.rom.map(_(c).U(W.W)))(romRow))
+  private val dRead  = dmem.read(0, adr2(runBank, rowPre.slot, Mux(rowPre.r < n.U, 0.U, rowPre.prim), nPrimal))
+  val colU = Wire(Vec(M, UInt(W.W)))
+  colU(0) := Mux(isLam, zero, dRead)
   for (dd <- 1 until M) colU(dd) := Mux(isLam, if (dd == n) negOne else zero, romSel(dd - 1))
   val dot = Module(new FDotProduct(fmt, taps, p.latMul, p.latAdd))
   require(dot.latency == p.latMatvec, "matvec latency")
@@ -220,7 +237,7 @@ class MinresCore(val p: MinresParams) extends Module {
   }
   val y    = Timed(dot.io.sum, p.latMatvec)
   val rowY = ops.delayTo(row, 0, y.t)
-  when(Stages.delayValid(rowValid, y.t)) { ymem(adr1(rowY.slot, rowY.e)) := y.v }
+  ymem.write(Stages.delayValid(rowValid, y.t), adr1(rowY.slot, rowY.e), y.v)
   // delta = v_j . A v_j
   val dTerm = mul(Timed(sr(M - 1), 0), y)
   val dAcc  = Module(new FStreamAcc(fmt, N, p.latAdd))
@@ -231,21 +248,29 @@ class MinresCore(val p: MinresParams) extends Module {
   val dSlot = ops.delayTo(row.slot, 0, dTerm.t + dAcc.latency)
   when(dAcc.io.done) { delta(dSlot) := dAcc.io.sum }
 
-  // ---- pass B: u = (y - delta v_j) - gamma v_{j-1}; ||u||^2
-  private val bc = pb.c
-  private val bInit = bc.j === 0.U
-  val yIn   = Mux(bInit, bmem(adr2(runBank, bc.slot, inN(bc.e), N)), ymem(adr1(bc.slot, inN(bc.e))))
-  val vjB   = Mux(bInit, zero, vmem(adr2(bc.j(0), bc.slot, inN(bc.e), N)))
-  val vjm1B = Mux(bc.j <= 1.U, zero, vmem(adr2(~bc.j(0), bc.slot, inN(bc.e), N)))
+  // ---- pass B: u = (y - delta v_j) - gamma v_{j-1}; ||u||^2; v_j copied into vpmem for the next iteration
+  private val bA     = pbA.c
+  private val bAdr   = adr1(bA.slot, inN(bA.e))
+  private val bRhs   = bmem.read(0, adr2(runBank, bA.slot, inN(bA.e), N))
+  private val bY     = ymem.read(0, bAdr)
+  private val bVj    = vmem.read(1, bAdr)
+  private val bVjm1  = vpmem.read(0, bAdr)
+  private val bc     = RegNext(bA)
+  private val bValid = RegNext(pbA.valid, false.B)
+  private val bInit  = bc.j === 0.U
+  val yIn   = Mux(bInit, bRhs, bY)
+  val vjB   = Mux(bInit, zero, bVj)
+  val vjm1B = Mux(bc.j <= 1.U, zero, bVjm1)
+  vpmem.write(bValid, adr1(bc.slot, bc.e), vjB)
   val dB    = Mux(bInit, zero, delta(bc.slot))
   val gB    = Mux(bInit, zero, gamR(bc.slot))
   val u     = sub(sub(Timed(yIn, 0), mul(Timed(dB, 0), Timed(vjB, 0))), mul(Timed(gB, 0), Timed(vjm1B, 0)))
   require(u.t == p.latB, "pass B latency")
   val bcU = ops.delayTo(bc, 0, u.t)
-  when(Stages.delayValid(pb.valid, u.t)) { vmem(adr2(~bcU.j(0), bcU.slot, bcU.e, N)) := u.v }
+  umem.write(Stages.delayValid(bValid, u.t), adr1(bcU.slot, bcU.e), u.v)
   val nTerm = mul(u, u)
   val nAcc  = Module(new FStreamAcc(fmt, N, p.latAdd))
-  nAcc.io.valid := Stages.delayValid(pb.valid, nTerm.t)
+  nAcc.io.valid := Stages.delayValid(bValid, nTerm.t)
   nAcc.io.index := ops.delayTo(bc.e, 0, nTerm.t)
   nAcc.io.term  := nTerm.v
   require(p.tB + N - 1 + nTerm.t + nAcc.latency + 1 == p.tNrm, "norm schedule")
@@ -286,47 +311,83 @@ class MinresCore(val p: MinresParams) extends Module {
   }
 
   // ---- pass C: v_{j+1} = u / gamma_{j+1}; w_{j+1} = ((v_j - a3 w_{j-1}) - a2 w_j) / a1; x += c eta w_{j+1}
-  private val cc = pc.c
-  private val ce = inN(cc.e)
-  val uC    = at0(vmem(adr2(~cc.j(0), cc.slot, ce, N)))
-  val vjC   = at0(vmem(adr2(cc.j(0), cc.slot, ce, N)))
-  val wjm1C = at0(Mux(cc.j <= 2.U, zero, wmem(adr2(~cc.j(0), cc.slot, ce, N))))
-  val wjC   = at0(Mux(cc.j <= 1.U, zero, wmem(adr2(cc.j(0), cc.slot, ce, N))))
-  val xC    = at0(Mux(cc.j <= 1.U, zero, xmem(adr1(cc.slot, ce))))
+  // The output stream reads xmem through the same port once the batch is done (state sOut, no pass C element).
+  private val cA     = pcA.c
+  private val cAdr   = adr1(cA.slot, inN(cA.e))
+  private val cU     = umem.read(0, cAdr)
+  private val cVj    = vmem.read(2, cAdr)
+  private val cW01   = wmem.map(_.read(0, cAdr))
+  // output position (the output stream below): problem issSlot, word issIdx (0: the id word)
+  val issSlot = RegInit(0.U(log2Ceil(P + 1).W))
+  val issIdx  = RegInit(0.U(log2Ceil(N + 1).W))
+  private val outAdr = adr1(issSlot, Mux(issIdx === 0.U, 0.U, issIdx - 1.U))
+  private val cX0    = xmem.read(0, Mux(state === sOut, outAdr, cAdr))
+  private val cc     = RegNext(cA)
+  private val cValid = RegNext(pcA.valid, false.B)
+  private val par    = cc.j(0)  // bank of w_j; w_{j-1} and w_{j+1} are in the other
+  val uC    = at0(cU)
+  val vjC   = at0(cVj)
+  val wjm1C = at0(Mux(cc.j <= 2.U, zero, Mux(par, cW01(0), cW01(1))))
+  val wjC   = at0(Mux(cc.j <= 1.U, zero, Mux(par, cW01(1), cW01(0))))
+  val xC    = at0(Mux(cc.j <= 1.U, zero, cX0))
   val vNew  = div(uC, at0(g1R(cc.slot)))
   val wNew  = div(sub(sub(vjC, mul(at0(a3R(cc.slot)), wjm1C)), mul(at0(a2R(cc.slot)), wjC)), at0(a1R(cc.slot)))
   val xNew  = add(xC, mul(at0(cetaR(cc.slot)), wNew))
   require(vNew.t == p.latCv && wNew.t == p.latCw && xNew.t == p.latCx, "pass C latency")
   private val cV = ops.delayTo(cc, 0, vNew.t)
-  when(Stages.delayValid(pc.valid, vNew.t)) { vmem(adr2(~cV.j(0), cV.slot, cV.e, N)) := vNew.v }
-  private val cW = ops.delayTo(cc, 0, wNew.t)
-  when(Stages.delayValid(pc.valid, wNew.t) && cW.j =/= 0.U) { wmem(adr2(~cW.j(0), cW.slot, cW.e, N)) := wNew.v }
-  private val cX = ops.delayTo(cc, 0, xNew.t)
-  when(Stages.delayValid(pc.valid, xNew.t) && cX.j =/= 0.U) {
-    xmem(adr1(cX.slot, cX.e)) := xNew.v
-    when(!finite(xNew.v)) { xBad(cX.slot) := true.B }
-  }
+  vmem.write(Stages.delayValid(cValid, vNew.t), adr1(cV.slot, cV.e), vNew.v)
+  private val cW  = ops.delayTo(cc, 0, wNew.t)
+  private val wEn = Stages.delayValid(cValid, wNew.t) && cW.j =/= 0.U
+  for (k <- 0 until 2) wmem(k).write(wEn && cW.j(0) =/= k.U, adr1(cW.slot, cW.e), wNew.v) // w_{j+1}: bank (j+1) % 2
+  private val cX  = ops.delayTo(cc, 0, xNew.t)
+  private val xEn = Stages.delayValid(cValid, xNew.t) && cX.j =/= 0.U
+  xmem.write(xEn, adr1(cX.slot, cX.e), xNew.v)
+  when(xEn && !finite(xNew.v)) { xBad(cX.slot) := true.B }
 
-  // ---- end of the batch, output
+  // ---- end of the batch
   val batchCycles = RegInit(0.U(32.W))
   when(state === sRun && g === gEnd) {
     state       := sOut
     batchCycles := g + 1.U
   }
+
+  // ---- output: per problem the id word, then z (N words from xmem). The read is registered, so words are
+  // issued one cycle ahead into a 3-word queue (enough for one word per cycle under any backpressure: a word is
+  // issued only if the queue will have room for it); m_axis is the queue's head.
+  val outQ    = Module(new Queue(new MinresOutWord, 3))
+  val issDone = RegInit(false.B)
+  val pending = RegInit(false.B)
+  private val issue = state === sOut && !issDone && (outQ.io.count +& pending) < 3.U
+  private val oBad  = inBad(runBank * P.U + issSlot) || xBad(issSlot)
+  pending := issue
+  private val pendId   = RegNext(issIdx === 0.U)
+  private val pendWord = RegNext(Cat(oBad, ids(runBank * P.U + issSlot)))
+  private val pendLast = RegNext(issIdx === N.U)
+  outQ.io.enq.valid      := pending
+  outQ.io.enq.bits.data  := Mux(pendId, pendWord, cX0)
+  outQ.io.enq.bits.last  := pendLast
+  outQ.io.enq.bits.badId := pendId && pendWord(31)
+  when(issue) {
+    issIdx := Mux(issIdx === N.U, 0.U, issIdx + 1.U)
+    when(issIdx === N.U) {
+      issSlot := issSlot + 1.U
+      when(issSlot === count - 1.U) { issDone := true.B }
+    }
+  }
+  m_axis.tvalid       := outQ.io.deq.valid
+  m_axis.tdata        := outQ.io.deq.bits.data
+  m_axis.tlast        := outQ.io.deq.bits.last
+  outQ.io.deq.ready   := m_axis.tready
   val oSlot = RegInit(0.U(log2Ceil(P + 1).W))
-  val oIdx  = RegInit(0.U(log2Ceil(N + 1).W))
-  val oBad  = inBad(runBank * P.U + oSlot) || xBad(oSlot)
-  m_axis.tvalid := state === sOut
-  m_axis.tdata  := Mux(oIdx === 0.U, Cat(oBad, ids(runBank * P.U + oSlot)), xmem(adr1(oSlot, Mux(oIdx === 0.U, 0.U, oIdx - 1.U))))
-  m_axis.tlast  := oIdx === N.U
   when(m_axis.fire) {
-    when(oIdx === 0.U && oBad) { nonfinite := true.B }
-    oIdx := Mux(oIdx === N.U, 0.U, oIdx + 1.U)
-    when(oIdx === N.U) {
+    when(outQ.io.deq.bits.badId) { nonfinite := true.B }
+    when(outQ.io.deq.bits.last) {
       regs.solveDone(batchCycles)
       oSlot := oSlot + 1.U
       when(oSlot === count - 1.U) {
         oSlot         := 0.U
+        issSlot       := 0.U
+        issDone       := false.B
         state         := sIdle
         full(runBank) := false.B
         runBank       := ~runBank
