@@ -28,7 +28,7 @@ def refuse(msg: str) -> None:
 
 def _overrides(a) -> dict:
     ov = {}
-    for k in ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations"):
+    for k in ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format"):
         v = getattr(a, k, None)
         if v not in (None, ""):
             ov[k] = v
@@ -144,6 +144,7 @@ def main(argv=None) -> None:
         s.add_argument("--lat-mul", dest="lat_mul", type=int)
         s.add_argument("--rounding", choices=["truncate", "nearest"])
         s.add_argument("--iterations", type=int)
+        s.add_argument("--format", help="float format (MINRES): binary32 or e<E>m<M>, e.g. e8m17")
         s.add_argument("--out")
         if name == "design":
             s.add_argument("--tol", type=float, help="target ||z_fixed - z*||_2 over the state box")

@@ -3,6 +3,8 @@ eq. (14)), the storage scheme of section VI-F, and the golden models (bit-exact 
 float64 MINRES, direct solve)."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -10,7 +12,10 @@ from conftest import random_problem
 from mpc_cores.minres.kkt import (Layout, const_rom, dense_cds_words, from_half_cds, half_bandwidth, kkt_matrix,
                               paper_bound_words, random_weights, sizes, storage_table, structured_words,
                               to_half_cds)
-from mpc_cores.minres.model import MinresCoreModel, acc, minres64, tree, words
+from mpc_cores.errors import DesignError
+from mpc_cores.float.model import Format
+from mpc_cores.minres.design import design_minres
+from mpc_cores.minres.model import F32Ops, MinresCoreModel, WordOps, acc, minres64, tree, words
 
 SHAPES = [(1, 1, 1), (1, 1, 5), (2, 1, 3), (3, 2, 4), (4, 1, 2), (2, 3, 6), (8, 4, 10), (5, 3, 20)]
 
@@ -128,3 +133,62 @@ def test_model_flags_nonfinite():
     assert mdl.solve(d, b2, 5).flag
     r = mdl.solve(d, np.zeros_like(b), 3)   # b = 0: 0/0 in the normalisation, flagged, not a hang
     assert r.flag and all(w == 0x7FC00000 for w in words(r.x))
+
+
+def test_word_arithmetic_equals_float32_path():
+    """The binary32 fast path (numpy float32) and the word arithmetic of mpc_cores.float.vector give the same words
+    for a whole solve."""
+    n, m, T = 2, 1, 3
+    p, K, rom, diag, rng = system(n, m, T, 5)
+    fast = MinresCoreModel(n, m, T, rom, lat_add=3)
+    assert isinstance(fast.ops, F32Ops)
+    slow = MinresCoreModel(n, m, T, rom, lat_add=3)
+    slow.ops = WordOps(Format(8, 23))
+    slow.rom = slow.ops.value(rom)
+    slow.Cconst = slow.ops.value(fast.Cconst)
+    for k in range(3):
+        b = rng.standard_normal(fast.N)
+        assert fast.solve(diag, b, 4 + 3 * k).words == slow.solve(diag, b, 4 + 3 * k).words
+
+
+def test_model_e8m17():
+    """The e8m17 model (18-bit significands) converges, less far than binary32, and flags non-finite data; its
+    words are 26 bits wide."""
+    n, m, T = 3, 2, 4
+    p, K, rom, diag, rng = system(n, m, T, 6)
+    f = Format(8, 17)
+    mdl, m32 = MinresCoreModel(n, m, T, rom, 4, f), MinresCoreModel(n, m, T, rom, 4)
+    b = rng.standard_normal(mdl.N)
+    Kf = mdl.matrix(diag)
+    xs = np.linalg.solve(Kf, mdl.ops.to_float(mdl.ops.value(b)))
+    rel = lambda x: np.linalg.norm(x - xs) / np.linalg.norm(xs)  # noqa: E731
+    r = mdl.solve(diag, b, 2 * mdl.N)
+    e17, e32 = rel(r.x), rel(m32.solve(diag, b, 2 * mdl.N).x)
+    assert not r.flag and e17 < 3e-2 and e32 < e17, (e17, e32)
+    assert all(0 <= w < 1 << 26 for w in r.words)
+    d2 = np.array(diag, dtype=float)
+    d2[1] = np.inf
+    assert mdl.solve(d2, b, 3).flag
+    assert all(w == f.qnan for w in mdl.solve(diag, np.zeros(mdl.N), 3).words)
+
+
+@pytest.mark.parametrize("fmt,rule", [
+    ("e9m23", "format must fit the 32-bit stream word (1 + E + M <= 32): got e9m23, 33 bits"),
+    ("e1m10", "format e1m10: FloatFormat: exponent width expW must be in [2, 16]: got expW=1"),
+    ("e6m25", "format e6m25: the bit-exact model float.vector: needs manW <= 24"),
+    ("f32", "format must be binary32, binary16 or e<E>m<M> (e.g. e8m17): got 'f32'"),
+])
+def test_format_refusals(fmt, rule):
+    p = random_problem("fr", 2, 1, 3, 0, 1)
+    with pytest.raises(DesignError) as e:
+        design_minres(p, format=fmt)
+    assert rule in str(e.value)
+
+
+def test_format_from_spec_and_override():
+    p = random_problem("fs", 2, 1, 3, 0, 1)
+    assert design_minres(p).format == "binary32" and design_minres(p).lat["lat_div"] == 16
+    d = design_minres(dataclasses.replace(p, solver={"minres_format": "e8m17"}))
+    assert (d.format, d.lat["lat_div"], d.lat["lat_sqrt"]) == ("e8m17", 13, 13)
+    assert design_minres(p, format="binary32").format == "binary32"
+    assert max(d.config()["rom"][0]) < 1 << 26

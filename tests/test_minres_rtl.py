@@ -29,6 +29,9 @@ RTL_CASES = {
     # one problem per batch, slots stretched far beyond N (S = 175, N = 19): a pass of the previous batch is still
     # counting its idle end when the next batch starts
     "n2_m1_t3_p1": (lambda: random_problem("rc", 2, 1, 3, 0, 7), dict(P=1, iterations=6), 16),
+    # the reduced format e8m17 (26-bit words, an 18-bit significand: one MULT18X18D per product), its default
+    # divide and square-root latencies (13), random upper bits on the input stream
+    "n2_m1_t3_e8m17": (lambda: random_problem("rd", 2, 1, 3, 0, 8), dict(P=3, iterations=8, format="e8m17"), 16),
 }
 OTHER = {
     "masses_p4": (lambda: load_spec(REPO / "examples/masses.yaml"), dict(P=4)),
@@ -46,7 +49,8 @@ def minres_cores():
     args = []
     base = designs["n2_m1_t3_pauto"].config()
     bad = {"lat_add0": dict(base, lat_add=0), "p_big": dict(base, P=65),
-           "rom_shape": dict(base, rom=base["rom"][:-1])}
+           "rom_shape": dict(base, rom=base["rom"][:-1]), "fmt_wide": dict(base, exp_width=9, man_width=23),
+           "fmt_exp": dict(base, exp_width=1, man_width=10)}
     bdir = BUILD / "refused"
     bdir.mkdir(parents=True, exist_ok=True)
     for k, cfg in bad.items():
@@ -62,6 +66,9 @@ def test_generator_refusals(minres_cores):
     assert "lat_add0.json: requirement failed: lat_add must be >= 1" in msg
     assert "p_big.json: requirement failed: P must be in [1, 64]" in msg
     assert "rom_shape.json: requirement failed: rom must be" in msg
+    assert ("fmt_wide.json: requirement failed: the float format must fit the 32-bit stream word (1 + expW + manW "
+            "<= 32): got expW=9, manW=23 (33 bits)") in msg
+    assert "fmt_exp.json: requirement failed: FloatFormat: exponent width expW must be in [2, 16]: got expW=1" in msg
     assert not any((bdir / k).exists() for k in bad)
 
 
@@ -76,6 +83,19 @@ def test_masses_core_json(minres_cores):
     assert (out / core["sv"]).exists() and (out / core["header"]).exists()
     # the header is PeakRDL's from the core's .rdl: N is the reset value of CONFIG0.N (216 = 0xd8)
     assert re.search(r"MINRESCORE_MASSES_N8_M4_T10_P4__CONFIG0__N_reset\s+0xd8\b", (out / core["header"]).read_text())
+
+
+def test_format_in_core_json(minres_cores):
+    """The e8m17 core: its format in config.json, hw.json and core.json, in the module name, the float library's
+    e8m17 operators and latencies; binary32 cores keep their names."""
+    out, core = minres_cores[0]["n2_m1_t3_e8m17"]
+    cfg = json.loads((out / "config.json").read_text())
+    assert (cfg["format"], cfg["exp_width"], cfg["man_width"]) == ("e8m17", 8, 17)
+    assert (core["format"], core["word_width"], core["stream_width"]) == ("e8m17", 26, 32)
+    assert (core["lat_div"], core["lat_sqrt"]) == (13, 13)
+    assert core["module"].endswith("_e8m17") and "FMul_e8_m17" in (out / core["sv"]).read_text()
+    out32, core32 = minres_cores[0]["masses_p4"]
+    assert (core32["format"], core32["word_width"], core32["module"]) == ("binary32", 32, "MinresCore_masses_n8_m4_t10_p4")
 
 
 @pytest.mark.parametrize("cid", list(RTL_CASES))

@@ -1,19 +1,56 @@
-"""Design of a MINRES core from an MPC problem: sizes, latencies, P (or eq. (15)), the constant ROM as raw
-binary32 words, written to the config.json the Chisel generator (minres.MinresMain) reads."""
+"""Design of a MINRES core from an MPC problem: sizes, float format, latencies, P (or eq. (15)), the constant ROM
+as raw words of the format, written to the config.json the Chisel generator (minres.MinresMain) reads."""
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from mpc_cores.errors import DesignError  # the error the command line reports
+from mpc_cores.float import vector as fv
+from mpc_cores.float.model import Format
 from mpc_cores.minres.kkt import Layout, const_rom, kkt_matrix, problem_matrices
 
-# default latencies of the binary32 operators (float library defaults)
+# default latencies of the binary32 operators (float library defaults); divide and square root follow the format
 LAT = {"lat_add": 4, "lat_mul": 3, "lat_div": 16, "lat_sqrt": 16}
+NAMES = {"binary32": Format(8, 23), "binary16": Format(5, 10)}
+STREAM_BITS = 32
 
-from mpc_cores.errors import DesignError  # noqa: E402  (the error the command line reports)
+
+def parse_format(name) -> Format:
+    """`binary32` (e8m23, the default), `binary16` (e5m10) or e<E>m<M>: E exponent and M stored mantissa bits with
+    the float library's rules, within the 32-bit stream word and the golden model's range."""
+    key = str(name).strip().lower()
+    if key in NAMES:
+        return NAMES[key]
+    mt = re.fullmatch(r"e(\d+)m(\d+)", key)
+    if not mt:
+        raise DesignError(f"format must be binary32, binary16 or e<E>m<M> (e.g. e8m17): got '{name}'")
+    try:
+        f = Format(int(mt[1]), int(mt[2]))
+    except ValueError as e:
+        raise DesignError(f"format {name}: {e}") from None
+    if f.width > STREAM_BITS:
+        raise DesignError(f"format must fit the {STREAM_BITS}-bit stream word (1 + E + M <= {STREAM_BITS}): "
+                          f"got {name}, {f.width} bits")
+    try:
+        fv.check(f)
+    except ValueError as e:
+        raise DesignError(f"format {name}: the bit-exact model {e}") from None
+    return f
+
+
+def format_name(f: Format) -> str:
+    return next((k for k, v in NAMES.items() if v == f), f"e{f.expW}m{f.manW}")
+
+
+def format_latencies(f: Format) -> dict:
+    """The float library's default latencies in format f: divide ceil((M + 9) / 2), square root ceil((M + 8) / 2)
+    (FDiv / FSqrt.defaultLatency: about two quotient or root bits per cycle)."""
+    return dict(LAT, lat_div=(f.manW + 10) // 2, lat_sqrt=(f.manW + 9) // 2)
 
 
 @dataclass
@@ -26,33 +63,41 @@ class MinresDesign:
     iterations: int
     lat: dict = field(default_factory=lambda: dict(LAT))
     flush_cycles: int = 32
-    rom: np.ndarray = None  # (2n+m) x (M-1) float32
+    rom: np.ndarray = None  # (2n+m) x (M-1) values of the format (float32 in binary32)
     h_diag: np.ndarray = None  # diagonal of the Hessian on the primal rows (the variable part without W)
     problem: object = None
+    fmt: Format = NAMES["binary32"]
 
     @property
     def layout(self) -> Layout:
         return Layout(self.n, self.m, self.T)
 
+    @property
+    def format(self) -> str:
+        return format_name(self.fmt)
+
     def config(self) -> dict:
+        rom = fv.encode(self.fmt, np.asarray(self.rom, dtype=np.float64)).astype(np.int64)
         return {"core": "minres", "name": self.name, "n": self.n, "m": self.m, "T": self.T, "P": self.P,
                 "iterations": self.iterations, "flush_cycles": self.flush_cycles, **self.lat,
-                "h_diag": [float(v) for v in self.h_diag],
-                "rom": self.rom.astype(np.float32).view(np.uint32).astype(np.int64).tolist()}
+                "format": self.format, "exp_width": self.fmt.expW, "man_width": self.fmt.manW,
+                "h_diag": [float(v) for v in self.h_diag], "rom": rom.tolist()}
 
     def write_config(self, path) -> None:
         Path(path).write_text(json.dumps(self.config()))
 
 
 def design_minres(problem, P: int | None = None, iterations: int | None = None, lat_add: int | None = None,
-                  lat_mul: int | None = None, name: str | None = None, **_ignored) -> MinresDesign:
+                  lat_mul: int | None = None, name: str | None = None, format: str | None = None,
+                  **_ignored) -> MinresDesign:
     A, B, Q, R, QN, T = problem_matrices(problem)
     n, m = problem.nx, problem.nu
     solver = problem.solver or {}
     P = int(P if P is not None else solver.get("minres_P", 0) or 0)
     if P < 0 or P > 64:
         raise DesignError(f"P must be in [1, 64] (0 or none: eq. (15)): got P={P}")
-    lat = dict(LAT)
+    fmt = parse_format(format if format not in (None, "") else solver.get("minres_format", "binary32"))
+    lat = format_latencies(fmt)
     if lat_add is not None:
         lat["lat_add"] = int(lat_add)
     if lat_mul is not None:
@@ -60,6 +105,9 @@ def design_minres(problem, P: int | None = None, iterations: int | None = None, 
     if lat["lat_add"] < 1:
         raise DesignError(f"lat_add must be >= 1 (the streaming accumulator): got {lat['lat_add']}")
     it = int(iterations or solver.get("minres_iterations", 0) or Layout(n, m, T).N)
-    rom = const_rom(A, B, Q, R, QN, T).astype(np.float32)
+    rom = const_rom(A, B, Q, R, QN, T)
+    # the constant columns rounded to the format (float32 values in binary32)
+    rom = rom.astype(np.float32) if fmt == NAMES["binary32"] else fv.decode(fmt, fv.encode(fmt, rom))
     h = np.diagonal(kkt_matrix(A, B, Q, R, QN, T))[Layout(n, m, T).primal_rows()]
-    return MinresDesign(name or problem.name, n, m, T, P, min(it, 65535), lat, rom=rom, h_diag=h, problem=problem)
+    return MinresDesign(name or problem.name, n, m, T, P, min(it, 65535), lat, rom=rom, h_diag=h, problem=problem,
+                        fmt=fmt)

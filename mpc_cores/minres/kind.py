@@ -3,9 +3,10 @@ from mpc_cores.kind import CoreKind
 
 KIND = CoreKind(
     name="minres",
-    title="MINRES banded KKT solver of the interior-point method (001), binary32, P problems interleaved",
+    title="MINRES banded KKT solver of the interior-point method (001), binary32 or e<E>m<M>, P problems "
+          "interleaved",
     model_fn="mpc_cores.minres.model:MinresCoreModel.from_config",
-    spec_section=("minres_P", "minres_iterations"),
-    overrides=("P", "iterations", "lat_add", "lat_mul"),
+    spec_section=("minres_P", "minres_iterations", "minres_format"),
+    overrides=("P", "iterations", "lat_add", "lat_mul", "format"),
     cycle_test="cycles_per_iteration",
 )

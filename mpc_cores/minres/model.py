@@ -1,10 +1,11 @@
 """MINRES (Paige and Saunders, in the form of Elman, Silvester and Wathen, Alg. 2.4) on the banded KKT system:
-a float64 reference and the bit-exact binary32 model of the core.
+a float64 reference and the bit-exact model of the core in its float format.
 
-The bit-exact model performs the core's float32 operations in the core's order, so that the RTL matches it word
-for word. numpy float32 arithmetic is correctly rounded to nearest even with gradual underflow, as the float
-library (mpc_cores/float/model.py checks them against each other); NaN results are compared by NaN-ness and the core
-returns the canonical quiet NaN 0x7FC00000.
+The bit-exact model performs the core's operations in the core's format and order, so that the RTL matches it
+word for word. binary32 runs on numpy float32 (correctly rounded to nearest even with gradual underflow, as the
+float library; tests/test_float_vector.py checks float32 against mpc_cores.float.vector word for word); any other
+format e<E>m<M> runs on raw words with mpc_cores.float.vector. NaN results are compared by NaN-ness and the core
+returns the canonical quiet NaN (0x7FC00000 in binary32).
 
 Operation order (x_0 = 0; one "init" pass, then Imax iterations j = 1..Imax):
 
@@ -29,37 +30,130 @@ A problem whose input words are not all finite, or whose solution is not, is fla
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from mpc_cores.float import vector as fv
+from mpc_cores.float.model import Format
 from mpc_cores.minres.kkt import Layout
 
 f32 = np.float32
 QNAN32 = 0x7FC00000
+BINARY32 = Format(8, 23)
 
 
-def tree(terms: np.ndarray) -> np.ndarray:
-    """Pairwise reduction over the last axis in the order of DotProductTree."""
-    level = [terms[..., t] for t in range(terms.shape[-1])]
-    while len(level) > 1:
-        nxt = [level[k] + level[k + 1] for k in range(0, len(level) - 1, 2)]
-        if len(level) % 2:
-            nxt.append(level[-1])
-        level = nxt
-    return level[0]
+class F32Ops:
+    """binary32 arithmetic on numpy float32 values (the fast path; the same words as mpc_cores.float.vector)."""
+    fmt = BINARY32
+    zero, one = f32(0.0), f32(1.0)
+
+    def value(self, x):
+        """float values (any type) rounded to the format"""
+        return np.asarray(x, dtype=f32)
+
+    def from_words(self, ws):
+        return np.asarray([int(w) & 0xFFFFFFFF for w in np.ravel(ws)], dtype=np.uint32).view(f32)
+
+    def words(self, x) -> list[int]:
+        return words(x)
+
+    def to_float(self, x):
+        return np.asarray(x, dtype=f32)
+
+    def finite(self, x) -> bool:
+        return bool(np.all(np.isfinite(x)))
+
+    def zeros(self, shape):
+        return np.zeros(shape, dtype=f32)
+
+    add = staticmethod(np.add)
+    sub = staticmethod(np.subtract)
+    mul = staticmethod(np.multiply)
+    div = staticmethod(np.divide)
+    sqrt = staticmethod(np.sqrt)
+    neg = staticmethod(np.negative)
 
 
-def acc(terms: np.ndarray, L: int) -> np.float32:
-    """The core's streaming sum of `terms` (float32, in stream order) with L partial sums."""
+class WordOps:
+    """Arithmetic of any format on raw words (uint64 arrays) with mpc_cores.float.vector."""
+
+    def __init__(self, fmt: Format):
+        self.fmt = fv.check(fmt)
+        self.zero = np.uint64(0)
+        self.one = np.uint64(fmt.bias << fmt.manW)
+
+    def value(self, x):
+        return fv.encode(self.fmt, np.asarray(x, dtype=np.float64))
+
+    def from_words(self, ws):
+        return np.asarray([int(w) & ((1 << self.fmt.width) - 1) for w in np.ravel(ws)], dtype=np.uint64)
+
+    def words(self, x) -> list[int]:
+        x = np.ravel(np.asarray(x, dtype=np.uint64))
+        return [self.fmt.qnan if self.fmt.is_nan(int(w)) else int(w) for w in x]
+
+    def to_float(self, x):
+        return fv.decode(self.fmt, x)
+
+    def finite(self, x) -> bool:
+        return bool(np.all(fv.is_finite(self.fmt, x)))
+
+    def zeros(self, shape):
+        return np.zeros(shape, dtype=np.uint64)
+
+    def add(self, a, b):
+        return fv.add(self.fmt, a, b)
+
+    def sub(self, a, b):
+        return fv.sub(self.fmt, a, b)
+
+    def mul(self, a, b):
+        return fv.mul(self.fmt, a, b)
+
+    def div(self, a, b):
+        return fv.div(self.fmt, a, b)
+
+    def sqrt(self, a):
+        return fv.sqrt(self.fmt, a)
+
+    def neg(self, a):
+        return fv.neg(self.fmt, a)
+
+
+def ops_for(fmt: Format | None):
+    """The arithmetic of a format: numpy float32 for binary32, raw words otherwise."""
+    return F32Ops() if fmt in (None, BINARY32) else WordOps(fmt)
+
+
+def tree(terms: np.ndarray, ops=None) -> np.ndarray:
+    """Pairwise reduction over the last axis in the order of DotProductTree: pairs (0,1), (2,3), ... of a level
+    (one vector operation per level), an odd last element passed on."""
+    add = (ops or F32Ops()).add
+    level = np.asarray(terms)
+    with np.errstate(all="ignore"):
+        while level.shape[-1] > 1:
+            k = level.shape[-1] // 2
+            nxt = add(level[..., 0:2 * k:2], level[..., 1:2 * k:2])
+            if level.shape[-1] % 2:
+                nxt = np.concatenate([nxt, level[..., -1:]], axis=-1)
+            level = nxt
+    return level[..., 0]
+
+
+def acc(terms: np.ndarray, L: int, ops=None):
+    """The core's streaming sum of `terms` (values of the format, in stream order) with L partial sums: term k goes
+    into partial k mod L (the first L onto +0), rounds of L terms at a time."""
+    ops = ops or F32Ops()
     n = len(terms)
     assert n > L, f"the accumulator needs more than L={L} terms, got {n}"
-    part = np.zeros(L, dtype=f32)
+    part = ops.zeros(L)
     with np.errstate(all="ignore"):
-        for k in range(n):
-            part[k % L] = terms[k] + part[k % L]
+        for r in range(0, n, L):
+            chunk = terms[r:r + L]
+            part[:len(chunk)] = ops.add(chunk, part[:len(chunk)])
         order = [(n - L + q) % L for q in range(L)]
-        return tree(part[order][None, :])[0] if L > 1 else part[0]
+        return tree(part[order][None, :], ops)[0] if L > 1 else part[0]
 
 
 def words(x: np.ndarray) -> list[int]:
@@ -79,35 +173,44 @@ def finite_word(w: int) -> bool:
 
 @dataclass
 class Result:
-    x: np.ndarray     # float32 solution
+    x: np.ndarray     # the solution's values (float32 in binary32, float64 otherwise)
     flag: bool        # a non-finite input word or a non-finite solution
+    words: list = field(default_factory=list)  # the solution as the core sends it (raw words of the format)
+
+
+def format_of(cfg: dict) -> Format:
+    """The float format of a config.json / core.json (binary32 when absent)."""
+    return Format(int(cfg.get("exp_width", 8)), int(cfg.get("man_width", 23)))
 
 
 class MinresCoreModel:
-    """Bit-exact model of the core for one problem size. `rom`: the constant columns (kkt.const_rom), any
-    float type (rounded to binary32 here, as the generator does)."""
+    """Bit-exact model of the core for one problem size and float format (default binary32). `rom`: the constant
+    columns (kkt.const_rom), any float type (rounded to the format here, as the design flow does)."""
 
     @classmethod
     def from_config(cls, cfg: dict) -> "MinresCoreModel":
-        """The model of a generated core, from its config.json (the ROM as raw binary32 words)."""
+        """The model of a generated core, from its config.json (the ROM as raw words of the format)."""
         n, m, T = int(cfg["n"]), int(cfg["m"]), int(cfg["T"])
-        rom = from_words(np.array(cfg["rom"]).ravel()).reshape(2 * n + m, Layout(n, m, T).M - 1)
-        return cls(n, m, T, rom, int(cfg["lat_add"]))
+        ops = ops_for(format_of(cfg))
+        rom = ops.to_float(ops.from_words(cfg["rom"])).reshape(2 * n + m, Layout(n, m, T).M - 1)
+        return cls(n, m, T, rom, int(cfg["lat_add"]), format_of(cfg))
 
-    def __init__(self, n: int, m: int, T: int, rom: np.ndarray, lat_add: int):
+    def __init__(self, n: int, m: int, T: int, rom: np.ndarray, lat_add: int, fmt: Format | None = None):
+        self.ops = o = ops_for(fmt)
+        self.fmt = o.fmt
         self.L = Layout(n, m, T)
         self.n, self.m, self.T = n, m, T
         self.N, self.M = self.L.N, self.L.M
         self.lat_add = lat_add
-        self.rom = np.asarray(rom, dtype=f32)
+        self.rom = o.value(rom)
         assert self.rom.shape == (2 * n + m, self.M - 1)
         # constant half-CDS columns d = 1..M-1 of every row (lambda rows generated, rows past the end zero)
         N, M = self.N, self.M
-        C = np.zeros((N, M), dtype=f32)
+        C = o.zeros((N, M))
         for i in range(N):
             kind, q = self.L.row_kind(i)
             if kind == "lam":
-                C[i, n] = f32(-1.0)
+                C[i, n] = o.value(-1.0)
             elif kind == "x":
                 C[i, 1:] = self.rom[q]
             elif kind == "u":
@@ -115,93 +218,106 @@ class MinresCoreModel:
             else:
                 C[i, 1:] = self.rom[n + m + q]
         for d in range(M):
-            C[N - d:, d] = f32(0.0)
+            C[N - d:, d] = o.zero
         self.Cconst = C
         self.primal = self.L.primal_rows()
         # band index t = 0..2M-2 is offset o = t - (M-1); in-range mask
-        o = np.arange(2 * M - 1) - (M - 1)
-        cols = np.arange(N)[:, None] + o[None, :]
+        offs = np.arange(2 * M - 1) - (M - 1)
+        cols = np.arange(N)[:, None] + offs[None, :]
         self.inrange = (cols >= 0) & (cols < N)
         self.cols = np.clip(cols, 0, N - 1)
-        self.offs = o
+        self.offs = offs
+
+    def to_words(self, x) -> list[int]:
+        """float values rounded to the format, as raw words (what the testbench sends)."""
+        return self.ops.words(self.ops.value(x))
 
     def band(self, diag: np.ndarray) -> np.ndarray:
-        """N x (2M-1) coefficients of every row, offsets -(M-1)..M-1, +0 outside the matrix."""
+        """N x (2M-1) coefficients of every row, offsets -(M-1)..M-1, +0 outside the matrix, in the arithmetic's
+        representation (float32 values or raw words); `diag`: float values of the variable column."""
+        return self._band(self.ops.value(diag))
+
+    def _band(self, diag) -> np.ndarray:
+        o = self.ops
         C = self.Cconst.copy()
-        C[self.primal, 0] = np.asarray(diag, dtype=f32)
+        C[self.primal, 0] = diag
         N, M = self.N, self.M
-        B = np.zeros((N, 2 * M - 1), dtype=f32)
+        B = o.zeros((N, 2 * M - 1))
         rows = np.arange(N)
-        for t, o in enumerate(self.offs):
-            if o >= 0:
-                B[:, t] = C[:, o]
+        for t, off in enumerate(self.offs):
+            if off >= 0:
+                B[:, t] = C[:, off]
             else:
-                src = rows + o
+                src = rows + off
                 ok = src >= 0
-                B[ok, t] = C[src[ok], -o]
-        B[~self.inrange] = f32(0.0)
+                B[ok, t] = C[src[ok], -off]
+        B[~self.inrange] = o.zero
         return B
 
     def matvec(self, band: np.ndarray, v: np.ndarray) -> np.ndarray:
-        win = np.where(self.inrange, v[self.cols], f32(0.0)).astype(f32)
-        return tree(band * win)
+        o = self.ops
+        win = np.where(self.inrange, v[self.cols], o.zero).astype(band.dtype)
+        with np.errstate(all="ignore"):
+            return tree(o.mul(band, win), o)
 
     def matrix(self, diag) -> np.ndarray:
-        """The float32 matrix the core multiplies by (for the references)."""
-        N, M = self.N, self.M
+        """The matrix the core multiplies by, in float64 (its entries are values of the format)."""
+        N = self.N
         K = np.zeros((N, N))
-        B = self.band(diag)
-        for t, o in enumerate(self.offs):
+        B = np.asarray(self.ops.to_float(self.band(diag)), dtype=float)
+        for t, off in enumerate(self.offs):
             idx = np.arange(N)
             ok = self.inrange[:, t]
-            K[idx[ok], idx[ok] + o] = B[ok, t]
+            K[idx[ok], idx[ok] + off] = B[ok, t]
         return K
 
     def solve(self, diag, b, imax: int) -> Result:
-        diag = np.asarray(diag, dtype=f32)
-        b = np.asarray(b, dtype=f32)
-        bad_in = not (np.all(np.isfinite(diag)) and np.all(np.isfinite(b)))
+        o = self.ops
+        add, sub, mul, div, sqrt = o.add, o.sub, o.mul, o.div, o.sqrt
+        diag = o.value(diag)
+        b = o.value(b)
+        bad_in = not (o.finite(diag) and o.finite(b))
         L = self.lat_add
-        z = np.zeros(self.N, dtype=f32)
+        z = o.zeros(self.N)
         with np.errstate(all="ignore"):
-            band = self.band(diag)
+            band = self._band(diag)
             # init
-            u = (b - z * z) - z * z
-            nrm2 = acc(u * u, L)
-            g = np.sqrt(nrm2)
-            v = u / g
+            u = sub(sub(b, mul(z, z)), mul(z, z))
+            nrm2 = acc(mul(u, u), L, o)
+            g = sqrt(nrm2)
+            v = div(u, g)
             vprev = z.copy()
             w, wprev = z.copy(), z.copy()
             x = z.copy()
-            c = cp = f32(1.0)
-            s = sp = f32(0.0)
+            c = cp = o.one
+            s = sp = o.zero
             eta = g
             for j in range(1, imax + 1):
                 y = self.matvec(band, v)
-                delta = acc(v * y, L)
-                u = (y - delta * v) - g * (vprev if j > 1 else z)
-                nrm2 = acc(u * u, L)
-                g1 = np.sqrt(nrm2)
-                a0 = c * delta - (cp * s) * g
-                a1 = np.sqrt(a0 * a0 + nrm2)
-                a2 = s * delta + (cp * c) * g
-                a3 = sp * g
-                c1 = a0 / a1
-                s1 = g1 / a1
-                ceta = c1 * eta
-                eta = -(s1 * eta)
-                vnew = u / g1
+                delta = acc(mul(v, y), L, o)
+                u = sub(sub(y, mul(delta, v)), mul(g, vprev if j > 1 else z))
+                nrm2 = acc(mul(u, u), L, o)
+                g1 = sqrt(nrm2)
+                a0 = sub(mul(c, delta), mul(mul(cp, s), g))
+                a1 = sqrt(add(mul(a0, a0), nrm2))
+                a2 = add(mul(s, delta), mul(mul(cp, c), g))
+                a3 = mul(sp, g)
+                c1 = div(a0, a1)
+                s1 = div(g1, a1)
+                ceta = mul(c1, eta)
+                eta = o.neg(mul(s1, eta))
+                vnew = div(u, g1)
                 wm1 = wprev if j > 2 else z
                 wj = w if j > 1 else z
-                wnew = ((v - a3 * wm1) - a2 * wj) / a1
-                x = (x if j > 1 else z) + ceta * wnew
+                wnew = div(sub(sub(v, mul(a3, wm1)), mul(a2, wj)), a1)
+                x = add(x if j > 1 else z, mul(ceta, wnew))
                 vprev, v = v, vnew
                 wprev, w = w, wnew
                 cp, c = c, c1
                 sp, s = s, s1
                 g = g1
-        flag = bad_in or not np.all(np.isfinite(x))
-        return Result(x.astype(f32), bool(flag))
+        flag = bad_in or not o.finite(x)
+        return Result(o.to_float(x), bool(flag), o.words(x))
 
 
 def minres64(K: np.ndarray, b: np.ndarray, imax: int) -> np.ndarray:

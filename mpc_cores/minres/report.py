@@ -7,7 +7,10 @@ from mpc_cores.minres.kkt import dense_cds_words, paper_bound_words
 def core_json(d, hw: dict) -> dict:
     c = {"core": "minres", "name": d.name, "module": hw["module"], "sv": f"{hw['module']}.sv",
          "n": d.n, "m": d.m, "T": d.T, "iterations": d.iterations,
-         "flush_cycles": d.flush_cycles, "stream_width": 32, "format": "binary32", **d.lat}
+         "flush_cycles": d.flush_cycles, "stream_width": 32, "format": d.format, "exp_width": d.fmt.expW,
+         "man_width": d.fmt.manW, "word_width": d.fmt.width, **d.lat}
+    assert (hw["format"], hw["exp_width"], hw["man_width"]) == (c["format"], c["exp_width"], c["man_width"]), \
+        f"the generator built {hw['format']}, the design asks for {c['format']}"
     for k in ("N", "M", "P", "P_eq15", "k1", "k2", "slot_cycles", "cycles_per_iteration", "cycles_bound",
               "batch_cycles_formula", "batch_cycles_imax0", "schedule", "storage_words", "storage_variable",
               "storage_constant", "storage_dense_cds", "storage_bound_001", "frame_words", "multipliers",
@@ -22,7 +25,8 @@ def core_json(d, hw: dict) -> dict:
 
 def design_report(d, core: dict | None = None) -> str:
     L = d.layout
-    lines = [f"MINRES core for {d.name}: n = {d.n}, m = {d.m}, T = {d.T}: N = {L.N}, M = {L.M} (eq. (14) of 001)"]
+    lines = [f"MINRES core for {d.name}: n = {d.n}, m = {d.m}, T = {d.T}: N = {L.N}, M = {L.M} (eq. (14) of 001), "
+             f"format {d.format} ({d.fmt.width}-bit words, low bits of the 32-bit stream words)"]
     if core:
         lines += [f"P = {core['P']} (eq. (15) form of this core: {core['P_eq15']}; {core['eq15']})",
                   f"cycles per MINRES iteration: {core['cycles_per_iteration']} (P N + P = {core['cycles_bound']})",

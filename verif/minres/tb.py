@@ -2,7 +2,8 @@
 
 Environment: CORE_OUT = the generator's output folder (core.json, config.json); CORE_RANDOM = random problems in
 the bit-exact test; CORE_MEASURE = file to append measurements to (JSON lines).
-Every output word is compared with the bit-exact golden model (mpc_cores/minres/model.py).
+Every output word is compared with the bit-exact golden model (mpc_cores/minres/model.py) in the core's float
+format (core.json `format`): data words are the format's raw words in the low bits of the 32-bit stream words.
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import numpy as np
 from cocotbext.axi import AxiResp, AxiStreamFrame
 
 from mpc_cores.driver import AxiDriver
-from mpc_cores.minres.model import MinresCoreModel, words
+from mpc_cores.minres.model import MinresCoreModel
 
 TIMEOUT_MS = 400
 STATUS_NONFINITE = 6
@@ -34,14 +35,21 @@ class MinresTB(AxiDriver):
         return self.core["M"]
 
     def random_problem(self):
-        """diag = H_ii + W_ii with random interior-point weights, b random (float32)."""
+        """diag = H_ii + W_ii with random interior-point weights, b random (float64 values: the words sent and the
+        model round them to the format alike)."""
         from mpc_cores.minres.kkt import random_weights
         w = random_weights(self.nrng, self.n, self.m, self.T, 0.1, 10.0)
-        diag = (self.h + w).astype(np.float32)
-        b = self.nrng.standard_normal(self.N).astype(np.float32)
+        diag = self.h + w
+        b = self.nrng.standard_normal(self.N)
         return diag, b
 
     async def send(self, pid: int, diag, b):
+        """One input frame; in a format narrower than 32 bits the unused upper bits of the data words are random
+        (the core ignores them)."""
+        W = self.core.get("word_width", 32)
+
+        def words(x):
+            return [w | (self.rng.getrandbits(32 - W) << W if W < 32 else 0) for w in self.model.to_words(x)]
         await self.src.send(AxiStreamFrame(tdata=[pid & 0x7FFFFFFF] + words(diag) + words(b)))
 
     async def recv(self) -> tuple[int, bool, list[int]]:
@@ -71,7 +79,7 @@ class MinresTB(AxiDriver):
             flag, z = got[pid]
             assert flag == r.flag, f"{tag}: id {pid}: flag {flag} != model {r.flag}"
             if not r.flag:
-                want = words(r.x)
+                want = r.words
                 bad = [i for i in range(self.N) if z[i] != want[i]]
                 assert not bad, (f"{tag}: id {pid}: {len(bad)} words differ, first at {bad[0]}: "
                                  f"RTL {z[bad[0]]:#010x} model {want[bad[0]]:#010x}")
@@ -145,9 +153,9 @@ async def nonfinite_flagged(dut):
     for q in range(tb.P):
         dg, b = tb.random_problem()
         if q == 0:
-            dg[tb.rng.randrange(len(dg))] = np.float32("nan")
+            dg[tb.rng.randrange(len(dg))] = np.nan
         elif q == 1 % tb.P and tb.P > 1:
-            b[tb.rng.randrange(len(b))] = np.float32("inf")
+            b[tb.rng.randrange(len(b))] = np.inf
         probs.append((q + 1, dg, b))
     exp = await tb.run_batch(probs, "nonfinite")
     assert exp[1].flag

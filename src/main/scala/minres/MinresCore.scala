@@ -66,7 +66,8 @@ class PassCounter(p: MinresParams) {
 /** MINRES solver for the banded KKT system of section VI-A of 001, P problems interleaved (Fig. 1 of 001).
   *
   * A batch of up to P problems arrives on s_axis: per problem an id word, the variable part of the matrix (the
-  * diagonal of the primal rows, T(n+m)+n words) and b (N words), raw binary32, tlast on the last word. The
+  * diagonal of the primal rows, T(n+m)+n words) and b (N words), raw words of the format in the low bits of the
+  * 32-bit stream words (the upper bits are ignored on input and zero on output), tlast on the last word. The
   * next batch loads into the other bank while one solves. The core runs the init pass and Imax MINRES
   * iterations on every slot, then sends per problem the id (bit 31 set if an input word or the solution is
   * not finite) and the solution z (N words).
@@ -84,7 +85,8 @@ class PassCounter(p: MinresParams) {
   */
 class MinresCore(val p: MinresParams) extends Module {
   override def desiredName = p.moduleName
-  private val fmt = FloatFormat.binary32
+  private val fmt: FloatFormat = p.fmt
+  private val W = fmt.width // bits of a word of the format (the low bits of a stream word)
   import p.{N, M, P, S, n, m, T, nPrimal, taps}
 
   val s_axis = IO(Flipped(new AxiStreamIO(32)))
@@ -98,16 +100,16 @@ class MinresCore(val p: MinresParams) extends Module {
 
   private val ops = new TimedOps(fmt, p.latAdd, p.latMul, p.latDiv, p.latSqrt)
   import ops.{add, div, mul, sqrt, sub}
-  private val zero   = 0.U(32.W)
-  private val one    = "h3f800000".U(32.W)
-  private val negOne = "hbf800000".U(32.W)
-  private def finite(w: UInt): Bool = w(30, 23) =/= "hff".U
+  private val zero   = 0.U(W.W)
+  private val one    = (BigInt(fmt.bias) << fmt.manW).U(W.W)
+  private val negOne = ((BigInt(1) << (W - 1)) | (BigInt(fmt.bias) << fmt.manW)).U(W.W)
+  /** the exponent field is not all ones */
+  private def finite(w: UInt): Bool = w(W - 2, fmt.manW) =/= fmt.maxExpField.U
 
   // ---- vector memories: block RAM, one write and one registered read port per memory (VecRam), addresses
   // slot-major. Single-buffered where the schedule reads a word before it is overwritten (v_j by the feed and
   // passes B and C before pass C writes v_{j+1} over it); w alternates between two banks by the parity of j, so
   // that w_j and w_{j-1} come from different memories.
-  private val W = 32
   val vmem  = new VecRam("vmem", P * N, W, copies = 3)  // v_j: copy 0 feed, 1 pass B, 2 pass C (written by pass C)
   val vpmem = new VecRam("vpmem", P * N, W)             // v_{j-1} for pass B (pass B copies v_j into it)
   val umem  = new VecRam("umem", P * N, W)              // u, from pass B to pass C
@@ -121,7 +123,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private def inN(e: UInt): UInt = Mux(e < N.U, e, 0.U)
 
   // ---- per-problem scalars
-  private def scal() = Reg(Vec(P, UInt(32.W)))
+  private def scal() = Reg(Vec(P, UInt(W.W)))
   val delta = scal(); val nrm2 = scal()
   val cR = scal(); val cpR = scal(); val sR = scal(); val spR = scal(); val gamR = scal(); val etaR = scal()
   val g1R = scal(); val a1R = scal(); val a2R = scal(); val a3R = scal(); val cetaR = scal()
@@ -136,7 +138,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val inBad  = Reg(Vec(2 * P, Bool()))
 
   s_axis.tready := !full(ldBank) && !(regs.ctrlHold && ldWord === 0.U)
-  private val d = s_axis.tdata
+  private val d = s_axis.tdata(W - 1, 0) // a data word: the format's word in the low bits
   private val lastWord = ldWord === (p.frameWords - 1).U
   // one write port each: the load bank's words as they arrive
   private val ldData = s_axis.fire && ldWord =/= 0.U
@@ -145,7 +147,7 @@ class MinresCore(val p: MinresParams) extends Module {
   when(s_axis.fire) {
     when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
     when(ldWord === 0.U) {
-      ids(ldBank * P.U + ldSlot)   := d(30, 0)
+      ids(ldBank * P.U + ldSlot)   := s_axis.tdata(30, 0)
       inBad(ldBank * P.U + ldSlot) := false.B
     }.otherwise {
       when(!finite(d)) {

@@ -15,6 +15,10 @@ object MinresMain extends App {
     val (regJson, regions) = gen.CoreMain.registerJson(MinresRegs.map(p))
     val o = ujson.Obj(
       "module" -> p.moduleName,
+      "format" -> p.formatName,
+      "exp_width" -> p.expW,
+      "man_width" -> p.manW,
+      "word_width" -> p.fmt.width,
       "N" -> p.N,
       "M" -> p.M,
       "P" -> p.P,

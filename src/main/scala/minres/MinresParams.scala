@@ -3,8 +3,10 @@ package minres
 import chisel3.util.log2Ceil
 
 /** Everything the MINRES generator needs (mpc_cores/minres/design.py writes it): the MPC sizes (n states, m inputs,
-  * horizon T, 001 notation), the latencies of the float operators (binary32), P, and the constant columns of
-  * the half-CDS band (`rom`, raw binary32 words: (2n+m) rows x (M-1) columns, see mpc_cores/minres/kkt.py).
+  * horizon T, 001 notation), the float format (expW exponent and manW mantissa bits, binary32 = (8, 23); its words
+  * travel in the low bits of the 32-bit stream words), the latencies of the float operators, P, and the constant
+  * columns of the half-CDS band (`rom`, raw words of the format: (2n+m) rows x (M-1) columns, see
+  * mpc_cores/minres/kkt.py).
   *
   * The schedule (MinresCore) runs P problems in slots of S cycles; a problem's iteration is the matvec feed,
   * the matvec, the Lanczos update (pass B), the scalar part and the vector updates (pass C), at fixed offsets
@@ -24,7 +26,13 @@ case class MinresParams(
     latSqrt: Int,
     imaxDefault: Int,
     flushCycles: Int,
-    rom: Seq[Seq[BigInt]]) {
+    rom: Seq[Seq[BigInt]],
+    expW: Int = 8,
+    manW: Int = 23) {
+  /** the float format of every operator, memory and constant (FloatFormat refuses widths outside its rules) */
+  val fmt: float.FloatFormat = float.FloatFormat(expW, manW)
+  require(fmt.width <= 32, s"the float format must fit the 32-bit stream word (1 + expW + manW <= 32): got " +
+    s"expW=$expW, manW=$manW (${fmt.width} bits)")
   require(n >= 1 && m >= 1 && T >= 1, s"need n >= 1, m >= 1, T >= 1: got n=$n, m=$m, T=$T")
   require(latAdd >= 1, s"lat_add must be >= 1 (the streaming accumulator feeds the adder's output back): got $latAdd")
   require(latMul >= 0 && latDiv >= 0 && latSqrt >= 0, s"latencies must be >= 0: got lat_mul=$latMul, lat_div=$latDiv, lat_sqrt=$latSqrt")
@@ -42,7 +50,8 @@ case class MinresParams(
   val depth: Int   = log2Ceil(taps)
   require(rom.length == period && rom.forall(_.length == M - 1),
     s"rom must be ${period} x ${M - 1} (constant half-CDS columns 1..M-1): got ${rom.length} x ${rom.headOption.map(_.length).getOrElse(0)}")
-  require(rom.flatten.forall(w => w >= 0 && w < (BigInt(1) << 32)), "rom words must be raw binary32 (0 .. 2^32-1)")
+  require(rom.flatten.forall(w => w >= 0 && w < (BigInt(1) << fmt.width)),
+    s"rom words must be raw words of the format (0 .. 2^${fmt.width}-1)")
   /** partial sums of the streaming accumulators */
   val accParts: Int = latAdd
   require(N > accParts, s"N = $N must exceed lat_add = $latAdd (the accumulator's partial sums)")
@@ -81,7 +90,14 @@ case class MinresParams(
   def batchCycles(imax: Int): Int = (imax + 1) * P * S - S + tC + N + latCx
 
   val multipliers: Int = taps + 1 + 3 + 10 + 3 // matvec, delta, pass B (2 + norm), scalar, pass C
-  val moduleName: String = s"MinresCore_${name}_n${n}_m${m}_t${T}_p$P"
+  /** "binary32", "binary16" or e<E>m<M> (the names of mpc_cores/minres/design.py) */
+  val formatName: String = (expW, manW) match {
+    case (8, 23) => "binary32"
+    case (5, 10) => "binary16"
+    case _       => s"e${expW}m$manW"
+  }
+  val moduleName: String =
+    s"MinresCore_${name}_n${n}_m${m}_t${T}_p$P" + (if (formatName == "binary32") "" else s"_$formatName")
 
   // ---- storage (words): variable column double-buffered for P problems, constant columns once
   val storageVariable: Int = 2 * P * nPrimal
@@ -111,7 +127,9 @@ object MinresParams {
       latSqrt = j("lat_sqrt").num.toInt,
       imaxDefault = j("iterations").num.toInt,
       flushCycles = j("flush_cycles").num.toInt,
-      rom = j("rom").arr.toSeq.map(_.arr.toSeq.map(v => BigInt(v.num.toLong)))
+      rom = j("rom").arr.toSeq.map(_.arr.toSeq.map(v => BigInt(v.num.toLong))),
+      expW = j.obj.get("exp_width").map(_.num.toInt).getOrElse(8),
+      manW = j.obj.get("man_width").map(_.num.toInt).getOrElse(23)
     )
   }
 }
