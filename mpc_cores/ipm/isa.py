@@ -20,6 +20,8 @@ float library (mpc_cores/float/model.py):
 Every NaN result is the canonical quiet NaN. Instructions run one after another (each waits until the previous
 one's last result is written), so a program's cycle count is fixed: sum over its instructions of n + the unit's
 latency + ISSUE_GAP (IN and OUT: n cycles without backpressure).
+The interpreter reads all n elements of an instruction before it writes any; the engine streams them, so an
+element must not read a slot word that an earlier element of the same instruction writes (stream_hazards).
 """
 from __future__ import annotations
 
@@ -66,6 +68,31 @@ def latency(op: str, lat: dict) -> int:
             "MOV": 1, "MIN": lat["cmp"], "MAX": lat["cmp"], "SELNEG": lat["cmp"],
             "ACC": lat["add"] + 1 + lat["add"] * max(0, int(np.ceil(np.log2(lat["add"])))) if lat["add"] > 1
             else lat["add"] + 1, "MINRED": 1, "IN": 0, "OUT": 0}[op]
+
+
+BINARY = ("ADD", "SUB", "MUL", "DIV", "MIN", "MAX", "SELNEG")   # the ops that read operand b
+
+
+def stream_hazards(i: Instr, tables) -> list[tuple[int, int]]:
+    """Pairs (k, j), k < j, where element j of `i` reads a slot word that element k writes: the interpreter reads
+    the old word, the streaming engine may read the new one. A program is valid for the engine without them
+    (reductions write once, after their last read)."""
+    if i.op in ("OUT", "ACC", "MINRED"):
+        return []
+
+    def addrs(o: Operand, dest: bool = False) -> list[int]:
+        if o.mode == "gather":
+            return [o.addr + int(t) for t in tables[o.table][: i.n]]
+        if o.mode == "scalar" and not dest:
+            return [o.addr] * i.n
+        return [o.addr + k for k in range(i.n)]   # a scalar destination is written as a vector
+
+    first = {}
+    for k, a in enumerate(addrs(i.d, True)):
+        first.setdefault(a, k)
+    reads = [] if i.op == "IN" else [i.a] + ([i.b] if i.op in BINARY else [])
+    return [(first[a], j) for o in reads if o.space == "slot"
+            for j, a in enumerate(addrs(o)) if first.get(a, j) < j]
 
 
 def cycles(program: list[Instr], lat: dict) -> int:

@@ -1,0 +1,132 @@
+"""Configuration and generation of the Stage 1 engine (src/main/scala/ipm/): config.json from the programs of
+mpc_cores.ipm.program (a Stage1), the float format and the operator latencies; the generator run
+(`ipm.Stage1Main <config.json> <outDir>`, skipped when the configuration and the generator sources are unchanged);
+and the way back from config.json to the interpreter (decode, machine) for the testbench.
+
+config.json: core "ipm_stage1", name, exp_w, man_w, slots, slot_words, const (raw words), tables, programs
+[{name, code: instruction words as hex strings (mpc_cores.ipm.isa.encode)}], lat_add, lat_mul, lat_div, lat_sqrt,
+lat_cmp. The generator writes <module>.sv and hw.json (module, latencies, per program its entry, length and cycles).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+
+from mpc_cores.ipm import isa
+from mpc_cores.ipm.isa import Instr, Operand
+
+MAIN = "ipm.Stage1Main"
+# binary32 defaults of the float library (docs/float.md)
+DEFAULT_LAT = {"add": 4, "mul": 3, "div": 16, "sqrt": 16, "cmp": 1}
+
+
+def const_words(values) -> list[int]:
+    """Raw binary32 words of the constant region: float32 arrays keep their bits, others are rounded to float32."""
+    v = np.asarray(values)
+    if v.dtype != np.float32:
+        v = v.astype(np.float32)
+    return [int(u) for u in np.atleast_1d(v).view(np.uint32)]
+
+
+def debug_programs(slot_words: int) -> dict:
+    """`load`: IN the whole slot region; `dump`: OUT it (the testbench writes and reads a slot through them)."""
+    return {"load": [Instr("IN", slot_words, d=Operand("slot", 0))],
+            "dump": [Instr("OUT", slot_words, a=Operand("slot", 0))]}
+
+
+def check(programs: dict, tables, lat: dict) -> None:
+    """Refuse what the engine cannot run as the interpreter does: a stream hazard inside an instruction, an ACC
+    of lat_add terms or fewer (the generator checks addresses and tables)."""
+    for name, prog in programs.items():
+        for k, i in enumerate(prog):
+            h = isa.stream_hazards(i, tables)
+            if h:
+                raise ValueError(f"program {name}, instruction {k} ({i.op}): element {h[0][1]} reads a word that "
+                                 f"element {h[0][0]} writes")
+            if i.op == "ACC" and i.n <= lat["add"]:
+                raise ValueError(f"program {name}, instruction {k}: ACC needs more than lat_add={lat['add']} terms")
+
+
+def config(st1, name: str, slots: int = 1, lat: dict | None = None, exp_w: int = 8, man_w: int = 23,
+           debug: bool = False) -> dict:
+    """config.json of an engine running the programs of `st1` (mpc_cores.ipm.program.Stage1, or anything with
+    programs, const_words, tables and slot_words) on `slots` problem slots; `debug` adds the load and dump
+    programs."""
+    lat = dict(DEFAULT_LAT, **(lat or {}))
+    programs = dict(st1.programs)
+    if debug:
+        programs.update(debug_programs(st1.slot_words))
+    tables = [[int(t) for t in tab] for tab in st1.tables]
+    check(programs, tables, lat)
+    return {
+        "core": "ipm_stage1", "name": name, "exp_w": exp_w, "man_w": man_w, "slots": slots,
+        "slot_words": int(st1.slot_words), "const": const_words(st1.const_words), "tables": tables,
+        "programs": [{"name": k, "code": [hex(isa.encode(i)) for i in v]} for k, v in programs.items()],
+        "lat_add": lat["add"], "lat_mul": lat["mul"], "lat_div": lat["div"], "lat_sqrt": lat["sqrt"],
+        "lat_cmp": lat["cmp"],
+    }
+
+
+def generate(jobs: list) -> list[dict]:
+    """Elaborate engines in one generator run: jobs are (config dict, out_dir). Writes config.json into out_dir
+    and runs the generator for the jobs whose outputs are not current (same configuration and generator
+    sources); returns their hw.json dicts."""
+    from mpc_cores.flow import SBT_LOCK, generator_digest, locked, run_generator
+
+    src = generator_digest()
+    with locked(SBT_LOCK.with_name(".generate.lock")):
+        args, stamps = [], []
+        for cfg, out in jobs:
+            out = Path(out)
+            out.mkdir(parents=True, exist_ok=True)
+            text = json.dumps(cfg, sort_keys=True)
+            stamp = hashlib.sha256((MAIN + src + text).encode()).hexdigest()
+            done = out / ".generated"
+            try:
+                hw = json.loads((out / "hw.json").read_text())
+                if done.read_text() == stamp and (out / f"{hw['module']}.sv").exists():
+                    continue
+            except (OSError, ValueError, KeyError):
+                pass
+            done.unlink(missing_ok=True)
+            (out / "config.json").write_text(text)
+            args += [str((out / "config.json").resolve()), str(out.resolve())]
+            stamps.append((done, stamp))
+        if args:
+            run_generator(MAIN, args)
+        for done, stamp in stamps:
+            done.write_text(stamp)
+        return [json.loads((Path(out) / "hw.json").read_text()) for _, out in jobs]
+
+
+# ---- from config.json back to the interpreter
+def _operand(w: int) -> Operand:
+    mask = (1 << isa.ADDR_W) - 1
+    return Operand(space=isa.SPACES[w & 1], mode=isa.MODES[(w >> 1) & 3], addr=(w >> 3) & mask,
+                   table=(w >> (3 + isa.ADDR_W)) & 7)
+
+
+def decode(word: int) -> Instr:
+    """The instruction of an encoded word (inverse of mpc_cores.ipm.isa.encode, without the note)."""
+    w = int(word)
+    ow = 1 + 2 + isa.ADDR_W + isa.TABLE_W
+    ops = [_operand((w >> (isa.OP_W + isa.N_W + k * ow)) & ((1 << ow) - 1)) for k in range(3)]
+    return Instr(isa.OPS[w & 15], (w >> isa.OP_W) & ((1 << isa.N_W) - 1), *ops)
+
+
+def programs(cfg: dict) -> dict:
+    """name -> list of Instr, decoded from config.json."""
+    return {p["name"]: [decode(int(c, 16)) for c in p["code"]] for p in cfg["programs"]}
+
+
+def machine(cfg: dict):
+    """The interpreter of the configured engine (binary32): slots, slot region, constant words, tables, lat_add."""
+    from mpc_cores.ipm.machine import Machine
+
+    assert (cfg["exp_w"], cfg["man_w"]) == (8, 23), "the interpreter is binary32"
+    const = np.array(cfg["const"], dtype=np.uint32).view(np.float32)
+    return Machine(cfg["slots"], cfg["slot_words"], const, [np.asarray(t, dtype=np.int64) for t in cfg["tables"]],
+                   cfg["lat_add"])

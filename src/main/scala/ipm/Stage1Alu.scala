@@ -1,0 +1,134 @@
+package ipm
+
+import chisel3._
+import chisel3.util._
+import float._
+
+/** The units of the Stage 1 engine and its write-back. One element enters per cycle (`valid`, with its operands
+  * a, b, the input-stream word, its index in the instruction, and its destination address); the unit of `op`
+  * returns its result `latency(op)` cycles later (mpc_cores.ipm.isa.latency) with the destination address
+  * delayed alongside, and `wen`, `wdata`, `waddr` drive the write port of the slot memory. Instructions do not
+  * overlap in here (the engine starts one only after the previous one's last result), so at most one unit
+  * returns a result on a cycle.
+  *
+  *   ADD, SUB   FAdd (lat_add)        MUL FMul (lat_mul)     DIV FDiv (lat_div)     SQRT FSqrt (lat_sqrt)
+  *   MIN, MAX, SELNEG   one FCompare (lat_cmp), operands delayed beside it; min(a, b): b < a ? b : a,
+  *              max(a, b): a < b ? b : a, NaN if either is NaN; SELNEG: b < 0 ? -a : +inf, NaN if a is NaN
+  *   MOV        one register (1), NaN canonicalised
+  *   MINRED     a running minimum (1): a new element replaces it only if strictly less (the first of equal
+  *              values stays; +0 == -0), a NaN sets a sticky flag; written one cycle after the last element
+  *   ACC        minres.FStreamAcc (lat_add + 1 + lat_add ceil(log2 lat_add)), one per ACC length of the
+  *              programs (its length is built in)
+  *   IN         the stream word, written on the cycle it arrives here (0)
+  * Reductions write to the destination address of their first element. Every NaN result is the canonical
+  * quiet NaN (the float units return it; MOV, MIN, MAX, SELNEG and MINRED substitute it).
+  */
+class Stage1Alu(p: Stage1Params) extends Module {
+  import Isa._
+  private val fmt = p.fmt
+  private val w   = fmt.width
+  val io = IO(new Bundle {
+    val valid  = Input(Bool())
+    val op     = Input(UInt(OpW.W))
+    val n      = Input(UInt(NW.W))
+    val idx    = Input(UInt(NW.W))
+    val last   = Input(Bool())
+    val a      = Input(UInt(w.W))
+    val b      = Input(UInt(w.W))
+    val inData = Input(UInt(w.W))
+    val addr   = Input(UInt(p.memAddrW.W))
+    val wen    = Output(Bool())
+    val wdata  = Output(UInt(w.W))
+    val waddr  = Output(UInt(p.memAddrW.W))
+  })
+  override def desiredName = s"Stage1Alu_${fmt.tag}"
+
+  private def is(codes: Int*): Bool = io.valid && codes.map(c => io.op === c.U).reduce(_ || _)
+  private val qnan    = fmt.qNaN.U(w.W)
+  private val posInf  = fmt.inf(false).U(w.W)
+  private val signBit = (BigInt(1) << (w - 1)).U(w.W)
+  private def isNaN(x: UInt): Bool = x(w - 2, fmt.manW).andR && x(fmt.manW - 1, 0).orR
+
+  /** tap(l): the destination address of the element that entered l cycles ago */
+  private val tap = (1 to p.maxTap).scanLeft(io.addr)((x, _) => RegNext(x))
+  /** reductions write to the address of their first element */
+  private val redAddr = Reg(UInt(p.memAddrW.W))
+  when(is(ACC, MINRED) && io.idx === 0.U) { redAddr := io.addr }
+
+  private val add = Module(new FAdd(fmt, p.latAdd))
+  add.in_valid := is(ADD, SUB)
+  add.a        := io.a
+  add.b        := io.b
+  add.sub      := io.op === SUB.U
+  private val mul = Module(new FMul(fmt, p.latMul))
+  mul.in_valid := is(MUL)
+  mul.a        := io.a
+  mul.b        := io.b
+  private val div = Module(new FDiv(fmt, p.latDiv))
+  div.in_valid := is(DIV)
+  div.a        := io.a
+  div.b        := io.b
+  private val sqrt = Module(new FSqrt(fmt, p.latSqrt))
+  sqrt.in_valid := is(SQRT)
+  sqrt.a        := io.a
+
+  // ---- MIN, MAX, SELNEG: one comparator; MIN compares b < a, MAX a < b, SELNEG b < +0
+  private val isMin = io.op === MIN.U
+  private val isSel = io.op === SELNEG.U
+  private val cmp   = Module(new FCompare(fmt, p.latCmp))
+  cmp.in_valid  := is(MIN, MAX, SELNEG)
+  cmp.a         := Mux(isMin || isSel, io.b, io.a)
+  cmp.b         := Mux(isMin, io.a, Mux(isSel, 0.U, io.b))
+  cmp.signaling := false.B
+  private val cA     = Stages.delay(io.a, p.latCmp)
+  private val cB     = Stages.delay(io.b, p.latCmp)
+  private val cSel   = Stages.delay(isSel, p.latCmp)
+  private val cmpOut = Mux(cSel, Mux(isNaN(cA), qnan, Mux(cmp.lt, cA ^ signBit, posInf)),
+    Mux(isNaN(cA) || isNaN(cB), qnan, Mux(cmp.lt, cB, cA)))
+
+  // ---- MOV
+  private val movValid = RegNext(is(MOV), false.B)
+  private val movOut   = RegNext(Mux(isNaN(io.a), qnan, io.a))
+
+  // ---- MINRED
+  private val minReg  = Reg(UInt(w.W))
+  private val minNaN  = Reg(Bool())
+  private val less    = Module(new FCompare(fmt, 0))
+  less.in_valid  := false.B
+  less.a         := io.a
+  less.b         := minReg
+  less.signaling := false.B
+  when(is(MINRED)) {
+    when(io.idx === 0.U) {
+      minReg := io.a
+      minNaN := isNaN(io.a)
+    }.otherwise {
+      when(less.lt) { minReg := io.a }
+      minNaN := minNaN || isNaN(io.a)
+    }
+  }
+  private val minValid = RegNext(is(MINRED) && io.last, false.B)
+
+  // ---- ACC: one streaming accumulator per length
+  private val accs = p.accLengths.map { n =>
+    val acc = Module(new minres.FStreamAcc(fmt, n, p.latAdd))
+    acc.io.valid := is(ACC) && io.n === n.U
+    acc.io.index := io.idx
+    acc.io.term  := io.a
+    (acc.io.done, acc.io.sum, redAddr)
+  }
+
+  private val results: Seq[(Bool, UInt, UInt)] = Seq(
+    (add.out_valid, add.out, tap(p.latAdd)),
+    (mul.out_valid, mul.out, tap(p.latMul)),
+    (div.out_valid, div.out, tap(p.latDiv)),
+    (sqrt.out_valid, sqrt.out, tap(p.latSqrt)),
+    (cmp.out_valid, cmpOut, tap(p.latCmp)),
+    (movValid, movOut, tap(1)),
+    (minValid, Mux(minNaN, qnan, minReg), redAddr),
+    (is(IN), io.inData, tap(0))
+  ) ++ accs
+  io.wen   := results.map(_._1).reduce(_ || _)
+  io.wdata := Mux1H(results.map(r => r._1 -> r._2))
+  io.waddr := Mux1H(results.map(r => r._1 -> r._3))
+}
