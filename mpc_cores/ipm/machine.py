@@ -8,15 +8,16 @@ from collections import deque
 import numpy as np
 
 from mpc_cores.ipm.isa import Instr, Operand
-from mpc_cores.minres.model import QNAN32, acc
+from mpc_cores.minres.model import acc
+from mpc_cores.minres.model import words as minres_words
 
 f32 = np.float32
 INF = f32(np.inf)
 
 
 def words(x) -> list[int]:
-    x = np.atleast_1d(np.asarray(x, dtype=f32))
-    return [QNAN32 if np.isnan(v) else int(u) for v, u in zip(x, x.view(np.uint32))]
+    """Raw binary32 words of a value or an array (canonical quiet NaN)."""
+    return minres_words(np.atleast_1d(np.asarray(x, dtype=f32)))
 
 
 class Machine:

@@ -2,8 +2,9 @@
 float32 is correctly rounded with gradual underflow, like the float library). Every line below is one rounded
 operation of the core, in the core's order; the two stages of Fig. 2 of 001 are the two halves of an iteration.
 
-Stage 1, linearisation of problem p (its iterate z, lu, ll, su, sl; th = z on the boxed variables):
-    mu   = (acc(lu*su) + acc(ll*sl)) * inv_ineq              (7), acc: the streaming accumulator of MINRES
+Stage 1 runs the programs of mpc_cores.ipm.program on the interpreter of mpc_cores.ipm.machine; in formulas, the
+linearisation of problem p (its iterate z, lu, ll, su, sl; th = z on the boxed variables):
+    mu   = acc(lu*su, ll*sl) * inv_ineq                      (7), acc: the streaming accumulator of MINRES
     smu  = sigma * mu
     rGu  = (hi - th) - su          rGl = (th - lo) - sl       (6c)
     rSu  = smu - lu*su             rSl = smu - ll*sl          (6d)
@@ -14,9 +15,9 @@ Stage 1, linearisation of problem p (its iterate z, lu, ll, su, sl; th = z on th
     d    = 1 / sqrt(max(off, diag)) (primal), d_const (equality rows)     equilibration; 1 without it
     bh   = d * bt
 Stage 2, MINRES warm-started at z (so that its first matvec forms the residuals (6a, 6b)):
-    init:  y = d * (A z);  u = bh - y;  then as mpc_cores.minres.model (nrm2, v_1, ...), x from 0
-    iter:  y = d * (A (d * v_j)), the rest as mpc_cores.minres.model
-    output dz = d * x
+    init:  u = bh - d * (A z);  then MinresCoreModel.iterate (nrm2, v_1, ...), x from 0
+    iter:  y = d * (A (d * v_j)), the rest as MinresCoreModel.iterate
+    Stage 1 forms dz = d * x
 Stage 1, update (line 4-7 of Algorithm 1):
     dth = dz on the boxed variables
     dlu = wu*dth + tu    dll = tl - wl*dth    dsu = rGu - dth    dsl = rGl + dth
@@ -27,7 +28,7 @@ computes the Newton direction of 001 exactly; only the diagonal operations are i
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -35,26 +36,9 @@ from mpc_cores.ipm.machine import Machine
 from mpc_cores.ipm.program import build
 from mpc_cores.ipm.sparse import SparseMpc
 from mpc_cores.minres.kkt import const_rom
-from mpc_cores.minres.model import MinresCoreModel, tree
+from mpc_cores.minres.model import MinresCoreModel
 
 f32 = np.float32
-INF = f32(np.inf)
-
-
-def acc(terms: np.ndarray, L: int) -> np.float32:
-    """mpc_cores.minres.model.acc, vectorised over the L partial sums (the same order and roundings)."""
-    t = np.asarray(terms, dtype=f32)
-    n = len(t)
-    assert n > L, f"the accumulator needs more than L={L} terms, got {n}"
-    pad = (-n) % L
-    part = np.zeros(L, dtype=f32)
-    rows = np.concatenate([t, np.zeros(pad, dtype=f32)]).reshape(-1, L)
-    valid = np.concatenate([np.ones(n, bool), np.zeros(pad, bool)]).reshape(-1, L)
-    with np.errstate(all="ignore"):
-        for r, ok in zip(rows, valid):
-            part = np.where(ok, r + part, part)
-        order = [(n - L + q) % L for q in range(L)]
-        return tree(part[order][None, :])[0] if L > 1 else part[0]
 
 
 @dataclass
@@ -63,7 +47,6 @@ class Status:
     mu: float = 0.0
     residual: float = 0.0      # ||b_k||_2 of the last Newton system (the MINRES init norm, preconditioned)
     nonfinite: bool = False
-    alphas: list = field(default_factory=list)
 
 
 class IpmModel:
@@ -84,44 +67,13 @@ class IpmModel:
         self.started = [False] * slots
 
     def minres(self, diag, d, bh, z0):
-        """Stage 2: MINRES on (D A_k D) y = D bt from y_0 = D^-1 z0; returns x = y - y_0 and ||r_0||."""
-        mr, L = self.mr, self.L
+        """Stage 2: MINRES on (D A_k D) y = D bt from y_0 = D^-1 z0 (its init pass forms r_0 = bh - d (A z0));
+        returns x = y - y_0 and ||r_0||."""
+        mr = self.mr
         band = mr.band(diag)
-        zero = np.zeros(self.N, dtype=f32)
         with np.errstate(all="ignore"):
-            y = d * mr.matvec(band, z0)
-            u = bh - y
-            nrm2 = acc(u * u, L)
-            g = np.sqrt(nrm2)
-            res = g
-            v = u / g
-            vprev, w, wprev, x = zero, zero, zero, zero
-            c = cp = f32(1.0)
-            s = sp = f32(0.0)
-            eta = g
-            for _ in range(self.i_mr):
-                y = d * mr.matvec(band, d * v)
-                delta = acc(v * y, L)
-                u = (y - delta * v) - g * vprev
-                nrm2 = acc(u * u, L)
-                g1 = np.sqrt(nrm2)
-                a0 = c * delta - (cp * s) * g
-                a1 = np.sqrt(a0 * a0 + nrm2)
-                a2 = s * delta + (cp * c) * g
-                a3 = sp * g
-                c1 = a0 / a1
-                s1 = g1 / a1
-                ceta = c1 * eta
-                eta = -(s1 * eta)
-                vnew = u / g1
-                wnew = ((v - a3 * wprev) - a2 * w) / a1
-                x = x + ceta * wnew
-                vprev, v = v, vnew
-                wprev, w = w, wnew
-                cp, c = c, c1
-                sp, s = s, s1
-                g = g1
-        return x, res
+            u = bh - d * mr.matvec(band, z0)
+        return mr.iterate(band, u, self.i_mr, scale=d)
 
     def solve(self, x, r=None, slot: int = 0, cold: bool = False) -> tuple[np.ndarray, Status]:
         """One sample on problem slot `slot`: u0 (float32) and the status."""

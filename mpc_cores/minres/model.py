@@ -273,18 +273,29 @@ class MinresCoreModel:
 
     def solve(self, diag, b, imax: int) -> Result:
         o = self.ops
-        add, sub, mul, div, sqrt = o.add, o.sub, o.mul, o.div, o.sqrt
         diag = o.value(diag)
         b = o.value(b)
         bad_in = not (o.finite(diag) and o.finite(b))
-        L = self.lat_add
         z = o.zeros(self.N)
         with np.errstate(all="ignore"):
             band = self._band(diag)
-            # init
-            u = sub(sub(b, mul(z, z)), mul(z, z))
+            u = o.sub(o.sub(b, o.mul(z, z)), o.mul(z, z))   # the init pass: r_0 = b - A x_0 with x_0 = 0
+            x, _ = self.iterate(band, u, imax)
+        flag = bad_in or not o.finite(x)
+        return Result(o.to_float(x), bool(flag), o.words(x))
+
+    def iterate(self, band, u, imax: int, scale=None):
+        """MINRES from the initial residual u (x_0 = 0 in the returned x): the init norm and v_1, then imax
+        iterations. `scale` (d, or None): the matrix is D A D, the streamed vector scaled by d before the band and
+        each row's product by d_i after it (the interior-point core's equilibration). Returns (x, ||u||)."""
+        o = self.ops
+        add, sub, mul, div, sqrt = o.add, o.sub, o.mul, o.div, o.sqrt
+        L = self.lat_add
+        z = o.zeros(self.N)
+        with np.errstate(all="ignore"):
             nrm2 = acc(mul(u, u), L, o)
             g = sqrt(nrm2)
+            res = g
             v = div(u, g)
             vprev = z.copy()
             w, wprev = z.copy(), z.copy()
@@ -293,7 +304,7 @@ class MinresCoreModel:
             s = sp = o.zero
             eta = g
             for j in range(1, imax + 1):
-                y = self.matvec(band, v)
+                y = self.matvec(band, v) if scale is None else mul(scale, self.matvec(band, mul(scale, v)))
                 delta = acc(mul(v, y), L, o)
                 u = sub(sub(y, mul(delta, v)), mul(g, vprev if j > 1 else z))
                 nrm2 = acc(mul(u, u), L, o)
@@ -316,8 +327,7 @@ class MinresCoreModel:
                 cp, c = c, c1
                 sp, s = s, s1
                 g = g1
-        flag = bad_in or not o.finite(x)
-        return Result(o.to_float(x), bool(flag), o.words(x))
+        return x, res
 
 
 def minres64(K: np.ndarray, b: np.ndarray, imax: int) -> np.ndarray:
