@@ -114,6 +114,31 @@ def _outputs_present(out: Path) -> bool:
     return (out / f"{module}.sv").exists() and (out / f"{module}.rdl").exists()
 
 
+GENERATE_LOCK = SBT_LOCK.with_name(".generate.lock")
+
+
+def run_stale(main: str, jobs: list, current) -> None:
+    """Run generator `main` once for the jobs (config text, out_dir, write_config(path)) whose outputs are not
+    current: `current(out_dir)` false, or a stamp `.generated` that differs from the digest of the main, the
+    generator sources and the configuration. Call it under GENERATE_LOCK."""
+    src = generator_digest()
+    args, stamps = [], []
+    for text, out, write_config in jobs:
+        out.mkdir(parents=True, exist_ok=True)
+        stamp = hashlib.sha256((main + src + text).encode()).hexdigest()
+        done = out / ".generated"
+        if done.exists() and done.read_text() == stamp and current(out):
+            continue  # the same configuration from the same generator sources: its outputs are current
+        done.unlink(missing_ok=True)
+        write_config(out / "config.json")
+        args += [str((out / "config.json").resolve()), str(out.resolve())]
+        stamps.append((done, stamp))
+    if args:
+        run_generator(main, args)
+    for done, stamp in stamps:
+        done.write_text(stamp)
+
+
 def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
     """Elaborate cores of one kind (a CoreKind or its name) in one sbt run: jobs are (design, out_dir). Writes per
     out_dir: config.json, <module>.sv, hw.json, core.json, the SystemRDL register description <module>.rdl and
@@ -122,25 +147,9 @@ def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
     from mpc_cores import fusesoc, registry, regmap
 
     kind = registry.get(kind) if isinstance(kind, str) else kind
-    src = generator_digest()
-    with locked(SBT_LOCK.with_name(".generate.lock")):
-        args, stamps = [], []
-        for d, out in jobs:
-            out = Path(out)
-            out.mkdir(parents=True, exist_ok=True)
-            cfg = json.dumps(d.config(), sort_keys=True)
-            stamp = hashlib.sha256((kind.generator_main + src + cfg).encode()).hexdigest()
-            done = out / ".generated"
-            if done.exists() and done.read_text() == stamp and _outputs_present(out):
-                continue  # the same configuration from the same generator sources: its outputs are current
-            done.unlink(missing_ok=True)
-            d.write_config(out / "config.json")
-            args += [str((out / "config.json").resolve()), str(out.resolve())]
-            stamps.append((done, stamp))
-        if args:
-            run_generator(kind.generator_main, args)
-        for done, stamp in stamps:
-            done.write_text(stamp)
+    with locked(GENERATE_LOCK):
+        run_stale(kind.generator_main, [(json.dumps(d.config(), sort_keys=True), Path(out), d.write_config)
+                                        for d, out in jobs], _outputs_present)
         cores = []
         for d, out in jobs:
             out = Path(out)

@@ -9,7 +9,6 @@ lat_cmp. The generator writes <module>.sv and hw.json (module, latencies, per pr
 """
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 
@@ -70,35 +69,24 @@ def config(st1, name: str, slots: int = 1, lat: dict | None = None, exp_w: int =
     }
 
 
+def _current(out: Path) -> bool:
+    try:
+        hw = json.loads((out / "hw.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return "module" in hw and (out / f"{hw['module']}.sv").exists()
+
+
 def generate(jobs: list) -> list[dict]:
     """Elaborate engines in one generator run: jobs are (config dict, out_dir). Writes config.json into out_dir
     and runs the generator for the jobs whose outputs are not current (same configuration and generator
-    sources); returns their hw.json dicts."""
-    from mpc_cores.flow import SBT_LOCK, generator_digest, locked, run_generator
+    sources: mpc_cores.flow.run_stale); returns their hw.json dicts."""
+    from mpc_cores.flow import GENERATE_LOCK, locked, run_stale
 
-    src = generator_digest()
-    with locked(SBT_LOCK.with_name(".generate.lock")):
-        args, stamps = [], []
-        for cfg, out in jobs:
-            out = Path(out)
-            out.mkdir(parents=True, exist_ok=True)
-            text = json.dumps(cfg, sort_keys=True)
-            stamp = hashlib.sha256((MAIN + src + text).encode()).hexdigest()
-            done = out / ".generated"
-            try:
-                hw = json.loads((out / "hw.json").read_text())
-                if done.read_text() == stamp and (out / f"{hw['module']}.sv").exists():
-                    continue
-            except (OSError, ValueError, KeyError):
-                pass
-            done.unlink(missing_ok=True)
-            (out / "config.json").write_text(text)
-            args += [str((out / "config.json").resolve()), str(out.resolve())]
-            stamps.append((done, stamp))
-        if args:
-            run_generator(MAIN, args)
-        for done, stamp in stamps:
-            done.write_text(stamp)
+    with locked(GENERATE_LOCK):
+        run_stale(MAIN, [(json.dumps(cfg, sort_keys=True), Path(out),
+                          lambda path, t=json.dumps(cfg, sort_keys=True): path.write_text(t)) for cfg, out in jobs],
+                  _current)
         return [json.loads((Path(out) / "hw.json").read_text()) for _, out in jobs]
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from mpc_cores.closedloop import Controller, OsqpController, reference_schedule, run_closed_loop
+from mpc_cores.ipm.machine import words
 from mpc_cores.ipm.model import IpmModel
 from mpc_cores.ipm.sparse import SparseMpc, sparse_mpc
 
@@ -20,7 +21,6 @@ class ModelController(Controller):
 
     async def step(self, x, r):
         u, _ = self.model.solve(x, r, cold=self.cold)
-        from mpc_cores.ipm.machine import words
         self.words.append(words(u))
         return u.astype(float)
 
