@@ -67,13 +67,10 @@ class IpmModel:
         self.started = [False] * slots
 
     def minres(self, diag, d, bh, z0):
-        """Stage 2: MINRES on (D A_k D) y = D bt from y_0 = D^-1 z0 (its init pass forms r_0 = bh - d (A z0));
-        returns x = y - y_0 and ||r_0||."""
-        mr = self.mr
-        band = mr.band(diag)
-        with np.errstate(all="ignore"):
-            u = bh - d * mr.matvec(band, z0)
-        return mr.iterate(band, u, self.i_mr, scale=d)
+        """Stage 2: MINRES on (D A_k D) y = D bt from y_0 = D^-1 z0 (MinresCoreModel.solve_warm); returns x = y - y_0
+        and ||r_0||."""
+        r, res = self.mr.solve_warm(diag, d, bh, z0, self.i_mr)
+        return np.asarray(r.x, dtype=f32), res
 
     def solve(self, x, r=None, slot: int = 0, cold: bool = False) -> tuple[np.ndarray, Status]:
         """One sample on problem slot `slot`: u0 (float32) and the status."""

@@ -284,6 +284,20 @@ class MinresCoreModel:
         flag = bad_in or not o.finite(x)
         return Result(o.to_float(x), bool(flag), o.words(x))
 
+    def solve_warm(self, diag, d, b, z0, imax: int) -> tuple[Result, float]:
+        """The interior-point core's form (MinresParams warm): MINRES on (D A D) y = b from y_0 = D^-1 z0, D =
+        diag(d), so that its init pass forms r_0 = b - d (A z0); returns the solution x = y - y_0 (flagged as
+        `solve`) and ||r_0|| (the word the core sends after x)."""
+        o = self.ops
+        diag, d, b, z0 = (o.value(v) for v in (diag, d, b, z0))
+        bad_in = not all(o.finite(v) for v in (diag, d, b, z0))
+        with np.errstate(all="ignore"):
+            band = self._band(diag)
+            u = o.sub(b, o.mul(d, self.matvec(band, z0)))
+            x, res = self.iterate(band, u, imax, scale=d)
+        flag = bad_in or not o.finite(x)
+        return Result(o.to_float(x), bool(flag), o.words(x)), res
+
     def iterate(self, band, u, imax: int, scale=None):
         """MINRES from the initial residual u (x_0 = 0 in the returned x): the init norm and v_1, then imax
         iterations. `scale` (d, or None): the matrix is D A D, the streamed vector scaled by d before the band and
