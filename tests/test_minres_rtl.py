@@ -32,6 +32,9 @@ RTL_CASES = {
     # the reduced format e8m17 (26-bit words, an 18-bit significand: one MULT18X18D per product), its default
     # divide and square-root latencies (13), random upper bits on the input stream
     "n2_m1_t3_e8m17": (lambda: random_problem("rd", 2, 1, 3, 0, 8), dict(P=3, iterations=8, format="e8m17"), 16),
+    # the interior-point core's form: warm start at z0, equilibration d, ||r_0|| after x, iterations and the
+    # closing of partial batches on ports
+    "n2_m1_t3_warm": (lambda: random_problem("re", 2, 1, 3, 0, 9), dict(P=2, iterations=7, warm=True), 16),
 }
 OTHER = {
     "masses_p4": (lambda: load_spec(REPO / "examples/masses.yaml"), dict(P=4)),

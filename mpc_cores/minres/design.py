@@ -67,6 +67,7 @@ class MinresDesign:
     h_diag: np.ndarray = None  # diagonal of the Hessian on the primal rows (the variable part without W)
     problem: object = None
     fmt: Format = NAMES["binary32"]
+    warm: bool = False     # the interior-point core's form (MinresParams.warm)
 
     @property
     def layout(self) -> Layout:
@@ -81,7 +82,7 @@ class MinresDesign:
         return {"core": "minres", "name": self.name, "n": self.n, "m": self.m, "T": self.T, "P": self.P,
                 "iterations": self.iterations, "flush_cycles": self.flush_cycles, **self.lat,
                 "format": self.format, "exp_width": self.fmt.expW, "man_width": self.fmt.manW,
-                "h_diag": [float(v) for v in self.h_diag], "rom": rom.tolist()}
+                "h_diag": [float(v) for v in self.h_diag], "rom": rom.tolist(), "warm": self.warm}
 
     def write_config(self, path) -> None:
         Path(path).write_text(json.dumps(self.config()))
@@ -89,7 +90,7 @@ class MinresDesign:
 
 def design_minres(problem, P: int | None = None, iterations: int | None = None, lat_add: int | None = None,
                   lat_mul: int | None = None, name: str | None = None, format: str | None = None,
-                  **_ignored) -> MinresDesign:
+                  warm: bool = False, **_ignored) -> MinresDesign:
     A, B, Q, R, QN, T = problem_matrices(problem)
     n, m = problem.nx, problem.nu
     solver = problem.solver or {}
@@ -110,4 +111,4 @@ def design_minres(problem, P: int | None = None, iterations: int | None = None, 
     rom = rom.astype(np.float32) if fmt == NAMES["binary32"] else fv.decode(fmt, fv.encode(fmt, rom))
     h = np.diagonal(kkt_matrix(A, B, Q, R, QN, T))[Layout(n, m, T).primal_rows()]
     return MinresDesign(name or problem.name, n, m, T, P, min(it, 65535), lat, rom=rom, h_diag=h, problem=problem,
-                        fmt=fmt)
+                        fmt=fmt, warm=warm)

@@ -301,7 +301,8 @@ class MinresCoreModel:
     def iterate(self, band, u, imax: int, scale=None):
         """MINRES from the initial residual u (x_0 = 0 in the returned x): the init norm and v_1, then imax
         iterations. `scale` (d, or None): the matrix is D A D, the streamed vector scaled by d before the band and
-        each row's product by d_i after it (the interior-point core's equilibration). Returns (x, ||u||)."""
+        each row's product by d_i after it (the interior-point core's equilibration), delta = (d v) . (A d v).
+        Returns (x, ||u||)."""
         o = self.ops
         add, sub, mul, div, sqrt = o.add, o.sub, o.mul, o.div, o.sqrt
         L = self.lat_add
@@ -318,8 +319,14 @@ class MinresCoreModel:
             s = sp = o.zero
             eta = g
             for j in range(1, imax + 1):
-                y = self.matvec(band, v) if scale is None else mul(scale, self.matvec(band, mul(scale, v)))
-                delta = acc(mul(v, y), L, o)
+                if scale is None:
+                    y = self.matvec(band, v)
+                    delta = acc(mul(v, y), L, o)
+                else:                       # delta = v . (D A D v) as (D v) . (A D v), the feed's words
+                    sv = mul(scale, v)
+                    ay = self.matvec(band, sv)
+                    y = mul(scale, ay)
+                    delta = acc(mul(sv, ay), L, o)
                 u = sub(sub(y, mul(delta, v)), mul(g, vprev if j > 1 else z))
                 nrm2 = acc(mul(u, u), L, o)
                 g1 = sqrt(nrm2)

@@ -14,6 +14,7 @@ def core_json(d, hw: dict) -> dict:
     for k in ("N", "M", "P", "P_eq15", "k1", "k2", "slot_cycles", "cycles_per_iteration", "cycles_bound",
               "batch_cycles_formula", "batch_cycles_imax0", "schedule", "storage_words", "storage_variable",
               "storage_constant", "storage_dense_cds", "storage_bound_001", "frame_words", "multipliers",
+              "out_words", "warm", "storage_warm",
               "axil_addr_width", "registers", "regions"):
         c[k] = hw[k]
     assert c["storage_dense_cds"] == dense_cds_words(d.n, d.m, d.T, c["P"])

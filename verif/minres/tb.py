@@ -29,6 +29,12 @@ class MinresTB(AxiDriver):
         self.model = MinresCoreModel.from_config(self.cfg)
         self.h = np.array(self.cfg["h_diag"])
         self.nrng = np.random.default_rng(seed)
+        # the warm form of the interior-point core (MinresParams.warm): frames id, diag, d, b, z0 in; id, x,
+        # ||r_0|| out; iterations and the closing of a partial batch on the ports ipm_imax, ipm_close
+        self.warm = bool(c.get("warm", False))
+        if self.warm:
+            dut.ipm_close.value = 0
+            dut.ipm_imax.value = c["iterations"]
 
     @property
     def M(self) -> int:
@@ -41,21 +47,48 @@ class MinresTB(AxiDriver):
         w = random_weights(self.nrng, self.n, self.m, self.T, 0.1, 10.0)
         diag = self.h + w
         b = self.nrng.standard_normal(self.N)
-        return diag, b
+        if not self.warm:
+            return diag, b
+        d = self.nrng.uniform(0.2, 1.5, self.N)
+        z0 = self.nrng.standard_normal(self.N)
+        return diag, b, d, z0
 
-    async def send(self, pid: int, diag, b):
+    def expect(self, diag, b, d=None, z0=None):
+        """The model's result (and ||r_0|| in the warm form, else None)."""
+        if not self.warm:
+            return self.model.solve(diag, b, self.imax), None
+        return self.model.solve_warm(diag, d, b, z0, self.imax)
+
+    async def set_imax(self, imax: int):
+        if self.warm:
+            self.dut.ipm_imax.value = imax
+            self.imax = imax
+            return
+        await super().set_imax(imax)
+
+    async def close(self):
+        """warm form: send a partly loaded batch on (a one-cycle pulse)"""
+        from cocotb.triggers import RisingEdge
+        await RisingEdge(self.dut.clock)
+        self.dut.ipm_close.value = 1
+        await RisingEdge(self.dut.clock)
+        self.dut.ipm_close.value = 0
+
+    async def send(self, pid: int, diag, b, d=None, z0=None):
         """One input frame; in a format narrower than 32 bits the unused upper bits of the data words are random
         (the core ignores them)."""
         W = self.core.get("word_width", 32)
 
         def words(x):
             return [w | (self.rng.getrandbits(32 - W) << W if W < 32 else 0) for w in self.model.to_words(x)]
-        await self.src.send(AxiStreamFrame(tdata=[pid & 0x7FFFFFFF] + words(diag) + words(b)))
+        data = words(diag) + (words(d) + words(b) + words(z0) if self.warm else words(b))
+        await self.src.send(AxiStreamFrame(tdata=[pid & 0x7FFFFFFF] + data))
 
     async def recv(self) -> tuple[int, bool, list[int]]:
         f = await self.sink.recv()
         d = list(f.tdata)
-        assert len(d) == self.N + 1, f"output frame of {len(d)} words, expected {self.N + 1}"
+        n = self.N + (2 if self.warm else 1)
+        assert len(d) == n, f"output frame of {len(d)} words, expected {n}"
         return d[0] & 0x7FFFFFFF, bool(d[0] >> 31), d[1:]
 
     async def wait_idle(self):
@@ -66,10 +99,16 @@ class MinresTB(AxiDriver):
         raise AssertionError("core never became idle")
 
     async def run_batch(self, problems, tag=""):
-        """Send (id, diag, b) problems, receive as many frames, check each against the model by id."""
-        exp = {pid: self.model.solve(dg, b, self.imax) for pid, dg, b in problems}
-        for pid, dg, b in problems:
-            await self.send(pid, dg, b)
+        """Send (id, diag, b[, d, z0]) problems, receive as many frames, check each against the model by id (and
+        ||r_0|| in the warm form)."""
+        exp, res = {}, {}
+        for pid, *data in problems:
+            exp[pid], res[pid] = self.expect(*data)
+        for pid, *data in problems:
+            await self.send(pid, *data)
+        if self.warm and len(problems) % self.P:
+            await self.src.wait()
+            await self.close()
         got = {}
         for _ in problems:
             pid, flag, z = await self.recv()
@@ -79,8 +118,8 @@ class MinresTB(AxiDriver):
             flag, z = got[pid]
             assert flag == r.flag, f"{tag}: id {pid}: flag {flag} != model {r.flag}"
             if not r.flag:
-                want = r.words
-                bad = [i for i in range(self.N) if z[i] != want[i]]
+                want = r.words + (self.model.to_words([res[pid]]) if self.warm else [])
+                bad = [i for i in range(len(want)) if z[i] != want[i]]
                 assert not bad, (f"{tag}: id {pid}: {len(bad)} words differ, first at {bad[0]}: "
                                  f"RTL {z[bad[0]]:#010x} model {want[bad[0]]:#010x}")
         return exp
@@ -151,12 +190,12 @@ async def nonfinite_flagged(dut):
     await tb.set_imax(5)
     probs = []
     for q in range(tb.P):
-        dg, b = tb.random_problem()
+        data = tb.random_problem()  # (diag, b[, d, z0])
         if q == 0:
-            dg[tb.rng.randrange(len(dg))] = np.nan
+            data[0][tb.rng.randrange(len(data[0]))] = np.nan
         elif q == 1 % tb.P and tb.P > 1:
-            b[tb.rng.randrange(len(b))] = np.inf
-        probs.append((q + 1, dg, b))
+            data[1][tb.rng.randrange(len(data[1]))] = np.inf
+        probs.append((q + 1, *data))
     exp = await tb.run_batch(probs, "nonfinite")
     assert exp[1].flag
     st, _ = await tb.read(tb.rm["STATUS"])

@@ -92,6 +92,8 @@ class MinresCore(val p: MinresParams) extends Module {
   val s_axis = IO(Flipped(new AxiStreamIO(32)))
   val m_axis = IO(new AxiStreamIO(32))
   val s_axil = IO(Flipped(new AxiLiteIO(p.axiAddrW)))
+  /** the warm form's control from the interior-point core: iterations per batch and the closing of a partial batch */
+  val ipm = if (p.warm) Some(IO(Input(new MinresIpmIO))) else None
 
   require(n < 256 && m < 256 && T < 65536, s"CONFIG1 holds n, m < 256 and T < 65536: got n=$n, m=$m, T=$T")
   /** STATUS.NONFINITE: a non-finite input word or solution (write 1 to clear) */
@@ -118,6 +120,9 @@ class MinresCore(val p: MinresParams) extends Module {
   val ymem  = new VecRam("ymem", P * N, W)              // A v_j, from the matvec to pass B
   val bmem  = new VecRam("bmem", 2 * P * N, W)          // right-hand sides, double-buffered (load bank)
   val dmem  = new VecRam("dmem", 2 * P * nPrimal, W)    // variable column (primal diagonal), double-buffered
+  // warm form: d (copy 0 the feed, copy 1 the row scaling) and z0 (the init pass's feed), double-buffered
+  val smem  = if (p.warm) Some(new VecRam("smem", 2 * P * N, W, copies = 2)) else None
+  val zmem  = if (p.warm) Some(new VecRam("zmem", 2 * P * N, W)) else None
   private def adr2(buf: UInt, slot: UInt, e: UInt, len: Int): UInt = (buf * P.U +& slot) * len.U +& e
   private def adr1(slot: UInt, e: UInt): UInt = slot * N.U +& e
   private def inN(e: UInt): UInt = Mux(e < N.U, e, 0.U)
@@ -127,6 +132,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val delta = scal(); val nrm2 = scal()
   val cR = scal(); val cpR = scal(); val sR = scal(); val spR = scal(); val gamR = scal(); val etaR = scal()
   val g1R = scal(); val a1R = scal(); val a2R = scal(); val a3R = scal(); val cetaR = scal()
+  val res0R = scal() // ||r_0||: the init pass's norm (sent after x in the warm form)
 
   // ---- input: frames into the load bank
   val ldBank = RegInit(0.U(1.W))
@@ -143,7 +149,13 @@ class MinresCore(val p: MinresParams) extends Module {
   // one write port each: the load bank's words as they arrive
   private val ldData = s_axis.fire && ldWord =/= 0.U
   dmem.write(ldData && ldWord <= nPrimal.U, adr2(ldBank, ldSlot, ldWord - 1.U, nPrimal), d)
-  bmem.write(ldData && ldWord > nPrimal.U, adr2(ldBank, ldSlot, ldWord - (nPrimal + 1).U, N), d)
+  if (p.warm) {
+    // id, diag (nPrimal), d (N), b (N), z0 (N)
+    val o1 = nPrimal + 1; val o2 = o1 + N; val o3 = o2 + N
+    smem.get.write(ldData && ldWord >= o1.U && ldWord < o2.U, adr2(ldBank, ldSlot, ldWord - o1.U, N), d)
+    bmem.write(ldData && ldWord >= o2.U && ldWord < o3.U, adr2(ldBank, ldSlot, ldWord - o2.U, N), d)
+    zmem.get.write(ldData && ldWord >= o3.U, adr2(ldBank, ldSlot, ldWord - o3.U, N), d)
+  } else bmem.write(ldData && ldWord > nPrimal.U, adr2(ldBank, ldSlot, ldWord - (nPrimal + 1).U, N), d)
   when(s_axis.fire) {
     when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
     when(ldWord === 0.U) {
@@ -179,7 +191,14 @@ class MinresCore(val p: MinresParams) extends Module {
   // A partly filled bank is sent on after flushCycles idle cycles of the input while the solver waits.
   val idleCnt = RegInit(0.U(16.W))
   val partial = ldWord === 0.U && ldSlot =/= 0.U && !full(ldBank)
-  when(partial && !s_axis.tvalid && state === sIdle && !full(runBank)) {
+  private val closeNow = p.warm.B && partial && ipm.map(_.close).getOrElse(false.B)
+  when(closeNow) {
+    full(ldBank) := true.B
+    cnt(ldBank)  := ldSlot
+    ldBank       := ~ldBank
+    ldSlot       := 0.U
+  }
+  when(!p.warm.B && partial && !s_axis.tvalid && state === sIdle && !full(runBank)) {
     idleCnt := idleCnt + 1.U
     when(idleCnt === (p.flushCycles - 1).U) {
       full(ldBank) := true.B
@@ -194,9 +213,10 @@ class MinresCore(val p: MinresParams) extends Module {
   when(startBatch) {
     state := sRun
     g     := 0.U
-    imax  := regs.imaxReg
+    val im = ipm.map(_.imax).getOrElse(regs.imaxReg)
+    imax  := im
     count := cnt(runBank)
-    gEnd  := (regs.imaxReg * p.cyclesPerIteration.U +& (p.batchCycles(0) - 1).U)
+    gEnd  := (im * p.cyclesPerIteration.U +& (p.batchCycles(0) - 1).U)
     xBad.foreach(_ := false.B)
   }
   when(state === sRun) { g := g + 1.U }
@@ -212,10 +232,16 @@ class MinresCore(val p: MinresParams) extends Module {
 
   // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
   private val sr0 = vmem.read(0, adr1(feed.c.slot, inN(feed.c.e)))
-  val sr = VecInit(Seq.iterate(sr0, taps)(RegNext(_)))
-  val rowPre   = Stages.delay(feed.c, M - 1) // address phase of the variable column's read
+  // warm form: d v_j (z0 in the init pass), latFeed = lat_mul cycles later
+  private val feedWord = if (!p.warm) sr0 else {
+    val fAdr = adr2(runBank, feed.c.slot, inN(feed.c.e), N)
+    val dv   = mul(Timed(smem.get.read(0, fAdr), 0), Timed(sr0, 0))
+    Mux(Stages.delay(RegNext(feed.c.j === 0.U), p.latFeed), Stages.delay(zmem.get.read(0, fAdr), p.latFeed), dv.v)
+  }
+  val sr = VecInit(Seq.iterate(feedWord, taps)(RegNext(_)))
+  val rowPre   = Stages.delay(feed.c, M - 1 + p.latFeed) // address phase of the variable column's read
   val row      = Stages.delay(rowPre, 1)
-  val rowValid = Stages.delayValid(feed.valid, M)
+  val rowValid = Stages.delayValid(feed.valid, M + p.latFeed)
 
   // ---- band coefficients of row i: column 0 variable (dmem), 1..M-1 constant or generated (lambda rows). The
   // constant columns stay a ROM in logic: (2n+m) rows, M-1 words read at once (too wide for one block RAM).
@@ -237,11 +263,16 @@ class MinresCore(val p: MinresParams) extends Module {
     dot.io.a(t) := Mux(ok, coef, zero)
     dot.io.b(t) := Mux(ok, sr(M - 1 - o), zero)
   }
-  val y    = Timed(dot.io.sum, p.latMatvec)
+  val ay   = Timed(dot.io.sum, p.latMatvec)
+  // warm form: row i scaled by d_i (its read addressed a cycle ahead)
+  val y    = if (!p.warm) ay else {
+    val pre = ops.delayTo(row, 0, ay.t - 1)
+    mul(Timed(smem.get.read(1, adr2(runBank, pre.slot, inN(pre.e), N)), ay.t), ay)
+  }
   val rowY = ops.delayTo(row, 0, y.t)
   ymem.write(Stages.delayValid(rowValid, y.t), adr1(rowY.slot, rowY.e), y.v)
-  // delta = v_j . A v_j
-  val dTerm = mul(Timed(sr(M - 1), 0), y)
+  // delta = v_j . A v_j (warm form: (d v_j) . (A d v_j), the same sum on the feed's words)
+  val dTerm = mul(Timed(sr(M - 1), 0), ay)
   val dAcc  = Module(new FStreamAcc(fmt, N, p.latAdd))
   dAcc.io.valid := Stages.delayValid(rowValid, dTerm.t)
   dAcc.io.index := ops.delayTo(row.e, 0, dTerm.t)
@@ -264,9 +295,11 @@ class MinresCore(val p: MinresParams) extends Module {
   val vjB   = Mux(bInit, zero, bVj)
   val vjm1B = Mux(bc.j <= 1.U, zero, bVjm1)
   vpmem.write(bValid, adr1(bc.slot, bc.e), vjB)
-  val dB    = Mux(bInit, zero, delta(bc.slot))
+  // warm form, init pass: u = (b - 1 (d A z0)) - 0 0 = b - d A z0
+  val dB    = Mux(bInit, if (p.warm) one else zero, delta(bc.slot))
+  val mB    = if (p.warm) Mux(bInit, bY, bVj) else vjB
   val gB    = Mux(bInit, zero, gamR(bc.slot))
-  val u     = sub(sub(Timed(yIn, 0), mul(Timed(dB, 0), Timed(vjB, 0))), mul(Timed(gB, 0), Timed(vjm1B, 0)))
+  val u     = sub(sub(Timed(yIn, 0), mul(Timed(dB, 0), Timed(mB, 0))), mul(Timed(gB, 0), Timed(vjm1B, 0)))
   require(u.t == p.latB, "pass B latency")
   val bcU = ops.delayTo(bc, 0, u.t)
   umem.write(Stages.delayValid(bValid, u.t), adr1(bcU.slot, bcU.e), u.v)
@@ -303,7 +336,7 @@ class MinresCore(val p: MinresParams) extends Module {
     val q = scW.slot
     when(scW.j === 0.U) {
       cR(q) := one; cpR(q) := one; sR(q) := zero; spR(q) := zero
-      gamR(q) := g1d; etaR(q) := g1d
+      gamR(q) := g1d; etaR(q) := g1d; res0R(q) := g1d
     }.otherwise {
       cpR(q) := cR(q); cR(q) := c1d; spR(q) := sR(q); sR(q) := s1d
       gamR(q) := g1d; etaR(q) := eta1.v
@@ -321,7 +354,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private val cW01   = wmem.map(_.read(0, cAdr))
   // output position (the output stream below): problem issSlot, word issIdx (0: the id word)
   val issSlot = RegInit(0.U(log2Ceil(P + 1).W))
-  val issIdx  = RegInit(0.U(log2Ceil(N + 1).W))
+  val issIdx  = RegInit(0.U(log2Ceil(N + 2).W))
   private val outAdr = adr1(issSlot, Mux(issIdx === 0.U, 0.U, issIdx - 1.U))
   private val cX0    = xmem.read(0, Mux(state === sOut, outAdr, cAdr))
   private val cc     = RegNext(cA)
@@ -364,14 +397,17 @@ class MinresCore(val p: MinresParams) extends Module {
   pending := issue
   private val pendId   = RegNext(issIdx === 0.U)
   private val pendWord = RegNext(Cat(oBad, ids(runBank * P.U + issSlot)))
-  private val pendLast = RegNext(issIdx === N.U)
+  private val lastIdx  = (p.outWords - 1).U
+  private val pendLast = RegNext(issIdx === lastIdx)
+  private val pendRes  = RegNext(issIdx === (N + 1).U)
+  private val pendR0   = RegNext(res0R(issSlot))
   outQ.io.enq.valid      := pending
-  outQ.io.enq.bits.data  := Mux(pendId, pendWord, cX0)
+  outQ.io.enq.bits.data  := Mux(pendId, pendWord, Mux(pendRes && p.warm.B, pendR0, cX0))
   outQ.io.enq.bits.last  := pendLast
   outQ.io.enq.bits.badId := pendId && pendWord(31)
   when(issue) {
-    issIdx := Mux(issIdx === N.U, 0.U, issIdx + 1.U)
-    when(issIdx === N.U) {
+    issIdx := Mux(issIdx === lastIdx, 0.U, issIdx + 1.U)
+    when(issIdx === lastIdx) {
       issSlot := issSlot + 1.U
       when(issSlot === count - 1.U) { issDone := true.B }
     }
@@ -400,6 +436,13 @@ class MinresCore(val p: MinresParams) extends Module {
   // ---- registers: the shared ones and STATUS.NONFINITE (MinresRegs)
   regs.busy := state =/= sIdle || full.asUInt.orR || ldWord =/= 0.U || ldSlot =/= 0.U || s_axis.fire
   regs.writes()
+}
+
+/** The warm form's inputs from the interior-point core (MinresParams.warm): the MINRES iterations of the next
+  * batch (latched at its start, 1..65535) and `close`, a pulse that sends a partly loaded batch on at once. */
+class MinresIpmIO extends Bundle {
+  val imax  = UInt(16.W)
+  val close = Bool()
 }
 
 /** The register map of a MINRES core: the shared registers of shell.SolverRegs (no warm start, no output choice,

@@ -28,7 +28,8 @@ case class MinresParams(
     flushCycles: Int,
     rom: Seq[Seq[BigInt]],
     expW: Int = 8,
-    manW: Int = 23) {
+    manW: Int = 23,
+    warm: Boolean = false) {
   /** the float format of every operator, memory and constant (FloatFormat refuses widths outside its rules) */
   val fmt: float.FloatFormat = float.FloatFormat(expW, manW)
   require(fmt.width <= 32, s"the float format must fit the 32-bit stream word (1 + expW + manW <= 32): got " +
@@ -70,8 +71,12 @@ case class MinresParams(
   val latCw: Int = latMul + 2 * latAdd + latDiv
   val latCx: Int = 2 * latMul + 3 * latAdd + latDiv
 
+  /** the interior-point form (`warm`): the feed multiplies v_j by d (z0 in the init pass), each row's product
+    * is scaled by d_i before it is stored */
+  val latFeed: Int = if (warm) latMul else 0
+
   // ---- schedule, offsets from a slot's first feed cycle
-  val tRow: Int   = M
+  val tRow: Int   = M + latFeed
   val tDelta: Int = tRow + N - 1 + latMatvec + latMul + accTail
   val tB: Int     = tDelta
   val tNrm: Int   = tB + N - 1 + latB + latMul + accTail
@@ -89,7 +94,7 @@ case class MinresParams(
   /** cycles of a batch of P problems: the init pass and Imax iterations, up to the last x write */
   def batchCycles(imax: Int): Int = (imax + 1) * P * S - S + tC + N + latCx
 
-  val multipliers: Int = taps + 1 + 3 + 10 + 3 // matvec, delta, pass B (2 + norm), scalar, pass C
+  val multipliers: Int = taps + 1 + 3 + 10 + 3 + (if (warm) 2 else 0) // matvec, delta, B, scalar, C, scaling
   /** "binary32", "binary16" or e<E>m<M> (the names of mpc_cores/minres/design.py) */
   val formatName: String = (expW, manW) match {
     case (8, 23) => "binary32"
@@ -97,17 +102,22 @@ case class MinresParams(
     case _       => s"e${expW}m$manW"
   }
   val moduleName: String =
-    s"MinresCore_${name}_n${n}_m${m}_t${T}_p$P" + (if (formatName == "binary32") "" else s"_$formatName")
+    s"MinresCore_${name}_n${n}_m${m}_t${T}_p$P" + (if (formatName == "binary32") "" else s"_$formatName") +
+      (if (warm) "_warm" else "")
 
   // ---- storage (words): variable column double-buffered for P problems, constant columns once
   val storageVariable: Int = 2 * P * nPrimal
+  /** vectors of the warm form beside the matrix: d and z0, double-buffered */
+  val storageWarm: Int = if (warm) 4 * P * N else 0
   val storageConstant: Int = period * (M - 1)
   val storageWords: Int    = storageVariable + storageConstant
   val storageDense: Int    = 2 * P * N * M
   val storageBound: Int    = 2 * P * (1 + T * (m + n) + n) * n + (1 + m + n) * (m + n)
   require(storageWords <= storageBound, s"structured storage $storageWords exceeds the bound of 001 $storageBound")
 
-  val frameWords: Int = 1 + nPrimal + N
+  /** input frame: id, variable column, (warm: d), b, (warm: z0); output frame: id, x, (warm: ||r_0||) */
+  val frameWords: Int = 1 + nPrimal + (if (warm) 3 * N else N)
+  val outWords: Int   = 1 + N + (if (warm) 1 else 0)
   val axiAddrW: Int   = log2Ceil(shell.SolverRegs.RegionStart) + 2
 }
 
@@ -129,7 +139,8 @@ object MinresParams {
       flushCycles = j("flush_cycles").num.toInt,
       rom = j("rom").arr.toSeq.map(_.arr.toSeq.map(v => BigInt(v.num.toLong))),
       expW = j.obj.get("exp_width").map(_.num.toInt).getOrElse(8),
-      manW = j.obj.get("man_width").map(_.num.toInt).getOrElse(23)
+      manW = j.obj.get("man_width").map(_.num.toInt).getOrElse(23),
+      warm = j.obj.get("warm").exists(_.bool)
     )
   }
 }
