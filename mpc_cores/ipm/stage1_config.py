@@ -3,7 +3,7 @@ mpc_cores.ipm.program (a Stage1), the float format and the operator latencies; t
 (`ipm.Stage1Main <config.json> <outDir>`, skipped when the configuration and the generator sources are unchanged);
 and the way back from config.json to the interpreter (decode, machine) for the testbench.
 
-config.json: core "ipm_stage1", name, exp_w, man_w, slots, slot_words, const (raw words), tables, programs
+config.json: core "ipm_stage1", name, exp_w, man_w, slots, slot_words, const (raw words of the format), tables, programs
 [{name, code: instruction words as hex strings (mpc_cores.ipm.isa.encode)}], lat_add, lat_mul, lat_div, lat_sqrt,
 lat_cmp. The generator writes <module>.sv and hw.json (module, latencies, per program its entry, length and cycles).
 """
@@ -14,17 +14,27 @@ from pathlib import Path
 
 import numpy as np
 
+from mpc_cores.float.model import Format
 from mpc_cores.ipm import isa
 from mpc_cores.ipm.isa import Instr, Operand
+from mpc_cores.minres.model import ops_for
 
 MAIN = "ipm.Stage1Main"
 # binary32 defaults of the float library (docs/float.md)
 DEFAULT_LAT = {"add": 4, "mul": 3, "div": 16, "sqrt": 16, "cmp": 1}
 
 
-def const_words(values) -> list[int]:
-    """Raw binary32 words of the constant region: float32 arrays keep their bits, others are rounded to float32."""
+def fmt_of(exp_w: int = 8, man_w: int = 23) -> Format:
+    return Format(int(exp_w), int(man_w))
+
+
+def const_words(values, exp_w: int = 8, man_w: int = 23) -> list[int]:
+    """Raw words of the constant region in the format e<exp_w>m<man_w>. binary32: float32 arrays keep their bits,
+    others are rounded to float32; other formats: the values rounded to the format (to nearest even, as
+    mpc_cores.float.vector.encode; NaN the canonical quiet NaN)."""
     v = np.asarray(values)
+    if (exp_w, man_w) != (8, 23):
+        return [int(w) for w in ops_for(fmt_of(exp_w, man_w)).value(np.atleast_1d(v).astype(np.float64))]
     if v.dtype != np.float32:
         v = v.astype(np.float32)
     return [int(u) for u in np.atleast_1d(v).view(np.uint32)]
@@ -62,7 +72,7 @@ def config(st1, name: str, slots: int = 1, lat: dict | None = None, exp_w: int =
     check(programs, tables, lat)
     return {
         "core": "ipm_stage1", "name": name, "exp_w": exp_w, "man_w": man_w, "slots": slots,
-        "slot_words": int(st1.slot_words), "const": const_words(st1.const_words), "tables": tables,
+        "slot_words": int(st1.slot_words), "const": const_words(st1.const_words, exp_w, man_w), "tables": tables,
         "programs": [{"name": k, "code": [hex(isa.encode(i)) for i in v]} for k, v in programs.items()],
         "lat_add": lat["add"], "lat_mul": lat["mul"], "lat_div": lat["div"], "lat_sqrt": lat["sqrt"],
         "lat_cmp": lat["cmp"],
@@ -111,10 +121,12 @@ def programs(cfg: dict) -> dict:
 
 
 def machine(cfg: dict):
-    """The interpreter of the configured engine (binary32): slots, slot region, constant words, tables, lat_add."""
+    """The interpreter of the configured engine in its float format (exp_w, man_w): slots, slot region, the
+    constant words (bit for bit), tables, lat_add."""
     from mpc_cores.ipm.machine import Machine
 
-    assert (cfg["exp_w"], cfg["man_w"]) == (8, 23), "the interpreter is binary32"
-    const = np.array(cfg["const"], dtype=np.uint32).view(np.float32)
-    return Machine(cfg["slots"], cfg["slot_words"], const, [np.asarray(t, dtype=np.int64) for t in cfg["tables"]],
-                   cfg["lat_add"])
+    fmt = fmt_of(cfg["exp_w"], cfg["man_w"])
+    m = Machine(cfg["slots"], cfg["slot_words"], np.zeros(0), [np.asarray(t, dtype=np.int64) for t in cfg["tables"]],
+                cfg["lat_add"], fmt)
+    m.set_const_words(cfg["const"])
+    return m
