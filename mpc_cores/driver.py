@@ -82,6 +82,11 @@ class AxiDriver:
         assert await self.write(self.rm["IMAX"], imax) == AxiResp.OKAY
         self.imax = imax
 
+    async def status(self) -> dict:
+        v, resp = await self.read(self.rm["STATUS"])
+        assert resp == AxiResp.OKAY
+        return self.rm.status(v)
+
 
 class TB(AxiDriver):
     """A fixed-point core (FGM, ADMM) with its golden model beside it and a monitor of the stream handshakes."""
@@ -141,11 +146,6 @@ class TB(AxiDriver):
             if self.rng.random() < outside:
                 w[j] = self.rng.choice([self.rng.randint(int(hi[j]) + 1, lim), self.rng.randint(-lim - 1, int(lo[j]) - 1)])
         return w
-
-    async def status(self) -> dict:
-        v, resp = await self.read(self.rm["STATUS"])
-        assert resp == AxiResp.OKAY
-        return self.rm.status(v)
 
     async def set_ctrl(self, warm: bool | None = None, out_all: bool | None = None, hold: bool = False):
         self.warm = self.warm if warm is None else warm

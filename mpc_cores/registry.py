@@ -8,6 +8,7 @@ _KINDS = (
     "mpc_cores.fgm.kind:KIND",
     "mpc_cores.admm.kind:KIND",
     "mpc_cores.minres.kind:KIND",
+    "mpc_cores.ipm.kind:KIND",
 )
 
 

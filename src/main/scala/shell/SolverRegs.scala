@@ -103,7 +103,8 @@ object SolverRegs {
   * Rules common to the cores: the data memories are write-only; a data write while busy gets SLVERR and sets
   * WRITE_REJECTED, a value that does not fit its word gets SLVERR, an unmapped address DECERR.
   */
-class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)] = Nil) {
+class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)] = Nil,
+    coreSources: Map[String, UInt] = Map()) {
   import SolverRegs._
 
   private val ctrlR   = map.reg("CTRL")
@@ -112,8 +113,11 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   require(ctrlR.fields.map(_.name).toSet == Set("WARM_START", "HOLD", "OUT_ALL"),
     s"CTRL holds WARM_START, HOLD and OUT_ALL: got ${ctrlR.fields.map(_.name)}")
   require(imaxF.lsb == 0, "IMAX is the low bits of its register")
-  require(map.regs.filter(_.readable).map(_.word).sorted == (0 until FirstCoreReg),
-    "the readable registers are words 0 to CYCLES_PER_ITER (reads from FirstCoreReg on: DECERR)")
+  /** readable registers of the core itself, words FirstCoreReg until RegionStart ("REGISTER.FIELD" sources) */
+  private val coreWords = map.regs.filter(r => r.readable && r.word >= FirstCoreReg).map(_.word)
+  require(map.regs.filter(_.readable).map(_.word).sorted == (0 until FirstCoreReg) ++ coreWords.sorted &&
+    coreWords.forall(_ < RegionStart),
+    "the readable registers are words 0 to CYCLES_PER_ITER and the core's own below the data regions (other reads: DECERR)")
   private def resetBit(f: String): Bool = (ctrlR.field(f).reset.get != 0).B
 
   val ctrlWarm   = RegInit(resetBit("WARM_START"))
@@ -148,7 +152,7 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   private val sources: Map[String, UInt] = Map(
     "CTRL.WARM_START" -> ctrlWarm, "CTRL.HOLD" -> ctrlHold, "CTRL.OUT_ALL" -> ctrlOutAll, "IMAX.IMAX" -> imaxReg,
     "STATUS.BUSY" -> busyR, "STATUS.WARM_VALID" -> warmValid, "SOLVES.COUNT" -> solves,
-    "LAST_CYCLES.CYCLES" -> lastCycles) ++ w1cFlags.map { case (k, v) => s"STATUS.$k" -> v.asUInt }
+    "LAST_CYCLES.CYCLES" -> lastCycles) ++ w1cFlags.map { case (k, v) => s"STATUS.$k" -> v.asUInt } ++ coreSources
   for (f <- statusR.fields if f.w1c) require(w1cFlags.contains(f.name), s"STATUS.${f.name}: no flag drives it")
 
   /** The word a register reads: its readable fields at their bits, 0 between them. */
@@ -174,7 +178,9 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   axil.rd.data := 0.U
   // from the highest word down: the last connection wins, so the multiplexer tests word 0 first
   for (r <- map.regs.filter(_.readable).sortBy(-_.word)) when(rdA === r.word.U) { axil.rd.data := readWord(r) }
-  when(rdA >= FirstCoreReg.U) { axil.rd.resp := AxiLiteResp.DECERR }
+  when(rdA >= FirstCoreReg.U && !coreWords.map(w => rdA === w.U).foldLeft(false.B)(_ || _)) {
+    axil.rd.resp := AxiLiteResp.DECERR
+  }
 
   // ---- writes
   val wA   = axil.wr.addr

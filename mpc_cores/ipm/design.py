@@ -1,0 +1,120 @@
+"""Design of an interior-point core from an MPC problem: the Stage 1 programs (mpc_cores.ipm.program) on 2P slots,
+the MINRES solver in its warm form (mpc_cores.minres.design, P problems per batch), I_NW and I_MR, the float
+format, and the convergence tolerances, written to the config.json the generator (ipm.IpmMain) reads.
+
+Defaults: I_NW = 8; I_MR the larger of 12 (the masses closed loop within 0.1 % of OSQP with the equilibration,
+docs/ipm.md) and the smallest I_MR at which MINRES's time per problem, (I_MR + 1) S, covers Stage 1's
+(linearise + update), so that the added iterations cost no latency; P from eq. (15) of 001 (the MINRES core's
+form). Spec keys (solver section): ipm_P, ipm_newton, ipm_minres, ipm_format, ipm_mu_tol, ipm_res_tol.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mpc_cores.errors import DesignError
+from mpc_cores.float import vector as fv
+from mpc_cores.ipm import stage1_config
+from mpc_cores.ipm.program import Stage1, build
+from mpc_cores.ipm.sparse import SparseMpc, sparse_mpc
+from mpc_cores.minres.design import MinresDesign, design_minres
+
+SIGMA, TAU, START, FLOOR = 0.1, 0.99, 1.0, 1e-2
+I_NW, I_MR_ACCURACY = 8, 12
+MU_TOL, RES_TOL = 1e-3, 1e-1
+
+
+@dataclass
+class IpmDesign:
+    name: str
+    problem: object
+    s: SparseMpc
+    st1: Stage1
+    md: MinresDesign       # P (0: eq. (15), resolved by the generator), iterations = the default I_MR
+    i_nw: int
+    mu_tol: float
+    res_tol: float
+    lat_cmp: int = 1
+
+    @property
+    def P(self) -> int:
+        return self.md.P
+
+    @property
+    def i_mr(self) -> int:
+        return self.md.iterations
+
+    @property
+    def fmt(self):
+        return self.md.fmt
+
+    @property
+    def format(self) -> str:
+        return self.md.format
+
+    @property
+    def lat(self) -> dict:
+        """Stage 1 latencies: the MINRES operators' (one float library) and the comparator's"""
+        m = self.md.lat
+        return {"add": m["lat_add"], "mul": m["lat_mul"], "div": m["lat_div"], "sqrt": m["lat_sqrt"],
+                "cmp": self.lat_cmp}
+
+    def label(self) -> str:
+        return f"{self.format}, I_NW = {self.i_nw}, I_MR = {self.i_mr}"
+
+    def word(self, v: float) -> int:
+        return int(fv.encode(self.fmt, np.array([v]))[0])
+
+    def config(self) -> dict:
+        p = self.problem
+        st1 = stage1_config.config(self.st1, self.name, slots=2, lat=self.lat, exp_w=self.fmt.expW,
+                                   man_w=self.fmt.manW)
+        return {"core": "ipm", "name": self.name, "n": p.nx, "m": p.nu, "ny": p.ny, "i_nw": self.i_nw,
+                "mu_tol": self.word(self.mu_tol), "res_tol": self.word(self.res_tol),
+                "sigma": SIGMA, "tau": TAU, "hard_states": p.hard_states is not None, "stage1": st1,
+                "minres": self.md.config()}
+
+    def write_config(self, path) -> None:
+        Path(path).write_text(json.dumps(self.config()))
+
+
+def design_ipm(problem, P: int | None = None, iterations: int | None = None, newton: int | None = None,
+               lat_add: int | None = None, lat_mul: int | None = None, format: str | None = None,
+               name: str | None = None, **_ignored) -> IpmDesign:
+    solver = problem.solver or {}
+    s = sparse_mpc(problem)
+    if len(s.bounded) == 0:
+        raise DesignError("the interior-point core needs at least one boxed variable: got no input or state box")
+    fmt = format if format not in (None, "") else solver.get("ipm_format", "binary32")
+    if str(fmt).lower() != "binary32":
+        raise DesignError(f"ipm format: the Stage 1 golden model runs binary32 only so far: got {fmt}")
+    i_nw = int(newton or solver.get("ipm_newton", I_NW))
+    if not 1 <= i_nw <= 65535:
+        raise DesignError(f"I_NW (newton) must be in [1, 65535]: got {i_nw}")
+    P = P if P is not None else solver.get("ipm_P", 0)
+    md = design_minres(problem, P=P, iterations=1, lat_add=lat_add, lat_mul=lat_mul, format=fmt, name=name,
+                       warm=True)
+    st1 = build(s, SIGMA, TAU, True, START, FLOOR)
+    d = IpmDesign(name or problem.name, problem, s, st1, md, i_nw, float(solver.get("ipm_mu_tol", MU_TOL)),
+                  float(solver.get("ipm_res_tol", RES_TOL)))
+    i_mr = iterations or solver.get("ipm_minres") or max(I_MR_ACCURACY, hiding_imr(d))
+    if not 1 <= int(i_mr) <= 65535:
+        raise DesignError(f"I_MR (iterations) must be in [1, 65535]: got {i_mr}")
+    md.iterations = int(i_mr)
+    return d
+
+
+def stage1_cycles(d: IpmDesign) -> dict:
+    """cycles of each Stage 1 program without stream stalls (mpc_cores.ipm.isa.cycles)"""
+    return d.st1.cycles(d.lat)
+
+
+def hiding_imr(d: IpmDesign) -> int:
+    """The smallest I_MR with (I_MR + 1) N >= linearise + update: MINRES's time per problem (slots of N cycles when
+    P is at least eq. (15)) covers Stage 1's."""
+    c = stage1_cycles(d)
+    per_problem = c["linearise"] + c["update"]
+    return max(1, -(-per_problem // d.md.layout.N) - 1)

@@ -1,0 +1,27 @@
+"""The interior-point core kind (registry entry): Algorithm 1 of 001, Stage 1 and MINRES, 2P problems in flight."""
+from mpc_cores.kind import CoreKind
+
+KIND = CoreKind(
+    name="ipm",
+    title="primal-dual interior-point method (Algorithm 1 of 001): Stage 1 engine and MINRES, binary32, 2P "
+          "problems in flight",
+    model_fn="mpc_cores.ipm.kind:golden_model",
+    spec_section=("ipm_P", "ipm_newton", "ipm_minres", "ipm_format", "ipm_mu_tol", "ipm_res_tol"),
+    overrides=("P", "iterations", "newton", "lat_add", "lat_mul", "format"),
+    cycle_test="latency",
+    controllers_fn="mpc_cores.ipm.kind:controllers",
+)
+
+
+def golden_model(cfg: dict):
+    """The bit-exact model of a generated core (config.json): the design rebuilt from its problem is not needed;
+    the testbench builds IpmModel from the design (see verif/ipm/tb.py)."""
+    raise NotImplementedError("the interior-point golden model is built from the design: mpc_cores.ipm.model")
+
+
+def controllers(d):
+    """Closed loop of `make demo CORE=ipm`: OSQP to optimality and the bit-exact model, one channel (0)."""
+    from mpc_cores.closedloop import OsqpController
+    from mpc_cores.ipm.control import IpmModelController
+
+    return OsqpController(d.problem), IpmModelController(d), 0.9

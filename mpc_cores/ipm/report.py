@@ -1,0 +1,46 @@
+"""core.json and the design report of a generated interior-point core."""
+from __future__ import annotations
+
+from mpc_cores.ipm.design import stage1_cycles
+from mpc_cores.ipm.timing import timing
+
+
+def core_json(d, hw: dict) -> dict:
+    mr, st1 = hw["minres"], hw["stage1"]
+    p = d.problem
+    c = {"core": "ipm", "name": d.name, "module": hw["module"], "sv": f"{hw['module']}.sv",
+         "n": p.nx, "m": p.nu, "ny": p.ny, "T": p.N, "N": hw["N"], "M": mr["M"], "P": hw["P"],
+         "P_eq15": mr["P_eq15"], "problems_in_flight": hw["problems_in_flight"], "format": hw["format"],
+         "exp_width": hw["exp_width"], "man_width": hw["man_width"], "word_width": mr["word_width"],
+         "stream_width": 32, "i_nw": d.i_nw, "iterations": d.i_mr, "mu_tol": d.mu_tol, "res_tol": d.res_tol,
+         "in_words": hw["in_words"], "out_words": hw["out_words"], **d.md.lat, "lat_cmp": d.lat_cmp,
+         "axil_addr_width": hw["axil_addr_width"], "registers": hw["registers"], "regions": hw["regions"]}
+    assert hw["format"] == d.format, f"the generator built {hw['format']}, the design asks for {d.format}"
+    progs = {q["name"]: q["cycles"] for q in st1["programs"]}
+    assert progs == stage1_cycles(d), "the generator's Stage 1 cycles differ from mpc_cores.ipm.isa.cycles"
+    c["stage1_cycles"] = progs
+    c["stage1_module"] = st1["module"]
+    c["minres_module"] = mr["module"]
+    c["slot_cycles"] = mr["slot_cycles"]
+    c["cycles_per_iteration"] = mr["cycles_per_iteration"]
+    c["minres_batch_cycles_formula"] = mr["batch_cycles_formula"]
+    c["minres_batch_cycles_imax0"] = mr["batch_cycles_imax0"]
+    c["multipliers_minres"] = mr["multipliers"]
+    c["storage_words"] = {"minres": mr["storage_words"] + mr["storage_warm"],
+                          "stage1_slots": st1["slot_words"] * st1["slots"], "stage1_const": st1["const_words"]}
+    c.update(timing(c))
+    return c
+
+
+def design_report(d, core: dict | None = None) -> str:
+    p = d.problem
+    lines = [f"Interior-point core for {d.name}: n = {p.nx}, m = {p.nu}, T = {p.N}: N = {d.md.layout.N}, "
+             f"format {d.format}, I_NW = {d.i_nw}, I_MR = {d.i_mr}, sigma = 0.1, tau = 0.99, equilibration on"]
+    if core:
+        lines += [f"P = {core['P']} (eq. (15): {core['P_eq15']}): {core['problems_in_flight']} problems in flight",
+                  f"Stage 1 cycles per problem: " + ", ".join(f"{k} {v}" for k, v in core["stage1_cycles"].items()),
+                  f"MINRES: {core['cycles_per_iteration']} cycles per iteration of P problems, batch "
+                  f"{core['minres_batch_cycles_formula']}",
+                  f"latency: {core['latency_formula']}",
+                  f"Stage 1 hidden behind MINRES: {'yes' if core['stage1_hidden'] else 'no: ' + core['stage1_note']}"]
+    return "\n".join(lines)

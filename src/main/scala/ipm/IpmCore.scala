@@ -1,0 +1,312 @@
+package ipm
+
+import chisel3._
+import chisel3.util._
+import bus.{AxiLiteIO, AxiStreamIO}
+import minres.MinresCore
+import shell.SolverRegs
+
+/** The interior-point core of 001 (Algorithm 1, Fig. 2): the Stage 1 engine (linearisation, direction recovery,
+  * line search, update; one instance, sequential) and the MINRES solver (Stage 2, P problems per batch), with
+  * 2P problems in flight in two groups of P: while MINRES solves one group's Newton systems, Stage 1 updates
+  * and linearises the other's.
+  *
+  * Streams. In, per problem: the id word (bits 29:24 the channel c, 23:0 a tag; bits 31:30 must be 0), x (n
+  * words of the format), r (ny words, tracking only), tlast on the last. Out, per answer: the id word (bits 29:0
+  * as received), u0 (m words), mu, ||r_0|| of the last Newton system, the status word (bit 0 non-finite, bit 1
+  * not converged, bits 31:16 the Newton iterations run), tlast on it. Channel c (taken modulo 2P) is the problem
+  * slot, in group c / P, so each channel keeps its own iterate for the warm start; a frame waits at the head of
+  * the stream while its channel has a problem in flight, or while its group runs. Answers leave in the order
+  * their groups finish, each tagged with its id.
+  *
+  * Sequencer. A group forms from the frames at the head of the input for its channels (up to P, in arrival
+  * order) while the group is idle: per problem Stage 1 runs sample, cold or warm, and linearise, whose words go
+  * to MINRES as a frame (id c, diag, d, bh, z); a partial batch is closed at once. When MINRES has a group's
+  * batch, Stage 1 takes its answers in batch order: per problem update (IN x), then linearise again, or after
+  * I_NW Newton iterations output, whose words become the answer frame. Stage 1 gives priority to forming the
+  * idle group when its frames are waiting and MINRES holds only the other group, otherwise to the oldest batch.
+  */
+class IpmCore(val p: IpmParams) extends Module {
+  override def desiredName = p.moduleName
+  private val W = p.fmt.width
+  import p.{P, N, n, m, ny, slots}
+
+  val s_axis = IO(Flipped(new AxiStreamIO(32)))
+  val m_axis = IO(new AxiStreamIO(32))
+  val s_axil = IO(Flipped(new AxiLiteIO(p.axiAddrW)))
+
+  private def finite(w: UInt): Bool = w(W - 2, p.fmt.manW) =/= p.fmt.maxExpField.U
+  /** a non-negative word at most `tol` (both words of the format; -0 passes, NaN fails) */
+  private def atMost(w: UInt, tol: UInt): Bool = w(W - 1) && w(W - 2, 0) === 0.U || !w(W - 1) && w <= tol
+
+  // ---- registers
+  val nonfinite = RegInit(false.B)
+  val notConv   = RegInit(false.B)
+  val chanErr   = RegInit(false.B)
+  val inwReg    = RegInit(p.iNw.U(16.W))
+  val muTol     = RegInit(p.muTol.U(32.W))
+  val resTol    = RegInit(p.resTol.U(32.W))
+  val regs = new SolverRegs(s_axil, IpmRegs.map(p),
+    Seq("NONFINITE" -> nonfinite, "NOT_CONVERGED" -> notConv, "CHANNEL" -> chanErr),
+    Map("INW.INW" -> inwReg, "MU_TOL.VALUE" -> muTol, "RES_TOL.VALUE" -> resTol))
+
+  // ---- the two stages
+  val st1 = Module(new Stage1Engine(p.st1))
+  val mr  = Module(new MinresCore(p.mr))
+  mr.s_axil.awvalid := false.B; mr.s_axil.awaddr := 0.U; mr.s_axil.awprot := 0.U
+  mr.s_axil.wvalid := false.B; mr.s_axil.wdata := 0.U; mr.s_axil.wstrb := 0.U; mr.s_axil.bready := true.B
+  mr.s_axil.arvalid := false.B; mr.s_axil.araddr := 0.U; mr.s_axil.arprot := 0.U; mr.s_axil.rready := true.B
+  private val close = WireDefault(false.B)
+  mr.ipm.get.imax  := regs.imaxReg
+  mr.ipm.get.close := close
+
+  // ---- per channel (problem slot) and per group
+  private val cw    = log2Ceil(slots + 1)
+  val busyC   = RegInit(VecInit(Seq.fill(slots)(false.B)))   // a problem in flight
+  val started = RegInit(VecInit(Seq.fill(slots)(false.B)))   // an iterate to warm-start from
+  val tagC    = Reg(Vec(slots, UInt(30.W)))
+  val badC    = Reg(Vec(slots, Bool()))
+  val resC    = Reg(Vec(slots, UInt(W.W)))
+  val t0C     = Reg(Vec(slots, UInt(32.W)))
+  val gActive = RegInit(VecInit(false.B, false.B))
+  val gIter   = Reg(Vec(2, UInt(16.W)))
+  val gInw    = Reg(Vec(2, UInt(16.W)))
+  val gCnt    = Reg(Vec(2, UInt(log2Ceil(P + 1).W)))      // problems in the group
+  val gOrd    = Reg(Vec(2, Vec(P, UInt(cw.W))))           // their channels in MINRES batch order
+  // the groups whose batches MINRES holds, oldest first
+  val fifoN   = RegInit(0.U(2.W))
+  val fifoG   = Reg(Vec(2, UInt(1.W)))
+  val now     = RegInit(0.U(32.W))
+  now := now + 1.U
+
+  // ---- the head of the input: an id word
+  private val headChRaw = s_axis.tdata(29, 24)
+  private val headCh    = if (slots == 64) headChRaw else (headChRaw % slots.U)(cw - 1, 0)
+  private val headG     = if (P == 1) headCh(0) else (headCh >= P.U).asUInt
+
+  // ---- sequencer
+  val sIdle :: sTakeId :: sSample :: sStart :: sLin :: sLinDrain :: sUpd :: sOut :: sOutDrain :: Nil = Enum(9)
+  val state   = RegInit(sIdle)
+  val curG    = Reg(UInt(1.W))
+  val curC    = Reg(UInt(cw.W))
+  val forming = Reg(Bool())
+  val k       = Reg(UInt(log2Ceil(P + 1).W)) // position of curC in its group's batch
+  val inExt   = RegInit(false.B) // Stage 1 IN from s_axis (sample), else from MINRES (update)
+  val outExt  = RegInit(false.B) // Stage 1 OUT to m_axis (output), else to MINRES (linearise)
+
+  st1.start := false.B
+  st1.prog  := 0.U
+  st1.slot  := curC
+  private def run(prog: String, c: UInt): Unit = {
+    st1.start := true.B
+    st1.prog  := p.prog(prog).U
+    st1.slot  := c
+  }
+
+  // adapters' progress (below)
+  val toArmed  = RegInit(false.B)
+  val toCnt    = RegInit(0.U(log2Ceil(p.mr.frameWords + 1).W))
+  val outArmed = RegInit(false.B)
+  val outCnt   = RegInit(0.U(log2Ceil(p.outWords + 1).W))
+  private val toIdle  = !toArmed && toCnt === 0.U
+  private val outIdle = !outArmed && outCnt === 0.U
+
+  private val headOk  = s_axis.tvalid && !regs.ctrlHold && !busyC(headCh)
+  /** another problem of the current group follows curC in its batch */
+  private val more    = k + 1.U < gCnt(curG)
+  private def next(): Unit = {
+    k    := k + 1.U
+    curC := gOrd(curG)(k + 1.U)
+  }
+  private def form(g: UInt): Unit = {
+    state := sTakeId; curG := g; forming := true.B
+    gActive(g) := true.B; gIter(g) := 0.U; gInw(g) := inwReg; gCnt(g) := 0.U
+  }
+
+  private def startGroupUpdate(g: UInt): Unit = {
+    curG    := g
+    forming := false.B
+    gIter(g) := gIter(g) + 1.U
+    fifoN   := fifoN - 1.U
+    fifoG(0) := fifoG(1)
+    k       := 0.U
+    curC    := gOrd(g)(0)
+    inExt   := false.B
+    state   := sUpd
+  }
+  private def pushBatch(g: UInt): Unit = {
+    when(gCnt(g) =/= P.U) { close := true.B }
+    fifoG(fifoN(0)) := g // fifoN is 0 or 1 here
+    fifoN := fifoN + 1.U
+    state := sIdle
+  }
+
+  // the id word is taken in sTakeId
+  private val takeId = state === sTakeId && s_axis.tvalid
+  switch(state) {
+    is(sIdle) {
+      val other = ~fifoG(0)
+      when(fifoN === 2.U) {
+        startGroupUpdate(fifoG(0))
+      }.elsewhen(fifoN === 1.U) {
+        when(headOk && headG === other) { form(other) }.otherwise { startGroupUpdate(fifoG(0)) }
+      }.elsewhen(headOk) { form(headG) }
+    }
+    is(sTakeId) {
+      when(takeId) {
+        curC := headCh
+        busyC(headCh) := true.B
+        tagC(headCh)  := s_axis.tdata(29, 0)
+        badC(headCh)  := false.B
+        t0C(headCh)   := now
+        when(headChRaw >= slots.U) { chanErr := true.B }
+        k := gCnt(curG)
+        gOrd(curG)(gCnt(curG)) := headCh
+        gCnt(curG) := gCnt(curG) + 1.U
+        inExt := true.B
+        run("sample", headCh)
+        state := sSample
+      }
+    }
+    is(sSample) {
+      when(st1.done) {
+        run("cold", curC)
+        when(started(curC) && regs.ctrlWarm) { st1.prog := p.prog("warm").U }
+        started(curC) := true.B
+        state := sStart
+      }
+    }
+    is(sStart) {
+      when(st1.done) {
+        outExt  := false.B
+        toArmed := true.B
+        run("linearise", curC)
+        state := sLin
+      }
+    }
+    is(sLin) { when(st1.done) { state := sLinDrain } }
+    is(sLinDrain) {
+      when(toIdle) {
+        when(forming) {
+          val another = headOk && headG === curG && gCnt(curG) =/= P.U
+          when(another) { state := sTakeId }.otherwise { pushBatch(curG) }
+        }.otherwise {
+          when(more) {
+            next(); state := sUpd
+          }.otherwise { pushBatch(curG) }
+        }
+      }
+    }
+    is(sUpd) {
+      // update, then linearise again or output; the start is taken when the engine is idle
+      when(!st1.busy) {
+        run("update", curC)
+        state := sOut // the next step is chosen when update is done
+        inExt := false.B
+      }
+    }
+    is(sOut) {
+      when(st1.done) {
+        when(gIter(curG) < gInw(curG)) {
+          outExt  := false.B
+          toArmed := true.B
+          run("linearise", curC)
+          state := sLin
+        }.otherwise {
+          outExt   := true.B
+          outArmed := true.B
+          run("output", curC)
+          state := sOutDrain
+        }
+      }
+    }
+    is(sOutDrain) {
+      when(!st1.busy && !outArmed && outCnt === 0.U && !RegNext(st1.start)) {
+        when(more) {
+          next(); state := sUpd
+        }.otherwise {
+          gActive(curG) := false.B
+          state := sIdle
+        }
+      }
+    }
+  }
+
+  // ---- Stage 1 input: s_axis during sample (after the id word), MINRES's x words during update
+  val mrCnt  = RegInit(0.U(log2Ceil(p.mr.outWords + 1).W))
+  val mrSlot = Reg(UInt(cw.W))
+  val extCnt = RegInit(0.U(log2Ceil(p.inWords + 1).W))
+  private val mrData = mrCnt =/= 0.U && mrCnt =/= (N + 1).U
+  st1.s_axis.tvalid := Mux(inExt, s_axis.tvalid && extCnt =/= 0.U, mr.m_axis.tvalid && mrData)
+  st1.s_axis.tdata  := Mux(inExt, s_axis.tdata, mr.m_axis.tdata)
+  st1.s_axis.tlast  := false.B
+  s_axis.tready := takeId || inExt && extCnt =/= 0.U && st1.s_axis.tready
+  mr.m_axis.tready := !mrData || !inExt && st1.s_axis.tready
+  when(s_axis.fire) {
+    val lastWord = extCnt === (p.inWords - 1).U
+    when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
+    extCnt := Mux(lastWord, 0.U, extCnt + 1.U)
+    when(extCnt =/= 0.U && !finite(s_axis.tdata(W - 1, 0))) { badC(curC) := true.B }
+  }
+  when(mr.m_axis.fire) {
+    mrCnt := Mux(mrCnt === (p.mr.outWords - 1).U, 0.U, mrCnt + 1.U)
+    when(mrCnt === 0.U) {
+      val c = mr.m_axis.tdata(cw - 1, 0)
+      mrSlot := c
+      when(mr.m_axis.tdata(31)) { badC(c) := true.B }
+    }
+    when(mrCnt === (N + 1).U) { resC(mrSlot) := mr.m_axis.tdata(W - 1, 0) }
+  }
+
+  // ---- Stage 1 output: the MINRES frame (id c, then linearise's words) or the answer frame (id, output's words,
+  // ||r_0||, status)
+  private val toLast = toCnt === (p.mr.frameWords - 1).U
+  mr.s_axis.tvalid := Mux(toCnt === 0.U, toArmed, !outExt && st1.m_axis.tvalid)
+  mr.s_axis.tdata  := Mux(toCnt === 0.U, curC.pad(32), st1.m_axis.tdata)
+  mr.s_axis.tlast  := toLast
+  when(mr.s_axis.fire) {
+    toCnt := Mux(toLast, 0.U, toCnt + 1.U)
+    when(toCnt === 0.U) { toArmed := false.B }
+  }
+
+  val outBad = Reg(Bool())
+  val outMu  = Reg(UInt(W.W))
+  private val oPass  = outCnt >= 1.U && outCnt <= (m + 1).U
+  private val oRes   = outCnt === (m + 2).U
+  private val oStat  = outCnt === (m + 3).U
+  private val conv   = atMost(outMu, muTol(W - 1, 0)) && atMost(resC(curC), resTol(W - 1, 0))
+  private val bad    = outBad || badC(curC)
+  private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)
+  m_axis.tvalid := Mux(outCnt === 0.U, outArmed, Mux(oPass, outExt && st1.m_axis.tvalid, outCnt =/= 0.U))
+  m_axis.tdata  := Mux(outCnt === 0.U, tagC(curC).pad(32),
+    Mux(oPass, st1.m_axis.tdata, Mux(oRes, resC(curC).pad(32), status)))
+  m_axis.tlast  := oStat
+  st1.m_axis.tready := Mux(outExt, oPass && m_axis.tready, toCnt =/= 0.U && mr.s_axis.tready)
+  when(m_axis.fire) {
+    outCnt := Mux(oStat, 0.U, outCnt + 1.U)
+    when(outCnt === 0.U) {
+      outArmed := false.B
+      outBad   := false.B
+    }
+    when(oPass && !finite(st1.m_axis.tdata(W - 1, 0))) { outBad := true.B }
+    when(outCnt === (m + 1).U) { outMu := st1.m_axis.tdata(W - 1, 0) }
+    when(oStat) {
+      busyC(curC) := false.B
+      when(bad) {
+        nonfinite := true.B
+        started(curC) := false.B // the next sample of this channel starts cold
+      }
+      when(!conv) { notConv := true.B }
+      regs.solveDone(now - t0C(curC))
+    }
+  }
+
+  regs.busy := state =/= sIdle || fifoN =/= 0.U || busyC.asUInt.orR || extCnt =/= 0.U
+  regs.writes(
+    (regs.wA === IpmRegs.INW.U) -> (() => {
+      when(regs.wD === 0.U || regs.wD > 65535.U) { regs.axil.wr.resp := bus.AxiLiteResp.SLVERR }
+        .elsewhen(regs.axil.wr.valid) { inwReg := regs.wD }
+    }),
+    (regs.wA === IpmRegs.MU_TOL.U) -> (() => { when(regs.axil.wr.valid) { muTol := regs.wD } }),
+    (regs.wA === IpmRegs.RES_TOL.U) -> (() => { when(regs.axil.wr.valid) { resTol := regs.wD } }))
+}

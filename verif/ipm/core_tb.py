@@ -1,0 +1,208 @@
+"""cocotb testbench of the interior-point core (Verilator), through its AXI4-Stream and AXI4-Lite interfaces.
+
+Environment: CORE_OUT = the generator's output folder (core.json, config.json); CORE_ROUNDS = rounds of 2P
+samples in the bit-exact test; CORE_MEASURE = file to append measurements to (JSON lines). Every answer word is
+compared with the golden model of the generated core (mpc_cores.ipm.core_model, from config.json).
+"""
+from __future__ import annotations
+
+import json
+import os
+
+import cocotb
+import numpy as np
+from cocotb.triggers import ClockCycles, RisingEdge
+from cocotbext.axi import AxiResp, AxiStreamFrame
+
+from mpc_cores.driver import AxiDriver
+from mpc_cores.ipm.core_model import IpmCoreModel
+
+TIMEOUT_MS = 2000
+
+
+class IpmTB(AxiDriver):
+    def __init__(self, dut, seed: int = 1):
+        super().__init__(dut, seed)
+        c = self.core
+        self.P, self.n, self.m, self.ny = c["P"], c["n"], c["m"], c["ny"]
+        self.C = 2 * self.P
+        self.model = IpmCoreModel(self.cfg, self.P)
+        self.nrng = np.random.default_rng(seed)
+        self.warm = True
+
+    def state(self, scale: float = 1.0):
+        """a random state and reference (float values)"""
+        return self.nrng.uniform(-scale, scale, self.n), self.nrng.uniform(-0.5, 0.5, self.ny)
+
+    def words(self, x, r) -> list[int]:
+        return self.model.mr.to_words(np.concatenate([x, r]))
+
+    async def send(self, ch: int, tag: int, data: list[int]):
+        await self.src.send(AxiStreamFrame(tdata=[(ch << 24) | (tag & 0xFFFFFF)] + list(data)))
+
+    async def recv(self) -> tuple[int, int, list[int], int]:
+        f = await self.sink.recv()
+        d = list(f.tdata)
+        assert len(d) == self.m + 4, f"answer of {len(d)} words, expected {self.m + 4}"
+        return (d[0] >> 24) & 0x3F, d[0] & 0xFFFFFF, d[1:-1], d[-1]
+
+    async def set_ctrl(self, hold: bool = False):
+        bit = self.rm.CTRL_BITS
+        assert await self.write(self.rm["CTRL"], int(self.warm) << bit["WARM_START"] | int(hold) << bit["HOLD"]) \
+            == AxiResp.OKAY
+
+    async def set_reg(self, name: str, value: int):
+        assert await self.write(self.rm[name], value) == AxiResp.OKAY
+
+    async def round(self, jobs, tag: str = "") -> dict:
+        """jobs: (channel, tag, data words); every channel at most once. Sends all, receives as many answers and
+        checks each against the model; returns tag -> answer."""
+        exp = {}
+        for ch, t, data in jobs:
+            exp[t] = self.model.solve(ch, None, x_words=data, warm=self.warm)
+        sends = cocotb.start_soon(self._send_all(jobs))
+        got = {}
+        for _ in jobs:
+            ch, t, words, status = await self.recv()
+            assert t in exp and t not in got, f"{tag}: unexpected or repeated tag {t}"
+            got[t] = (ch, words, status)
+        await sends
+        for ch, t, _ in jobs:
+            gch, words, status = got[t]
+            e = exp[t]
+            assert gch == ch, f"{tag}: tag {t} came back on channel {gch}, sent on {ch}"
+            assert status == e.status, f"{tag}: tag {t}: status {status:#x} != model {e.status:#x}"
+            if not e.nonfinite:
+                bad = [i for i in range(len(e.words)) if words[i] != e.words[i]]
+                assert not bad, (f"{tag}: tag {t} (channel {ch}): {len(bad)} words differ, first {bad[0]}: "
+                                 f"RTL {words[bad[0]]:#010x} model {e.words[bad[0]]:#010x}")
+        return exp
+
+    async def _send_all(self, jobs):
+        for ch, t, data in jobs:
+            await self.send(ch, t, data)
+
+
+def _measure(record: dict):
+    path = os.environ.get("CORE_MEASURE")
+    if path:
+        with open(path, "a") as f:
+            f.write(json.dumps(record) + "\n")
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def bitexact_inflight(dut):
+    """Rounds of samples on all 2P channels in random order (2P problems in flight with different data), warm
+    starts carried per channel, random I_NW and I_MR between rounds, random idle and backpressure on both streams:
+    every answer word and status equals the model's."""
+    tb = IpmTB(dut, seed=3)
+    await tb.reset()
+    rounds = int(os.environ.get("CORE_ROUNDS") or "3")
+    tag = 0
+    for k in range(rounds):
+        tb.backpressure(k % 2 == 1)
+        if k == 2:
+            inw, imr = tb.rng.randint(1, 4), tb.rng.randint(1, 9)
+            await tb.set_reg("INW", inw)
+            await tb.set_reg("IMAX", imr)
+            tb.model.i_nw, tb.model.i_mr = inw, imr
+        chans = list(range(tb.C))
+        tb.rng.shuffle(chans)
+        chans = chans[: tb.rng.randint(1, tb.C)] if k % 3 == 2 else chans
+        jobs = []
+        for ch in chans:
+            tag += 1
+            jobs.append((ch, tag, tb.words(*tb.state())))
+        await tb.round(jobs, f"round {k}")
+    tb.backpressure(False)
+    st = await tb.status()
+    assert not st["NONFINITE"] and not st["CHANNEL"] and not st["TLAST_ERROR"], st
+    solves, _ = await tb.read(tb.rm["SOLVES"])
+    assert solves == tag, f"SOLVES {solves} != {tag}"
+    _measure({"test": "bitexact_inflight", "answers": tag})
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def latency(dut):
+    """2P problems sent back to back on an idle core (cold starts, then warm): the cycles from each id word to its
+    answer's status word (LAST_CYCLES of the last answer, and the testbench's own count for all) against the
+    cycle model of core.json."""
+    tb = IpmTB(dut, seed=5)
+    await tb.reset()
+    now = [0]
+
+    async def count():
+        while True:
+            await RisingEdge(dut.clock)
+            now[0] += 1
+    cocotb.start_soon(count())
+    rec = {}
+    for rnd in range(2):
+        jobs = [(ch, 100 * rnd + ch, tb.words(*tb.state())) for ch in range(tb.C)]
+        t0 = now[0]
+        await tb.round(jobs, f"latency {rnd}")
+        rec[rnd] = {"all_done": now[0] - t0}
+        rec[rnd]["last_cycles"], _ = await tb.read(tb.rm["LAST_CYCLES"])
+    _measure({"test": "latency", "rounds": rec})
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def nonfinite_hold_reset(dut):
+    """NaN and Inf in x: those answers flagged (status bit 0, STATUS.NONFINITE), the others exact, the flagged
+    channel's next sample cold and exact; HOLD keeps a frame waiting until released; a reset in the middle of a
+    batch loses nothing after it (the core answers the next samples exactly, from cold starts)."""
+    tb = IpmTB(dut, seed=7)
+    await tb.reset()
+    jobs = []
+    for ch in range(tb.C):
+        x, r = tb.state()
+        if ch == 0:
+            x[0] = np.nan
+        if ch == 1:
+            x[-1] = np.inf
+        jobs.append((ch, ch + 1, tb.words(x, r)))
+    exp = await tb.round(jobs, "nonfinite")
+    assert exp[1].nonfinite and exp[2].nonfinite
+    st = await tb.status()
+    assert st["NONFINITE"], "NONFINITE not set"
+    assert await tb.write(tb.rm["STATUS"], 1 << tb.rm.STATUS_BITS["NONFINITE"]) == AxiResp.OKAY
+    assert not (await tb.status())["NONFINITE"]
+    await tb.round([(0, 50, tb.words(*tb.state())), (1, 51, tb.words(*tb.state()))], "after nonfinite")
+    # HOLD: a frame waits
+    await tb.set_ctrl(hold=True)
+    frame = (0, 60, tb.words(*tb.state()))
+    e = tb.model.solve(0, None, x_words=frame[2])
+    send = cocotb.start_soon(tb.send(*frame))
+    await ClockCycles(dut.clock, 200)
+    assert not dut.m_axis_tvalid.value and not dut.s_axis_tready.value, "HOLD: the frame was taken"
+    await tb.set_ctrl(hold=False)
+    await send
+    ch, t, words, status = await tb.recv()
+    assert (t, words, status) == (60, e.words, e.status), "after HOLD"
+    # reset in the middle of a batch
+    jobs = [(ch, 70 + ch, tb.words(*tb.state())) for ch in range(tb.C)]
+    for j in jobs:
+        await tb.send(*j)
+    await ClockCycles(dut.clock, 1500)
+    tb.src.clear()
+    tb.sink.clear()
+    await tb.reset()
+    await ClockCycles(dut.clock, 5)
+    tb.sink.clear()
+    tb.model.reset()
+    await tb.round([(ch, 90 + ch, tb.words(*tb.state())) for ch in range(tb.C)], "after reset")
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def infeasible(dut):
+    """A state far outside what the state constraints allow: the answer is flagged (not converged or non-finite,
+    as the model says), never marked good, and the core answers the next sample exactly."""
+    tb = IpmTB(dut, seed=9)
+    await tb.reset()
+    if not tb.cfg.get("hard_states"):
+        return
+    x, r = tb.state()
+    x[:] = 50.0
+    exp = await tb.round([(0, 1, tb.words(x, r))], "infeasible")
+    assert exp[1].status & 3, "the model marks the infeasible problem good"
+    await tb.round([(1, 2, tb.words(*tb.state()))], "after infeasible")
