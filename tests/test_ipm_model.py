@@ -203,3 +203,60 @@ def test_parallel_multiplexed_mpc_regulation(masses):
     J = run_closed_loop(p, Ctrl(), x0, refs).cost
     assert 0 <= J / J0 - 1 < 5e-3, J / J0 - 1
     assert len(set(m.chosen[1:])) > 1
+
+
+@pytest.mark.parametrize("precondition", [True, False])
+def test_stage1_persistent_words_and_boxed_work(masses, precondition):
+    """The Stage 1 programs keep the frame words that never change (the variable column of the free primal rows,
+    d of every row but the boxed ones, bh = 0 off the boxed rows and the rows of x0) from `cold` on: after warm
+    samples (and a cold start on request) a slot's linearise, update and output give the words of a fresh slot that
+    ran sample and cold and got only the iterate (z, V) copied in (both slots start as NaN). Per Newton iteration,
+    besides the stream (OUT the frame, IN x) and the step of z (dz = d x, z += alpha dz), linearise and update work
+    on the boxed variables only (instructions of at most 4 nb elements)."""
+    s = sparse_mpc(masses)
+    p, N, npr, nb = masses, s.N, len(s.primal), len(s.bounded)
+    model = IpmModel(s, 2, 10, precondition=precondition)
+    st, M = model.st1, model.machine
+    M.mem[:] = np.nan                      # no program may read a word that sample, cold or warm did not write
+    rng = np.random.default_rng(11)
+    for k in range(4):
+        model.solve(rng.uniform(-1, 1, p.nx), rng.uniform(-0.5, 0.5, p.ny), cold=(k == 2))
+    fresh = Machine(1, st.slot_words, st.const_words, st.tables, model.L)
+    fresh.mem[:] = np.nan
+    x, r = rng.uniform(-1, 1, p.nx), rng.uniform(-0.5, 0.5, p.ny)
+    for mach, start in ((M, "warm"), (fresh, "cold")):
+        mach.feed(np.asarray(np.concatenate([x, r]), dtype=f32))
+        mach.run(st.programs["sample"], 0)
+        mach.run(st.programs[start], 0)
+    z, V = st.slot["z"], st.slot["V"]
+    fresh.mem[0][z: V + 4 * nb] = M.mem[0][z: V + 4 * nb]
+    for _ in range(2):
+        frames = []
+        for mach in (M, fresh):
+            mach.run(st.programs["linearise"], 0)
+            frames.append(mach.take())
+        assert words(frames[0]) == words(frames[1])
+        diag, d, bh = frames[0][:npr], frames[0][npr:npr + N], frames[0][npr + N:npr + 2 * N]
+        free = np.setdiff1d(np.arange(npr), s.bounded)
+        assert np.array_equal(diag[free], np.diag(s.K0)[s.primal][free].astype(f32))
+        other = np.setdiff1d(np.arange(N), s.primal[s.bounded])
+        if not precondition:
+            assert np.all(d == 1)
+        f0 = np.arange(s.L.lam(0), s.L.lam(0) + p.nx)
+        assert np.all(bh[np.setdiff1d(other, f0)] == 0)
+        x0 = x - s.Mx @ r
+        assert np.allclose(bh[f0], -d[f0] * x0, rtol=1e-5, atol=1e-6)
+        xs, _ = model.minres(diag, d, bh, frames[0][npr + 2 * N:])
+        for mach in (M, fresh):
+            mach.inq.extend(xs.tolist())
+            mach.run(st.programs["update"], 0)
+        assert words(M.mem[0][z: V + 4 * nb]) == words(fresh.mem[0][z: V + 4 * nb])
+    for mach in (M, fresh):
+        mach.run(st.programs["output"], 0)
+    assert words(M.take()) == words(fresh.take())
+    # the per-iteration work off the boxed subset: the stream and the step of z only
+    big = [i for k in ("linearise", "update") for i in st.programs[k] if i.n > 4 * nb]
+    assert sorted(i.n for i in big if i.op == "OUT") == sorted([npr + 2 * N, N])
+    assert [i.n for i in big if i.op == "IN"] == [N]
+    rest = [(i.op, i.n) for i in big if i.op not in ("IN", "OUT")]
+    assert rest == ([("MUL", N)] if precondition else []) + [("MUL", N + 4 * nb), ("ADD", N + 4 * nb)], rest

@@ -1,16 +1,33 @@
 """The Stage 1 programs of the interior-point core for one MPC problem, in the instruction set of mpc_cores.ipm.isa.
 
-Per problem slot (slot space), vectors of the boxed variables (nb of them) are laid out so that one instruction
-covers the upper and the lower inequalities together: V = (lu, ll, su, sl), DV = (dlu, dll, dsu, dsl),
-RG = (rGu, rGl), WT = (wu, wl). Programs:
-  sample     IN x^ (n), r (ny); the steady state ss = (x_s, u_s) = Mxu r; x0 = x^ - x_s; lo, hi shifted by ss
-  cold       the cold start: z = 0, (lambda, s) = start value
+Per problem slot (slot space), vectors of the boxed variables (nb of them) pair the upper and the lower
+inequalities so that one instruction covers both: V = (lu, ll, su, sl), DV = (dlu, dll, dsu, dsl), q = (hi - th,
+th - lo) = h - G th, RG = (rGu, rGl), WT = (wu, wl), TT = (tu, tl). Programs:
+  sample     IN x^ (n), r (ny); the steady state ss = (x_s, u_s) = Mxu r; lo, hi shifted by ss; bh = d f on the rows
+             of x0 (f = -x0 = x_s - x^), which no other program writes
+  cold       the cold start: z = 0, (lambda, s) = start value, and the words that never change afterwards (below)
   warm       the warm start: the previous iterate unshifted (001), (lambda, s) raised to a floor
-  linearise  (6a-d), (7), W_k, the variable column, bt, the preconditioner d and bh = d bt; OUT the MINRES frame
-             (variable column, d, bh, z)
+  linearise  (6c-d), (7), W_k, the variable column, bt, the preconditioner d and bh = d bt on the boxed rows; OUT
+             the MINRES frame (variable column, d, bh, z)
   update     IN the MINRES solution x; dz = d x; lines 4-7 of Algorithm 1 (direction, line search, step)
-  output     u0 = clamp(z_u0, lo, hi) + u_s, mu; OUT
-A sample runs: sample, [cold], then I_NW times (linearise, MINRES, update), then output.
+  output     u0 = clamp(z_u0, lo, hi) + u_s, mu of the last linearise; OUT
+A sample runs: sample, cold (the first sample of a slot, or on request) or warm, then I_NW times (linearise, MINRES,
+update), then output.
+
+Persistent words. Only the boxed rows of the frame change between Newton iterations: the variable column of the
+free primal rows (H_ii), d of every row but the boxed ones (1/sqrt(max(off_i, H_ii)) and 1/sqrt(off_i) on the
+equality rows, float64 constants; 1 without the preconditioner) and bh = 0 on the free primal rows and on the
+equality rows but those of x0 are written by `cold` and never again (warm, linearise and update write only the
+boxed rows, sample only the rows of x0), so linearise and update work on nb words plus the stream and the step
+of z.
+
+Arithmetic (one rounded operation per step; "exact" means: equal to Algorithm 1 in exact arithmetic):
+  smu = acc(lu su, ll sl) * (sigma / n_ineq)                       mu = acc(..) * (1 / n_ineq) in `output`
+  TT  = (smu - l q) / s            = (rS - l rG) / s  exactly, since q = s + rG
+  bt  = ((ll + tl) - (lu + tu)) + w th  on the boxed rows
+  d   = 1 / sqrt(max(off, H_ii + w)) on the boxed rows; the MAX is left out when H_ii >= off_i on every boxed row
+        (then max(off, H_ii + w) = H_ii + w since w >= 0)
+  alpha = -tau / min(-1, min(dv / v)) = tau min(1, min over dv < 0 of -v / dv)
 """
 from __future__ import annotations
 
@@ -21,8 +38,8 @@ import numpy as np
 from mpc_cores.ipm.isa import Instr, Operand, cycles
 from mpc_cores.ipm.sparse import SparseMpc
 
-# index tables
-T_BROW, T_BPRIM, T_PRIM, T_EQ, T_SHIFT, T_U0 = range(6)
+# index tables (at most six: the engine takes eight, and its test adds two random ones)
+T_BROW, T_BPRIM, T_SHIFT, T_QA, T_QB, T_TD = range(6)
 
 
 def S(addr, mode="vec", table=0) -> Operand:
@@ -64,11 +81,18 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
     L = s.L
     nb = len(s.bounded)
     npr = len(s.primal)
-    eq = np.setdiff1d(np.arange(N), s.primal)
     if nb == 0:
         raise ValueError("the interior-point core needs at least one boxed variable")
     K0 = s.K0
-    off = np.abs(K0 - np.diag(np.diag(K0))).max(axis=1)
+    Hd = np.diag(K0)
+    off = np.abs(K0 - np.diag(Hd)).max(axis=1)
+    brow = np.asarray(s.primal[s.bounded])          # rows of the boxed variables
+    x0 = L.lam(0)                                   # rows x0 .. x0 + n - 1: f = -x0
+    # d of every row whose diagonal does not change (all but the boxed rows), in float64
+    dfix = 1.0 / np.sqrt(np.where(np.isin(np.arange(N), s.primal), np.maximum(off, Hd), off))
+    dinit = dfix.copy() if precondition else np.ones(N)
+    dinit[brow] = 1.0                               # written by every linearise
+    need_max = not bool(np.all(Hd[brow] >= off[brow]))
 
     # ---- constant region
     ca = Alloc()
@@ -80,16 +104,18 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
 
     const("zero", 0.0)
     const("one", 1.0)
-    const("sigma", sigma)
-    const("tau", tau)
+    const("mone", -1.0)
+    const("ntau", -tau)
     const("inv_ineq", 1.0 / s.n_ineq)
+    const("sig_inv", sigma / s.n_ineq)
     const("start", start_value)
     const("floor", warm_floor)
-    const("Hd", np.diag(K0)[s.primal])
-    const("offp", off[s.primal])
-    const("deq", 1.0 / np.sqrt(off[eq]))
+    const("Hd", Hd[s.primal])
+    const("dinit", dinit)          # right after Hd: cold writes (diag, d) in one instruction
+    const("offb", off[brow])
+    const("dx0", dfix[x0: x0 + n])
     const("lo", s.lo)
-    const("hi", s.hi)
+    const("hi", s.hi)              # right after lo
     Mxu = np.vstack([s.Mx, s.Mu]) if ny else np.zeros((n + m, 0))
     for j in range(ny):
         const(f"Mxu{j}", Mxu[:, j])
@@ -98,102 +124,118 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
         cw[a: a + len(v)] = v
     c = {k: a for k, (a, _) in ca.names.items()}
 
-    # ---- slot region
+    # ---- slot region. z and V first (the model checks them there), then SM (b of the fused DIV is (su, sl, SM)),
+    # lo, hi; the second block (dz, DV, w, t) has the first's layout, so that T_QA, read at the offset dz - z,
+    # gives (wl dth, dth) = (t_l, dz on the boxed rows) as it gives (hi, th) at 0.
     sa = Alloc()
-    for name, size in (("z", N), ("V", 4 * nb), ("DV", 4 * nb), ("RG", 2 * nb), ("WT", 2 * nb), ("TT", 2 * nb),
-                       ("LS", 2 * nb), ("RS", 2 * nb), ("w", nb), ("th", nb), ("dth", nb), ("t1", 4 * nb),
-                       ("t2", nb), ("lo", nb), ("hi", nb), ("diag", npr), ("t3", npr), ("d", N), ("bt", N),
-                       ("x", N), ("dz", N), ("t4", N), ("xin", n), ("r", max(ny, 1)), ("ss", n + m),
-                       ("ts", n + m), ("u", m), ("mu", 1), ("smu", 1), ("acc", 1), ("amin", 1), ("amax", 1),
-                       ("alpha", 1)):
+    for name, size in (("z", N), ("V", 4 * nb), ("SM", nb), ("lo", nb), ("hi", nb),
+                       ("dz", N), ("DV", 4 * nb), ("w", nb), ("t", 2 * nb),
+                       ("TN", 2 * nb), ("ones", nb), ("TT", 2 * nb), ("RG", 2 * nb), ("q", 2 * nb),
+                       ("LS", 2 * nb), ("WT", 2 * nb), ("A", 2 * nb), ("B", nb), ("C", nb), ("bt", nb), ("mt", nb),
+                       ("diag", npr), ("d", N), ("bh", N),
+                       ("xin", n), ("r", max(ny, 1)), ("ss", n + m), ("ts", n + m), ("fx", n),
+                       ("u", m), ("mu", 1), ("acc", 1), ("smu", 1), ("rmin", 1), ("rmin1", 1), ("alpha", 1)):
         sa(name, size)
     a = {k: v for k, (v, _) in sa.names.items()}
     nb2, nb4 = 2 * nb, 4 * nb
     V, DV = a["V"], a["DV"]
-    lu, ll, su, sl = V, V + nb, V + 2 * nb, V + 3 * nb
+    D = a["dz"] - a["z"]
+    assert a["z"] == 0 and V == N
+    assert DV - V == D and a["t"] - a["lo"] == D and a["hi"] == a["lo"] + nb
+    assert a["SM"] == V + nb4 and a["ones"] == a["TN"] + nb2 and a["RG"] == a["TT"] + nb2
+    assert a["B"] == a["A"] + nb2 and a["C"] == a["B"] + nb        # A, B, C: the 4nb ratios of the line search
+    assert a["d"] == a["diag"] + npr and a["bh"] == a["d"] + N
+    assert a["r"] == a["xin"] + n and a["mu"] == a["u"] + m
 
-    tables = [np.asarray(s.primal[s.bounded]), np.asarray(s.bounded), np.asarray(s.primal), eq,
-              np.asarray(s.shift_of), np.arange(L.u(0), L.u(0) + m)]
+    tables = [np.concatenate([brow, brow]),                           # T_BROW (twice: (dth, dth))
+              np.asarray(s.bounded),                                  # T_BPRIM: boxed entries of the variable column
+              np.concatenate([s.shift_of, s.shift_of]),               # T_SHIFT (twice: lo and hi)
+              np.concatenate([a["hi"] + np.arange(nb), a["z"] + brow]),   # T_QA: (hi, th)
+              np.concatenate([a["z"] + brow, a["lo"] + np.arange(nb)]),   # T_QB: (th, lo)
+              np.concatenate([a["TT"] + np.arange(nb2), a["d"] + brow])]  # T_TD: (TT, d on the boxed rows)
 
     I = Instr
-    sample = [I("IN", n, d=S(a["xin"]))]
+    th = S(a["z"], "gather", T_BROW)          # theta: z on the boxed rows
+    dth = S(a["dz"], "gather", T_BROW)
+    s_ = S(V + nb2)                           # (su, sl)
+
+    sample = [I("IN", n + ny, d=S(a["xin"]), note="x^, r")]
     if ny:
-        sample += [I("IN", ny, d=S(a["r"])),
-                   I("MUL", n + m, d=S(a["ss"]), a=C(c["Mxu0"]), b=S(a["r"], "scalar"))]
+        sample += [I("MUL", n + m, d=S(a["ss"]), a=C(c["Mxu0"]), b=S(a["r"], "scalar"))]
         for j in range(1, ny):
             sample += [I("MUL", n + m, d=S(a["ts"]), a=C(c[f"Mxu{j}"]), b=S(a["r"] + j, "scalar")),
                        I("ADD", n + m, d=S(a["ss"]), a=S(a["ss"]), b=S(a["ts"]))]
     else:
         sample += [I("MOV", n + m, d=S(a["ss"]), a=C(c["zero"], "scalar"))]
-    sample += [I("SUB", n, d=S(a["xin"]), a=S(a["xin"]), b=S(a["ss"]), note="x0 = x^ - x_s"),
-               I("SUB", nb, d=S(a["lo"]), a=C(c["lo"]), b=S(a["ss"], "gather", T_SHIFT)),
-               I("SUB", nb, d=S(a["hi"]), a=C(c["hi"]), b=S(a["ss"], "gather", T_SHIFT))]
+    sample += [I("SUB", nb2, d=S(a["lo"]), a=C(c["lo"]), b=S(a["ss"], "gather", T_SHIFT), note="lo, hi shifted")]
+    if precondition:
+        sample += [I("SUB", n, d=S(a["fx"]), a=S(a["ss"]), b=S(a["xin"]), note="f = -x0 = x_s - x^"),
+                   I("MUL", n, d=S(a["bh"] + x0), a=C(c["dx0"]), b=S(a["fx"]), note="bh = d f on the rows of x0")]
+    else:
+        sample += [I("SUB", n, d=S(a["bh"] + x0), a=S(a["ss"]), b=S(a["xin"]), note="bh = f = x_s - x^")]
 
     cold = [I("MOV", N, d=S(a["z"]), a=C(c["zero"], "scalar")),
-            I("MOV", nb4, d=S(V), a=C(c["start"], "scalar"))]
+            I("MOV", nb4, d=S(V), a=C(c["start"], "scalar")),
+            I("MOV", npr + N, d=S(a["diag"]), a=C(c["Hd"]), note="persistent: H_ii, d of the unchanging rows")]
+    for lo_, hi_ in ((0, x0), (x0 + n, N)):
+        if hi_ > lo_:
+            cold += [I("MOV", hi_ - lo_, d=S(a["bh"] + lo_), a=C(c["zero"], "scalar"), note="persistent: bh = 0")]
+    if precondition:
+        cold += [I("MOV", nb, d=S(a["ones"]), a=C(c["one"], "scalar"), note="persistent: numerators of d")]
     warm = [I("MAX", nb4, d=S(V), a=S(V), b=C(c["floor"], "scalar"), note="warm start: (lambda, s) >= floor")]
 
-    lin = [I("MOV", nb, d=S(a["th"]), a=S(a["z"], "gather", T_BROW), note="theta on the boxed variables"),
-           I("MUL", nb2, d=S(a["LS"]), a=S(lu), b=S(su), note="(lu su, ll sl)"),
+    lin = [I("MUL", nb2, d=S(a["LS"]), a=S(V), b=s_, note="(lu su, ll sl)"),
            I("ACC", nb2, d=S(a["acc"]), a=S(a["LS"])),
-           I("MUL", 1, d=S(a["mu"]), a=S(a["acc"]), b=C(c["inv_ineq"]), note="mu (7)"),
-           I("MUL", 1, d=S(a["smu"]), a=C(c["sigma"]), b=S(a["mu"])),
-           I("SUB", nb, d=S(a["RG"]), a=S(a["hi"]), b=S(a["th"])),
-           I("SUB", nb, d=S(a["RG"]), a=S(a["RG"]), b=S(su), note="rGu (6c)"),
-           I("SUB", nb, d=S(a["RG"] + nb), a=S(a["th"]), b=S(a["lo"])),
-           I("SUB", nb, d=S(a["RG"] + nb), a=S(a["RG"] + nb), b=S(sl), note="rGl (6c)"),
-           I("SUB", nb2, d=S(a["RS"]), a=S(a["smu"], "scalar"), b=S(a["LS"]), note="rS (6d)"),
-           I("DIV", nb2, d=S(a["WT"]), a=S(lu), b=S(su), note="(wu, wl)"),
-           I("MUL", nb2, d=S(a["TT"]), a=S(lu), b=S(a["RG"])),
-           I("SUB", nb2, d=S(a["TT"]), a=S(a["RS"]), b=S(a["TT"])),
-           I("DIV", nb2, d=S(a["TT"]), a=S(a["TT"]), b=S(su), note="(tu, tl)"),
+           I("MUL", 1, d=S(a["smu"]), a=S(a["acc"]), b=C(c["sig_inv"]), note="sigma mu (7)"),
+           I("SUB", nb2, d=S(a["q"]), a=S(0, "gather", T_QA), b=S(0, "gather", T_QB), note="q = (hi - th, th - lo)"),
+           I("SUB", nb2, d=S(a["RG"]), a=S(a["q"]), b=s_, note="rG (6c)"),
+           I("MUL", nb2, d=S(a["LS"]), a=S(V), b=S(a["q"])),
+           I("SUB", nb2, d=S(a["TN"]), a=S(a["smu"], "scalar"), b=S(a["LS"]), note="rS - l rG (6d) = smu - l q"),
+           I("DIV", nb2, d=S(a["WT"]), a=S(V), b=s_, note="(wu, wl)"),
            I("ADD", nb, d=S(a["w"]), a=S(a["WT"]), b=S(a["WT"] + nb), note="W_k"),
-           I("MOV", npr, d=S(a["diag"]), a=C(c["Hd"])),
            I("ADD", nb, d=S(a["diag"], "gather", T_BPRIM), a=C(c["Hd"], "gather", T_BPRIM), b=S(a["w"]),
-             note="variable column H_ii + w_i"),
-           I("MOV", N, d=S(a["bt"]), a=C(c["zero"], "scalar")),
-           I("SUB", n, d=S(a["bt"] + L.lam(0)), a=C(c["zero"], "scalar"), b=S(a["xin"]), note="f: -x0"),
-           I("SUB", nb, d=S(a["t2"]), a=S(ll), b=S(lu)),
-           I("SUB", nb, d=S(a["t1"]), a=S(a["TT"]), b=S(a["TT"] + nb)),
-           I("SUB", nb, d=S(a["t2"]), a=S(a["t2"]), b=S(a["t1"])),
-           I("MUL", nb, d=S(a["t1"]), a=S(a["w"]), b=S(a["th"])),
-           I("ADD", nb, d=S(a["bt"], "gather", T_BROW), a=S(a["t2"]), b=S(a["t1"]),
-             note="bt = A_k z + b_k on the boxed rows")]
+             note="variable column H_ii + w_i")]
     if precondition:
-        lin += [I("MAX", npr, d=S(a["t3"]), a=C(c["offp"]), b=S(a["diag"])),
-                I("SQRT", npr, d=S(a["t3"]), a=S(a["t3"])),
-                I("DIV", npr, d=S(a["d"], "gather", T_PRIM), a=C(c["one"], "scalar"), b=S(a["t3"]),
-                  note="equilibration 1/sqrt(max|A_ij|)"),
-                I("MOV", len(eq), d=S(a["d"], "gather", T_EQ), a=C(c["deq"]))]
+        dg = S(a["diag"], "gather", T_BPRIM)
+        if need_max:
+            lin += [I("MAX", nb, d=S(a["mt"]), a=C(c["offb"]), b=dg)]
+            dg = S(a["mt"])
+        lin += [I("SQRT", nb, d=S(a["SM"]), a=dg),
+                I("DIV", nb2 + nb, d=S(0, "gather", T_TD), a=S(a["TN"]), b=s_,
+                  note="(tu, tl) = TN / s and the equilibration d = 1 / sqrt(max(off, diag)), boxed rows")]
     else:
-        lin += [I("MOV", N, d=S(a["d"]), a=C(c["one"], "scalar"))]
-    lin += [I("MUL", N, d=S(a["bt"]), a=S(a["d"]), b=S(a["bt"]), note="bh = d bt"),
-            I("OUT", npr, a=S(a["diag"])), I("OUT", N, a=S(a["d"])), I("OUT", N, a=S(a["bt"])),
-            I("OUT", N, a=S(a["z"]))]
+        lin += [I("DIV", nb2, d=S(a["TT"]), a=S(a["TN"]), b=s_, note="(tu, tl)")]
+    lin += [I("ADD", nb2, d=S(a["A"]), a=S(V), b=S(a["TT"])),
+            I("SUB", nb, d=S(a["B"]), a=S(a["A"] + nb), b=S(a["A"]), note="(ll + tl) - (lu + tu)"),
+            I("MUL", nb, d=S(a["C"]), a=S(a["w"]), b=th),
+            I("ADD", nb, d=S(a["bt"]) if precondition else S(a["bh"], "gather", T_BROW), a=S(a["B"]), b=S(a["C"]),
+              note="bt = A_k z + b_k on the boxed rows")]
+    if precondition:
+        lin += [I("MUL", nb, d=S(a["bh"], "gather", T_BROW), a=S(a["d"], "gather", T_BROW), b=S(a["bt"]),
+                  note="bh = d bt")]
+    lin += [I("OUT", npr + 2 * N, a=S(a["diag"]), note="variable column, d, bh"), I("OUT", N, a=S(a["z"]))]
 
-    upd = [I("IN", N, d=S(a["x"])),
-           I("MUL", N, d=S(a["dz"]), a=S(a["d"]), b=S(a["x"]), note="dz = d x"),
-           I("MOV", nb, d=S(a["dth"]), a=S(a["dz"], "gather", T_BROW)),
-           I("MUL", nb, d=S(DV), a=S(a["WT"]), b=S(a["dth"])),
-           I("ADD", nb, d=S(DV), a=S(DV), b=S(a["TT"]), note="dlu"),
-           I("MUL", nb, d=S(a["t2"]), a=S(a["WT"] + nb), b=S(a["dth"])),
-           I("SUB", nb, d=S(DV + nb), a=S(a["TT"] + nb), b=S(a["t2"]), note="dll"),
-           I("SUB", nb, d=S(DV + 2 * nb), a=S(a["RG"]), b=S(a["dth"]), note="dsu"),
-           I("ADD", nb, d=S(DV + 3 * nb), a=S(a["RG"] + nb), b=S(a["dth"]), note="dsl"),
-           I("DIV", nb4, d=S(a["t1"]), a=S(V), b=S(DV)),
-           I("SELNEG", nb4, d=S(a["t1"]), a=S(a["t1"]), b=S(DV)),
-           I("MINRED", nb4, d=S(a["amin"]), a=S(a["t1"])),
-           I("MIN", 1, d=S(a["amax"]), a=C(c["one"]), b=S(a["amin"])),
-           I("MUL", 1, d=S(a["alpha"]), a=C(c["tau"]), b=S(a["amax"]), note="line search (line 6)"),
-           I("MUL", N, d=S(a["t4"]), a=S(a["alpha"], "scalar"), b=S(a["dz"])),
-           I("ADD", N, d=S(a["z"]), a=S(a["z"]), b=S(a["t4"])),
-           I("MUL", nb4, d=S(a["t1"]), a=S(a["alpha"], "scalar"), b=S(DV)),
-           I("ADD", nb4, d=S(V), a=S(V), b=S(a["t1"]), note="line 7")]
+    upd = [I("IN", N, d=S(a["dz"]), note="x")]
+    if precondition:
+        upd += [I("MUL", N, d=S(a["dz"]), a=S(a["d"]), b=S(a["dz"]), note="dz = d x")]
+    upd += [I("MUL", nb2, d=S(a["t"]), a=S(a["WT"]), b=dth, note="(wu dth, wl dth)"),
+            I("ADD", nb, d=S(DV), a=S(a["t"]), b=S(a["TT"]), note="dlu = wu dth + tu"),
+            I("SUB", nb2, d=S(DV + nb), a=S(a["TT"] + nb), b=S(D, "gather", T_QA),
+              note="(dll, dsu) = (tl, rGu) - (wl dth, dth)"),
+            I("ADD", nb, d=S(DV + 3 * nb), a=S(a["RG"] + nb), b=dth, note="dsl = rGl + dth"),
+            I("DIV", nb4, d=S(a["A"]), a=S(DV), b=S(V), note="dv / v"),
+            I("MINRED", nb4, d=S(a["rmin"]), a=S(a["A"])),
+            I("MIN", 1, d=S(a["rmin1"]), a=S(a["rmin"]), b=C(c["mone"])),
+            I("DIV", 1, d=S(a["alpha"]), a=C(c["ntau"]), b=S(a["rmin1"]),
+              note="line search (line 6): alpha = tau min(1, min over dv < 0 of -v/dv)"),
+            I("MUL", N + nb4, d=S(a["dz"]), a=S(a["alpha"], "scalar"), b=S(a["dz"])),
+            I("ADD", N + nb4, d=S(a["z"]), a=S(a["z"]), b=S(a["dz"]), note="line 7: (z, V) += alpha (dz, DV)")]
 
-    out = [I("MAX", m, d=S(a["u"]), a=S(a["z"], "gather", T_U0), b=S(a["lo"])),
+    out = [I("MAX", m, d=S(a["u"]), a=S(a["z"] + L.u(0)), b=S(a["lo"])),
            I("MIN", m, d=S(a["u"]), a=S(a["u"]), b=S(a["hi"])),
            I("ADD", m, d=S(a["u"]), a=S(a["u"]), b=S(a["ss"] + n), note="u0 = clamp(du0) + u_s"),
-           I("OUT", m, a=S(a["u"])), I("OUT", 1, a=S(a["mu"]))]
+           I("MUL", 1, d=S(a["mu"]), a=S(a["acc"]), b=C(c["inv_ineq"]), note="mu (7) of the last linearise"),
+           I("OUT", m + 1, a=S(a["u"]), note="u0, mu")]
 
-    return Stage1(a, c, cw, tables, sa.size, {"sample": sample, "cold": cold, "warm": warm, "linearise": lin, "update": upd,
-                                              "output": out})
+    return Stage1(a, c, cw, tables, sa.size, {"sample": sample, "cold": cold, "warm": warm, "linearise": lin,
+                                              "update": upd, "output": out})
