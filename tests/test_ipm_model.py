@@ -249,13 +249,14 @@ def test_stage1_persistent_words_and_boxed_work(masses, precondition):
         xs, _ = model.minres(diag, d, bh, frames[0][npr + 2 * N:])
         for mach in (M, fresh):
             mach.inq.extend(xs.tolist())
+            mach.run(st.programs["receive"], 0)
             mach.run(st.programs["update"], 0)
         assert words(M.mem[0][z: V + 4 * nb]) == words(fresh.mem[0][z: V + 4 * nb])
     for mach in (M, fresh):
         mach.run(st.programs["output"], 0)
     assert words(M.take()) == words(fresh.take())
     # the per-iteration work off the boxed subset: the stream and the step of z only
-    big = [i for k in ("linearise", "update") for i in st.programs[k] if i.n > 4 * nb]
+    big = [i for k in ("linearise", "receive", "update") for i in st.programs[k] if i.n > 4 * nb]
     assert sorted(i.n for i in big if i.op == "OUT") == sorted([npr + 2 * N, N])
     assert [i.n for i in big if i.op == "IN"] == [N]
     rest = [(i.op, i.n) for i in big if i.op not in ("IN", "OUT")]

@@ -76,6 +76,7 @@ class IpmCoreModel:
             r_, res = self.mr.solve_warm(*(o.to_float(v) for v in (diag, d, bh, z0)), self.i_mr)
             bad = bad or r_.flag
             M.inq.extend(np.atleast_1d(o.from_words(r_.words)).tolist())
+            self._run("receive", slot)
             self._run("update", slot)
         self._run("output", slot)
         out = M.take()

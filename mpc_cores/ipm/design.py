@@ -116,5 +116,5 @@ def hiding_imr(d: IpmDesign) -> int:
     """The smallest I_MR with (I_MR + 1) N >= linearise + update: MINRES's time per problem (slots of N cycles when
     P is at least eq. (15)) covers Stage 1's."""
     c = stage1_cycles(d)
-    per_problem = c["linearise"] + c["update"]
+    per_problem = c["linearise"] + c["receive"] + c["update"]
     return max(1, -(-per_problem // d.md.layout.N) - 1)

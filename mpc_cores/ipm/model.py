@@ -105,6 +105,7 @@ class IpmModel:
             diag, d, bh, z0 = out[:npr], out[npr:npr + N], out[npr + N:npr + 2 * N], out[npr + 2 * N:]
             xs, res = self.minres(diag, d, bh, z0)
             M.inq.extend(xs.tolist())
+            M.run(P["receive"], slot)
             M.run(P["update"], slot)
             status.residual = res
         M.run(P["output"], slot)

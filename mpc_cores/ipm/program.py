@@ -9,10 +9,12 @@ th - lo) = h - G th, RG = (rGu, rGl), WT = (wu, wl), TT = (tu, tl). Programs:
   warm       the warm start: the previous iterate unshifted (001), (lambda, s) raised to a floor
   linearise  (6c-d), (7), W_k, the variable column, bt, the preconditioner d and bh = d bt on the boxed rows; OUT
              the MINRES frame (variable column, d, bh, z)
-  update     IN the MINRES solution x; dz = d x; lines 4-7 of Algorithm 1 (direction, line search, step)
+  receive    IN the MINRES solution x (a program of its own: the core takes a whole batch's solutions from MINRES
+             before it updates, so that MINRES can start its next batch)
+  update     dz = d x; lines 4-7 of Algorithm 1 (direction, line search, step)
   output     u0 = clamp(z_u0, lo, hi) + u_s, mu of the last linearise; OUT
 A sample runs: sample, cold (the first sample of a slot, or on request) or warm, then I_NW times (linearise, MINRES,
-update), then output.
+receive, update), then output.
 
 Persistent words. Only the boxed rows of the frame change between Newton iterations: the variable column of the
 free primal rows (H_ii), d of every row but the boxed ones (1/sqrt(max(off_i, H_ii)) and 1/sqrt(off_i) on the
@@ -215,7 +217,8 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
                   note="bh = d bt")]
     lin += [I("OUT", npr + 2 * N, a=S(a["diag"]), note="variable column, d, bh"), I("OUT", N, a=S(a["z"]))]
 
-    upd = [I("IN", N, d=S(a["dz"]), note="x")]
+    receive = [I("IN", N, d=S(a["dz"]), note="x")]
+    upd = []
     if precondition:
         upd += [I("MUL", N, d=S(a["dz"]), a=S(a["d"]), b=S(a["dz"]), note="dz = d x")]
     upd += [I("MUL", nb2, d=S(a["t"]), a=S(a["WT"]), b=dth, note="(wu dth, wl dth)"),
@@ -238,4 +241,4 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
            I("OUT", m + 1, a=S(a["u"]), note="u0, mu")]
 
     return Stage1(a, c, cw, tables, sa.size, {"sample": sample, "cold": cold, "warm": warm, "linearise": lin,
-                                              "update": upd, "output": out})
+                                              "receive": receive, "update": upd, "output": out})

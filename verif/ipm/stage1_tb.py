@@ -284,7 +284,8 @@ async def ipm_programs(dut):
                 out = to_f32(await run("linearise", s))
                 diag, d, bh, z0 = out[:npr], out[npr:npr + N], out[npr + N:npr + 2 * N], out[npr + 2 * N:]
                 xs, _ = model.minres(diag, d, bh, z0)
-                await run("update", s, words(xs))
+                await run("receive", s, words(xs))
+                await run("update", s)
         for s in range(tb.slots):
             u_mu = to_f32(await run("output", s))
             assert np.all(np.isfinite(u_mu)) and u_mu[-1] > 0, f"sample {sample}, slot {s}: u0, mu = {u_mu}"

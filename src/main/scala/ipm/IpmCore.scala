@@ -22,7 +22,8 @@ import shell.SolverRegs
   * Sequencer. A group forms from the frames at the head of the input for its channels (up to P, in arrival
   * order) while the group is idle: per problem Stage 1 runs sample, cold or warm, and linearise, whose words go
   * to MINRES as a frame (id c, diag, d, bh, z); a partial batch is closed at once. When MINRES has a group's
-  * batch, Stage 1 takes its answers in batch order: per problem update (IN x), then linearise again, or after
+  * batch, Stage 1 takes its solutions in batch order, all of them first (receive: IN x per problem, so that
+  * MINRES's output ends and its next batch can start), then per problem update, and linearise again, or after
   * I_NW Newton iterations output, whose words become the answer frame. Stage 1 gives priority to forming the
   * idle group when its frames are waiting and MINRES holds only the other group, otherwise to the oldest batch.
   */
@@ -85,7 +86,8 @@ class IpmCore(val p: IpmParams) extends Module {
   private val headG     = if (P == 1) headCh(0) else (headCh >= P.U).asUInt
 
   // ---- sequencer
-  val sIdle :: sTakeId :: sSample :: sStart :: sLin :: sLinDrain :: sUpd :: sOut :: sOutDrain :: Nil = Enum(9)
+  val sIdle :: sTakeId :: sSample :: sStart :: sLin :: sLinDrain :: sRecv :: sRecvWait :: sUpd :: sOut :: sOutDrain :: Nil =
+    Enum(11)
   val state   = RegInit(sIdle)
   val curG    = Reg(UInt(1.W))
   val curC    = Reg(UInt(cw.W))
@@ -132,7 +134,7 @@ class IpmCore(val p: IpmParams) extends Module {
     k       := 0.U
     curC    := gOrd(g)(0)
     inExt   := false.B
-    state   := sUpd
+    state   := sRecv
   }
   private def pushBatch(g: UInt): Unit = {
     when(gCnt(g) =/= P.U) { close := true.B }
@@ -194,6 +196,25 @@ class IpmCore(val p: IpmParams) extends Module {
           when(more) {
             next(); state := sUpd
           }.otherwise { pushBatch(curG) }
+        }
+      }
+    }
+    is(sRecv) { // the batch's solutions, all before any update: MINRES is free for its next batch sooner
+      when(!st1.busy) {
+        run("receive", curC)
+        state := sRecvWait
+      }
+    }
+    is(sRecvWait) {
+      when(st1.done) {
+        when(more) {
+          run("receive", gOrd(curG)(k + 1.U))
+          next()
+        }.otherwise {
+          run("update", gOrd(curG)(0))
+          k     := 0.U
+          curC  := gOrd(curG)(0)
+          state := sOut
         }
       }
     }

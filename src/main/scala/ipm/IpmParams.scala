@@ -45,8 +45,8 @@ case class IpmParams(
     st1.programs(prog(name))._2.map(decode).filter(_.op == op).map(_.n).sum
   // the stream protocol of the programs (mpc_cores/ipm/program.py)
   private val protocol = Seq(("sample", IN, n + ny), ("sample", OUT, 0), ("cold", IN, 0), ("cold", OUT, 0),
-    ("warm", IN, 0), ("warm", OUT, 0), ("linearise", IN, 0), ("linearise", OUT, npr + 3 * N), ("update", IN, N),
-    ("update", OUT, 0), ("output", IN, 0), ("output", OUT, m + 1))
+    ("warm", IN, 0), ("warm", OUT, 0), ("linearise", IN, 0), ("linearise", OUT, npr + 3 * N), ("receive", IN, N),
+    ("receive", OUT, 0), ("update", IN, 0), ("update", OUT, 0), ("output", IN, 0), ("output", OUT, m + 1))
   for ((pr, op, w) <- protocol) require(words(pr, op) == w,
     s"program $pr must ${ops(op)} $w words (the core's stream protocol): got ${words(pr, op)}")
 
