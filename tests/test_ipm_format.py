@@ -264,8 +264,10 @@ def test_e8m17_in_out_and_config():
 # ---- (c) closed loop in e8m17
 # Measured with mpc_cores.ipm.study.format_study (masses, 60 steps, I_NW = 8, preconditioner): the relative cost
 # in e8m17 is 1.92e-3 at I_MR = 8, 1.04e-3 at 9, 2.97e-4 at 10, -6.5e-7 at 12, -7.3e-6 at 16, 2.4e-7 at 20 (binary32:
-# 1.92e-3, 1.04e-3, 2.97e-4, -1.3e-6, -7.2e-6, 7.6e-7); the smallest I_MR within 0.1 % is 10, taken with a margin
-# of two iterations.
+# 1.92e-3, 1.04e-3, 2.97e-4, -1.3e-6, -7.2e-6, 7.6e-7; e8m15 within 1e-5 of e8m17 at each); the smallest I_MR
+# within 0.1 % is 10, taken with a margin of two iterations. With the programs of 8c19d09 (fused, boxed-only work):
+# 1.039e-3 at 9 and 2.975e-4 at 10 in e8m17, the boundary unchanged. binary16 fails (w = l/s overflows 65504 in the
+# eighth Newton iteration: non-finite u0).
 IMR_E8M17 = 12
 
 
