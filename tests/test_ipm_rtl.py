@@ -11,6 +11,7 @@ import pytest
 from conftest import random_problem
 from mpc_cores.flow import REPO, generate
 from mpc_cores.ipm.design import design_ipm
+from mpc_cores.ipm.timing import simulate
 from mpc_cores.sim import run_cocotb
 
 BUILD = REPO / "build" / "tests" / "ipm"
@@ -45,3 +46,11 @@ def test_rtl_matches_golden_model(cid, ipm_cores):
     assert failed == 0, f"{failed} of {tests} scenarios failed: see {out / 'sim' / 'sim.log'}"
     rec = [json.loads(ln) for ln in measure.read_text().splitlines()]
     assert next(r for r in rec if r["test"] == "bitexact_inflight")["answers"] > 0
+    # the cycle contract: every answer's latency (id word to status word) equals the cycle model's, for 2P
+    # problems sent back to back from cold starts and again warm
+    lat = next(r for r in rec if r["test"] == "latency")["rounds"]
+    order = list(range(2 * core["P"]))
+    for rnd, warm in (("0", set()), ("1", set(order))):
+        want = {str(c): v["latency"] for c, v in simulate(core, order, warm=warm).items()}
+        assert lat[rnd]["latency"] == want, (rnd, lat[rnd]["latency"], want)
+    assert max(lat["1"]["latency"].values()) == core["latency_cycles"]

@@ -1,14 +1,115 @@
-"""Cycle model of the interior-point core (placeholder until calibrated against Verilator)."""
+"""Cycle model of the interior-point core: the sequencer of ipm.IpmCore step by step, with the Stage 1 programs'
+cycles (mpc_cores.ipm.isa.cycles) and the MINRES batch's ((I_MR + 1) P S + c, the MINRES core's contract), for
+frames waiting at the input in a given channel order. It gives each answer's latency as the core counts it
+(LAST_CYCLES: from the id word's handshake to the status word's), which the testbench compares cycle for cycle.
+
+The hand-offs, in cycles (IpmCore, MinresCore):
+  a program started on the cycle its predecessor is done runs back to back (sample, cold/warm, linearise;
+  receive, receive, ..., update, linearise or output);
+  the last word of a MINRES frame is taken one cycle after linearise is done; the sequencer sees the frame sent
+  one cycle later, and acts on the next (another frame of the forming group: its id word on the cycle after;
+  the next problem's update likewise); else it closes the batch and decides in its idle state a cycle later;
+  MINRES starts a full batch the cycle after its last word (a closed partial batch one cycle later) or the cycle
+  after its previous batch's last answer word, and streams its answers (batch cycles) + 1 cycles later;
+  a receive waiting for MINRES is done N + 3 cycles after MINRES starts streaming (its k-th problem N + 2 cycles
+  later each), else after its own cycles; MINRES is free the cycle after the last receive is done;
+  an answer's status word leaves 3 cycles after output is done; the sequencer acts 2 cycles later (the next
+  problem's update) or decides in its idle state 2 cycles later.
+The model assumes Stage 1 is in its receive when MINRES starts streaming (Stage 1 hidden, see `hidden`) or late
+enough that MINRES waits; the testbench checks both regimes against the RTL.
+"""
 from __future__ import annotations
 
 
+
+def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | None = None,
+             i_mr: int | None = None) -> dict:
+    """Frames for the channels in `order` (distinct, 2P at most) wait at the input from cycle 0. Returns
+    {"take": id word handshake cycle, "answer": status word cycle, "latency": their difference} per channel."""
+    P, N = core["P"], core["N"]
+    C = core["stage1_cycles"]
+    i_nw = i_nw or core["i_nw"]
+    i_mr = i_mr or core["iterations"]
+    batch = core["minres_batch_cycles_imax0"] + i_mr * core["cycles_per_iteration"]
+    warm = warm or set()
+    queue = list(order)
+    chans: list[list[int]] = [[], []]    # per group its channels in batch order (empty: idle)
+    solves = [0, 0]
+    fifo: list[tuple[int, int]] = []     # (group, cycle its batch is complete in MINRES), oldest first
+    mr_free = 0                          # first cycle MINRES may start its next batch
+    take, answer = {}, {}
+
+    def close(g: int, f: int) -> int:
+        """the batch's last word taken on cycle f: queued in MINRES; the sequencer decides 2 cycles later"""
+        fifo.append((g, f + 1 if len(chans[g]) == P else f + 2))
+        return f + 2
+
+    t = 0                                # the cycle of the sequencer's next decision (idle state)
+    while queue or fifo:
+        head_g = queue[0] // P if queue else None
+        form = head_g is not None and not chans[head_g] and (not fifo or (len(fifo) == 1 and head_g != fifo[0][0]))
+        if form:
+            g, s = head_g, t + 1
+            while True:
+                c = queue.pop(0)
+                take[c] = s
+                chans[g].append(c)
+                f = s + C["sample"] + C["warm" if c in warm else "cold"] + C["linearise"] + 1
+                if queue and queue[0] // P == g and len(chans[g]) < P:
+                    s = f + 2            # the next frame's id word
+                    continue
+                t = close(g, f)
+                break
+            continue
+        assert fifo, "the cycle model has nothing to do"
+        g, full = fifo.pop(0)
+        solves[g] += 1
+        o = max(full, mr_free) + 1 + batch     # MINRES streams the answers
+        done = t + 1
+        for k in range(len(chans[g])):
+            done = max(done + C["receive"], o + N + 3 + k * (N + 2))
+        mr_free = done + 1
+        for k, c in enumerate(chans[g]):
+            last = k == len(chans[g]) - 1
+            end = done + C["update"]
+            if solves[g] < i_nw:
+                f = end + C["linearise"] + 1
+                if last:
+                    t = close(g, f)
+                else:
+                    done = f + 2         # the next problem's update
+            else:
+                answer[c] = end + C["output"] + 3
+                if last:
+                    t = answer[c] + 2
+                else:
+                    done = answer[c] + 2
+        if solves[g] == i_nw:
+            chans[g], solves[g] = [], 0
+    return {c: {"take": take[c], "answer": answer[c], "latency": answer[c] - take[c]} for c in order}
+
+
 def timing(c: dict) -> dict:
+    """core.json's cycle facts: Stage 1 per problem against MINRES per problem, the latency of 2P problems sent
+    back to back (cold and warm), and eq. (18) of 001."""
     st1 = c["stage1_cycles"]
-    per_problem_st1 = st1["linearise"] + st1["update"]
-    P, N, imr, inw = c["P"], c["N"], c["iterations"], c["i_nw"]
-    minres_per_problem = (imr + 1) * c["slot_cycles"]
+    P, N, imr, inw, S = c["P"], c["N"], c["iterations"], c["i_nw"], c["slot_cycles"]
+    per_problem_st1 = st1["linearise"] + st1["receive"] + st1["update"]
+    minres_per_problem = (imr + 1) * S
     hidden = per_problem_st1 <= minres_per_problem
-    return {"stage1_hidden": hidden,
-            "stage1_note": "" if hidden else f"linearise + update = {per_problem_st1} cycles per problem > "
-                                             f"(I_MR + 1) S = {minres_per_problem}",
-            "latency_formula": f"2 I_NW (P N + P) I_MR = {2 * inw * (P * N + P) * imr} cycles (eq. (18) of 001)"}
+    order = list(range(2 * P))
+    cold = simulate(c, order)
+    warm = simulate(c, order, warm=set(order))
+    eq18 = 2 * inw * (P * N + P) * imr
+    return {
+        "stage1_hidden": hidden,
+        "stage1_note": "" if hidden else (f"linearise + receive + update = {per_problem_st1} cycles per problem > "
+                                          f"(I_MR + 1) S = {minres_per_problem}: Stage 1 sets the pace"),
+        "latency_cycles_cold": max(v["latency"] for v in cold.values()),
+        "latency_cycles": max(v["latency"] for v in warm.values()),
+        "latency_per_channel": [warm[ch]["latency"] for ch in order],
+        "cycles_per_solve": simulate(c, [0], warm={0})[0]["latency"],
+        "eq18_cycles": eq18,
+        "latency_formula": (f"2P problems back to back, warm: {max(v['latency'] for v in warm.values())} cycles "
+                            f"(mpc_cores.ipm.timing.simulate); eq. (18) of 001, 2 I_NW (P N + P) I_MR = {eq18}"),
+    }

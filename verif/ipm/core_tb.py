@@ -136,14 +136,61 @@ async def latency(dut):
             await RisingEdge(dut.clock)
             now[0] += 1
     cocotb.start_soon(count())
+    trace = []
+    if os.environ.get("CORE_TRACE"):
+        cocotb.start_soon(_trace(dut, now, trace))
+    took, answered = {}, {}
+    cocotb.start_soon(_handshakes(dut, now, tb.core["in_words"], took, answered))
     rec = {}
     for rnd in range(2):
         jobs = [(ch, 100 * rnd + ch, tb.words(*tb.state())) for ch in range(tb.C)]
         t0 = now[0]
         await tb.round(jobs, f"latency {rnd}")
-        rec[rnd] = {"all_done": now[0] - t0}
+        rec[rnd] = {"all_done": now[0] - t0,
+                    "latency": {ch: answered[t] - took[t] for ch, t, _ in jobs}}
         rec[rnd]["last_cycles"], _ = await tb.read(tb.rm["LAST_CYCLES"])
-    _measure({"test": "latency", "rounds": rec})
+        last = max((answered[t], ch) for ch, t, _ in jobs)[1]
+        assert rec[rnd]["last_cycles"] == rec[rnd]["latency"][last], "LAST_CYCLES is not the last answer's latency"
+    _measure({"test": "latency", "rounds": rec, **({"trace": trace} if trace else {})})
+
+
+async def _handshakes(dut, now, in_words: int, took: dict, answered: dict):
+    """the cycle of each frame's id word handshake and of each answer's status word, by tag"""
+    i, tag = 0, None
+    while True:
+        await RisingEdge(dut.clock)
+        if dut.s_axis_tvalid.value and dut.s_axis_tready.value:
+            if i == 0:
+                took[int(dut.s_axis_tdata.value) & 0xFFFFFF] = now[0]
+            i = (i + 1) % in_words
+        if dut.m_axis_tvalid.value and dut.m_axis_tready.value:
+            if tag is None:
+                tag = int(dut.m_axis_tdata.value) & 0xFFFFFF
+            if dut.m_axis_tlast.value:
+                answered[tag] = now[0]
+                tag = None
+
+
+async def _trace(dut, now, trace):
+    """events of the two stages, by cycle: Stage 1 starts (program, slot) and dones, MINRES frames in (last word),
+    MINRES state changes (0 idle, 1 run, 2 output), answers (status word)"""
+    prev = None
+    while True:
+        await RisingEdge(dut.clock)
+        t = now[0]
+        st1, mr = dut.st1, dut.mr
+        if st1.start.value and (not st1.busy.value or st1.done.value):
+            trace.append((t, "start", int(st1.prog.value), int(st1.slot.value)))
+        if st1.done.value:
+            trace.append((t, "done"))
+        if mr.s_axis_tvalid.value and mr.s_axis_tready.value and mr.s_axis_tlast.value:
+            trace.append((t, "mr_in_last"))
+        st = int(mr.state.value)
+        if st != prev:
+            trace.append((t, "mr_state", st))
+            prev = st
+        if dut.m_axis_tvalid.value and dut.m_axis_tready.value and dut.m_axis_tlast.value:
+            trace.append((t, "answer"))
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
