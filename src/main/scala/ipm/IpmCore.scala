@@ -73,7 +73,8 @@ class IpmCore(val p: IpmParams) extends Module {
   val gIter   = Reg(Vec(2, UInt(16.W)))
   val gInw    = Reg(Vec(2, UInt(16.W)))
   val gCnt    = Reg(Vec(2, UInt(log2Ceil(P + 1).W)))      // problems in the group
-  val gOrd    = Reg(Vec(2, Vec(P, UInt(cw.W))))           // their channels in MINRES batch order
+  val gOrd    = Reg(Vec(2 * P, UInt(cw.W)))               // their channels in MINRES batch order: group g at g P
+  private def ord(g: UInt, i: UInt): UInt = gOrd(g * P.U +& i)
   // the groups whose batches MINRES holds, oldest first
   val fifoN   = RegInit(0.U(2.W))
   val fifoG   = Reg(Vec(2, UInt(1.W)))
@@ -118,7 +119,7 @@ class IpmCore(val p: IpmParams) extends Module {
   private val more    = k + 1.U < gCnt(curG)
   private def next(): Unit = {
     k    := k + 1.U
-    curC := gOrd(curG)(k + 1.U)
+    curC := ord(curG, k + 1.U)
   }
   private def form(g: UInt): Unit = {
     state := sTakeId; curG := g; forming := true.B
@@ -132,7 +133,7 @@ class IpmCore(val p: IpmParams) extends Module {
     fifoN   := fifoN - 1.U
     fifoG(0) := fifoG(1)
     k       := 0.U
-    curC    := gOrd(g)(0)
+    curC    := ord(g, 0.U)
     inExt   := false.B
     state   := sRecv
   }
@@ -163,7 +164,7 @@ class IpmCore(val p: IpmParams) extends Module {
         t0C(headCh)   := now
         when(headChRaw >= slots.U) { chanErr := true.B }
         k := gCnt(curG)
-        gOrd(curG)(gCnt(curG)) := headCh
+        gOrd(curG * P.U +& gCnt(curG)) := headCh
         gCnt(curG) := gCnt(curG) + 1.U
         inExt := true.B
         run("sample", headCh)
@@ -208,12 +209,12 @@ class IpmCore(val p: IpmParams) extends Module {
     is(sRecvWait) {
       when(st1.done) {
         when(more) {
-          run("receive", gOrd(curG)(k + 1.U))
+          run("receive", ord(curG, k + 1.U))
           next()
         }.otherwise {
-          run("update", gOrd(curG)(0))
+          run("update", ord(curG, 0.U))
           k     := 0.U
-          curC  := gOrd(curG)(0)
+          curC  := ord(curG, 0.U)
           state := sOut
         }
       }
