@@ -15,7 +15,7 @@ from mpc_cores.ipm.timing import simulate
 from mpc_cores.sim import run_cocotb
 
 BUILD = REPO / "build" / "tests" / "ipm"
-SCENARIOS = 4  # cocotb tests in verif/ipm/core_tb.py
+SCENARIOS = 4  # cocotb tests in verif/ipm/tb.py
 
 HARD = {"hard_states": {"indices": [0], "min": -1.0, "max": 1.0}}
 # id -> (problem factory, design overrides, rounds)
@@ -39,7 +39,7 @@ def test_rtl_matches_golden_model(cid, ipm_cores):
     out, core = ipm_cores[cid]
     measure = out / "measured.jsonl"
     measure.unlink(missing_ok=True)
-    tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.ipm.core_tb", out / "sim",
+    tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.ipm.tb", out / "sim",
                                {"CORE_OUT": str(out), "CORE_ROUNDS": str(RTL_CASES[cid][2]),
                                 "CORE_MEASURE": str(measure)})
     assert tests == SCENARIOS, f"{tests} cocotb tests ran, expected {SCENARIOS}"

@@ -29,13 +29,16 @@ class Answer:
 
 
 class IpmCoreModel:
-    def __init__(self, cfg: dict, P: int):
+    """The model of the core of config.json `cfg`; P its MINRES batch size (2P channels; None: all 64 channels the
+    id word can name, for a configuration whose P the generator chooses)."""
+
+    def __init__(self, cfg: dict, P: int | None = None):
         self.cfg = cfg
         self.n, self.m, self.ny = cfg["n"], cfg["m"], cfg["ny"]
         self.i_nw = cfg["i_nw"]
         self.i_mr = cfg["minres"]["iterations"]
         self.mu_tol, self.res_tol = cfg["mu_tol"], cfg["res_tol"]
-        self.slots = 2 * P
+        self.slots = 2 * P if P else 64
         self.machine = stage1_config.machine(dict(cfg["stage1"], slots=self.slots))
         self.progs = stage1_config.programs(cfg["stage1"])
         self.mr = MinresCoreModel.from_config(cfg["minres"])
@@ -45,7 +48,7 @@ class IpmCoreModel:
         self.started = [False] * self.slots
 
     def reset(self) -> None:
-        self.__init__(self.cfg, self.slots // 2)
+        self.__init__(self.cfg, self.slots // 2 if self.slots < 64 else None)
 
     def _run(self, name: str, slot: int) -> None:
         self.machine.run(self.progs[name], slot)
