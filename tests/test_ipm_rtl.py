@@ -34,6 +34,25 @@ def ipm_cores():
     return {cid: (BUILD / cid, c) for cid, c in zip(designs, cores)}
 
 
+def test_masses_core_json(tmp_path_factory):
+    """The issue's example: `make verilog CORE=ipm` on masses writes the SV, the header and core.json with the sizes,
+    2P problems in flight, the storage, the format, the cycles per Newton iteration and the latency formula."""
+    from mpc_cores.problem import load_spec
+
+    out = BUILD / "masses"
+    core = generate("ipm", [(design_ipm(load_spec(REPO / "examples/masses.yaml")), out)])[0]
+    assert (core["N"], core["M"], core["P"], core["problems_in_flight"]) == (216, 20, 3, 6)
+    assert core["format"] == "binary32" and (core["i_nw"], core["iterations"]) == (8, 17)
+    assert core["stage1_hidden"], "Stage 1 must hide behind MINRES at the default I_MR"
+    assert set(core["storage_words"]) == {"minres", "stage1_slots", "stage1_const"}
+    # Stage 1 hidden: a Newton iteration of both groups is two MINRES batches and their answers' streams
+    batch = core["minres_batch_cycles_imax0"] + core["iterations"] * core["cycles_per_iteration"]
+    assert core["cycles_per_newton_iteration"] == 2 * (batch + core["P"] * (core["N"] + 2) + 3)
+    assert core["eq18_cycles"] == 2 * 8 * (3 * 216 + 3) * 17 and "eq. (18)" in core["latency_formula"]
+    for f in (core["sv"], core["header"]):
+        assert (out / f).exists()
+
+
 @pytest.mark.parametrize("cid", list(RTL_CASES))
 def test_rtl_matches_golden_model(cid, ipm_cores):
     out, core = ipm_cores[cid]

@@ -101,6 +101,8 @@ def timing(c: dict) -> dict:
     cold = simulate(c, order)
     warm = simulate(c, order, warm=set(order))
     eq18 = 2 * inw * (P * N + P) * imr
+    more = simulate(c, order, warm=set(order), i_nw=inw + 1)
+    per_newton = max(v["latency"] for v in more.values()) - max(v["latency"] for v in warm.values())
     return {
         "stage1_hidden": hidden,
         "stage1_note": "" if hidden else (f"linearise + receive + update = {per_problem_st1} cycles per problem > "
@@ -109,6 +111,7 @@ def timing(c: dict) -> dict:
         "latency_cycles": max(v["latency"] for v in warm.values()),
         "latency_per_channel": [warm[ch]["latency"] for ch in order],
         "cycles_per_solve": simulate(c, [0], warm={0})[0]["latency"],
+        "cycles_per_newton_iteration": per_newton,
         "eq18_cycles": eq18,
         "latency_formula": (f"2P problems back to back, warm: {max(v['latency'] for v in warm.values())} cycles "
                             f"(mpc_cores.ipm.timing.simulate); eq. (18) of 001, 2 I_NW (P N + P) I_MR = {eq18}"),
