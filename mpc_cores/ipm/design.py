@@ -89,8 +89,6 @@ def design_ipm(problem, P: int | None = None, iterations: int | None = None, new
     if len(s.bounded) == 0:
         raise DesignError("the interior-point core needs at least one boxed variable: got no input or state box")
     fmt = format if format not in (None, "") else solver.get("ipm_format", "binary32")
-    if str(fmt).lower() != "binary32":
-        raise DesignError(f"ipm format: the Stage 1 golden model runs binary32 only so far: got {fmt}")
     i_nw = int(newton or solver.get("ipm_newton", I_NW))
     if not 1 <= i_nw <= 65535:
         raise DesignError(f"I_NW (newton) must be in [1, 65535]: got {i_nw}")
