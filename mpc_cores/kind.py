@@ -17,6 +17,9 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
   certificate(d)       optional: the guarantees of a design, printed by `make design` after its report
   controllers(d)       optional: the optimal (float64) and golden-model controllers of the closed loop and the
                        reference schedule's holdability, for `make demo` with the RTL (None: no demo)
+  rtl_controller(dut, problem)  optional: async, the closed loop's RTL side inside cocotb (the testbench driver,
+                       reset, and a controller recording `.words` in the golden controller's layout); without it
+                       mpc_cores.closedloop_tb drives a fixed-point core (FGM, ADMM) through mpc_cores.driver.TB
 
 Modules are named by strings and imported on use, so the registry imports no core package and no package
 imports the testbenches or the benchmark.
@@ -55,6 +58,7 @@ class CoreKind:
     tol_fn: str | None = None      # "module:function(kind, spec_path, tol, overrides, out)": `make design TOL=...`
     cycle_test: str = "cycle_contract"  # the testbench's cocotb test that measures the cycle contract
     certificate_fn: str | None = None  # "module:function(design) -> text" printed after the design report
+    rtl_controller_fn: str | None = None  # "module:async function(dut, problem) -> (tb, controller)", tb reset
 
     def __post_init__(self):
         n = self.name
@@ -83,3 +87,6 @@ class CoreKind:
 
     def controllers(self, design):
         return load(self.controllers_fn)(design)
+
+    async def rtl_controller(self, dut, problem):
+        return await load(self.rtl_controller_fn)(dut, problem)

@@ -71,6 +71,10 @@ class AdmmDesign(FixedPointDesign):
     observed: dict = field(default_factory=dict)    # largest words seen in the sizing runs
     estimated: tuple = ESTIMATED
 
+    def label(self) -> str:
+        """the design in a table row (make demo)"""
+        return f"b = {self.b}, Imax = {self.iterations}"
+
     @property
     def N(self) -> int:
         return self.qp.N

@@ -37,6 +37,10 @@ class FgmDesign(FixedPointDesign):
     bounds: dict = field(default_factory=dict)   # integer-word bounds per signal
     prop1: dict = field(default_factory=dict)    # Prop. 1 bounds in real units
 
+    def label(self) -> str:
+        """the design in a table row (make demo)"""
+        return f"b = {self.b}, Imax = {self.iterations}"
+
     @property
     def m(self) -> int:
         return max(self.n, self.nw)

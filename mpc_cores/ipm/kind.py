@@ -10,6 +10,7 @@ KIND = CoreKind(
     overrides=("P", "iterations", "newton", "lat_add", "lat_mul", "format"),
     cycle_test="latency",
     controllers_fn="mpc_cores.ipm.kind:controllers",
+    rtl_controller_fn="mpc_cores.ipm.control:rtl_controller",
 )
 
 
@@ -20,7 +21,8 @@ def golden_model(cfg: dict):
 
 
 def controllers(d):
-    """Closed loop of `make demo CORE=ipm`: OSQP to optimality and the bit-exact model, one channel (0)."""
+    """Closed loop of `make demo CORE=ipm`: OSQP to optimality and the bit-exact model, one channel (0); the RTL
+    side is mpc_cores.ipm.control.rtl_controller (KIND.rtl_controller_fn)."""
     from mpc_cores.closedloop import OsqpController
     from mpc_cores.ipm.control import IpmModelController
 
