@@ -3,21 +3,15 @@ from mpc_cores.kind import CoreKind
 
 KIND = CoreKind(
     name="ipm",
-    title="primal-dual interior-point method (Algorithm 1 of 001): Stage 1 engine and MINRES, binary32, 2P "
-          "problems in flight",
-    model_fn="mpc_cores.ipm.kind:golden_model",
+    title="primal-dual interior-point method (Algorithm 1 of 001): Stage 1 engine and MINRES, binary32 or "
+          "e<E>m<M>, 2P problems in flight",
+    model_fn="mpc_cores.ipm.core_model:IpmCoreModel",
     spec_section=("ipm_P", "ipm_newton", "ipm_minres", "ipm_format", "ipm_mu_tol", "ipm_res_tol"),
     overrides=("P", "iterations", "newton", "lat_add", "lat_mul", "format"),
     cycle_test="latency",
     controllers_fn="mpc_cores.ipm.kind:controllers",
     rtl_controller_fn="mpc_cores.ipm.control:rtl_controller",
 )
-
-
-def golden_model(cfg: dict):
-    """The bit-exact model of a generated core (config.json): the design rebuilt from its problem is not needed;
-    the testbench builds IpmModel from the design (see verif/ipm/tb.py)."""
-    raise NotImplementedError("the interior-point golden model is built from the design: mpc_cores.ipm.model")
 
 
 def controllers(d):
