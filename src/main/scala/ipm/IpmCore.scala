@@ -323,7 +323,10 @@ class IpmCore(val p: IpmParams) extends Module {
     }
   }
 
-  regs.busy := state =/= sIdle || fifoN =/= 0.U || busyC.asUInt.orR || extCnt =/= 0.U
+  // busy: a problem in flight, a frame half taken, or the sequencer between steps (not once the last answer has
+  // left: its drain is bookkeeping)
+  regs.busy := busyC.asUInt.orR || fifoN =/= 0.U || extCnt =/= 0.U ||
+    state =/= sIdle && !(state === sOutDrain && outIdle)
   regs.writes(
     (regs.wA === IpmRegs.INW.U) -> (() => {
       when(regs.wD === 0.U || regs.wD > 65535.U) { regs.axil.wr.resp := bus.AxiLiteResp.SLVERR }
