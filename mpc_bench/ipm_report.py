@@ -170,6 +170,16 @@ def _cycles_part(recs: list[dict]) -> list[str]:
     return L
 
 
+def _fit(c) -> str:
+    """Whether the synthesised core fits the LFE5U-85F (hard blocks, LUT4, FF: mpc_bench.minres.logic_fit)."""
+    from mpc_bench.minres import logic_fit
+
+    if not c.ecp5:
+        return "-"
+    over = logic_fit(c.ecp5)
+    return "fits" if not over else "no: " + "; ".join(over)
+
+
 def _units_part(cores: list, recs: list[dict]) -> list[str]:
     L = ["### Floating-point units (Table I of 001) and resources (Yosys)", ""]
     body = [[r["problem"], str(r["P"]), str(r["M"]),
@@ -189,9 +199,9 @@ def _units_part(cores: list, recs: list[dict]) -> list[str]:
     if syn:
         body = [[c.tag, _n(r.get("ecp5_MULT18X18D")), _n(r.get("ecp5_LUT4")), _n(r.get("ecp5_CCU2C")),
                  _n(r.get("ecp5_FF")), _n(r.get("ecp5_DP16KD")), _n(r.get("ecp5_LUTRAM")),
-                 c.pnr_note or ("fits" if c.pnr else "-"), _n(r.get("xc7_DSP48E1")), _n(r.get("xc7_LUT")),
+                 _fit(c), _f(r["fmax_mhz"], "{:.1f} MHz", c.pnr_note or "-"), _n(r.get("xc7_DSP48E1")), _n(r.get("xc7_LUT")),
                  _n(r.get("xc7_FF")), _f(r.get("xc7_RAMB"), "{:g}")] for c, r in syn]
-        L += _table(["core", "MULT18X18D", "LUT4", "CCU2C", "FF", "DP16KD", "DPR16X4", "LFE5U-85F",
+        L += _table(["core", "MULT18X18D", "LUT4", "CCU2C", "FF", "DP16KD", "DPR16X4", "LFE5U-85F", "nextpnr",
                      "DSP48E1", "LUT", "FF", "RAMB36"], body)
         L += ["", "ECP5: `synth_ecp5`, fit against the LFE5U-85F (hard blocks: mpc_bench.parsers.ecp5_fit; LUT4 and "
               "FF: mpc_bench.minres.logic_fit); xc7: `synth_xilinx -family xc7 -flatten`. Memories as Yosys "
