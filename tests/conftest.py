@@ -123,9 +123,16 @@ def small_cores(cores, admm_cores):
 
     from mpc_cores.minres.design import design_minres
 
+    from mpc_cores.flow import generate
+    from mpc_cores.ipm.design import design_ipm
+
     out = REPO / "build" / "tests" / "minres" / "n2_m1_t3_pauto"
     generate_minres([(design_minres(random_problem("ra", 2, 1, 3, 0, 5), P=0, iterations=8), out)])
-    dirs = {"fgm": cores["rand_n4_p4_b10"], "admm": admm_cores["rand_rate_n19_p5"], "minres": out}
+    # the interior-point one is case n2_m1_t3_p1 of tests/test_ipm_rtl.py
+    ipm = REPO / "build" / "tests" / "ipm" / "n2_m1_t3_p1"
+    hard = {"hard_states": {"indices": [0], "min": -1.0, "max": 1.0}}
+    generate("ipm", [(design_ipm(random_problem("ia", 2, 1, 3, 1, 5, **hard), P=1, iterations=6, newton=3), ipm)])
+    dirs = {"fgm": cores["rand_n4_p4_b10"], "admm": admm_cores["rand_rate_n19_p5"], "minres": out, "ipm": ipm}
     return {k: (d, json.loads((d / "core.json").read_text())) for k, d in dirs.items()}
 
 

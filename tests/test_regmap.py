@@ -17,7 +17,7 @@ import pytest
 from mpc_cores.regmap import Regmap
 from mpc_cores.sim import run_cocotb
 
-KINDS = ("fgm", "admm", "minres")
+KINDS = ("fgm", "admm", "minres", "ipm")
 SCENARIOS = 3  # cocotb tests in verif/regs_tb.py
 SHARED = ("ID", "CONFIG0", "CONFIG1", "CTRL", "IMAX", "STATUS", "SOLVES", "LAST_CYCLES", "CYCLES_PER_ITER")
 
@@ -35,6 +35,11 @@ def admm_core(small_cores):
 @pytest.fixture(scope="session")
 def minres_core(small_cores):
     return small_cores["minres"]
+
+
+@pytest.fixture(scope="session")
+def ipm_core(small_cores):
+    return small_cores["ipm"]
 
 
 @pytest.fixture(params=KINDS)
@@ -73,6 +78,10 @@ def test_rdl_agrees_with_core_json(generated):
     if core["core"] == "minres":
         assert (rm.reset("CONFIG0", "N"), rm.reset("CONFIG1", "T")) == (core["N"], core["T"])
         assert rm.STATUS_BITS["NONFINITE"] == 6 and "WARM_VALID" not in rm.STATUS_BITS
+    elif core["core"] == "ipm":
+        assert (rm.reset("CONFIG0", "N"), rm.reset("CONFIG1", "T")) == (core["N"], core["T"])
+        assert (rm.reset("IMAX", "IMAX"), rm.reset("INW", "INW")) == (core["iterations"], core["i_nw"])
+        assert [rm.STATUS_BITS[k] for k in ("NONFINITE", "NOT_CONVERGED", "CHANNEL")] == [6, 7, 8]
     else:
         assert rm.reset("CONFIG1", "nw") == core["nw"] and rm.reset("CONFIG1", "frac_bits") == core["frac_bits"]
         assert rm.reset("IMAX", "IMAX") == core["iterations"]
