@@ -29,6 +29,7 @@ def core_json(d, hw: dict) -> dict:
     c["storage_words"] = {"minres": mr["storage_words"] + mr["storage_warm"],
                           "stage1_slots": st1["slot_words"] * st1["slots"], "stage1_const": st1["const_words"]}
     c.update(timing(c))
+    c["reference_clocks_mhz"] = [150]  # 001's Virtex-6 clock
     return c
 
 
