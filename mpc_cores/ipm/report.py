@@ -42,6 +42,7 @@ def design_report(d, core: dict | None = None) -> str:
                   f"Stage 1 cycles per problem: " + ", ".join(f"{k} {v}" for k, v in core["stage1_cycles"].items()),
                   f"MINRES: {core['cycles_per_iteration']} cycles per iteration of P problems, batch "
                   f"{core['minres_batch_cycles_formula']}",
+                  f"cycles per Newton iteration (2P in flight): {core['cycles_per_newton_iteration']}",
                   f"latency: {core['latency_formula']}",
                   f"Stage 1 hidden behind MINRES: {'yes' if core['stage1_hidden'] else 'no: ' + core['stage1_note']}"]
     return "\n".join(lines)
