@@ -59,7 +59,7 @@ class IpmTB(AxiDriver):
         checks each against the model; returns tag -> answer."""
         exp = {}
         for ch, t, data in jobs:
-            exp[t] = self.model.solve(ch, None, x_words=data, warm=self.warm)
+            exp[t] = self.model.solve(ch % self.C, None, x_words=data, warm=self.warm)  # the channel modulo 2P
         sends = cocotb.start_soon(self._send_all(jobs))
         got = {}
         for _ in jobs:
@@ -196,7 +196,7 @@ async def _trace(dut, now, trace):
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
 async def nonfinite_hold_reset(dut):
     """NaN and Inf in x: those answers flagged (status bit 0, STATUS.NONFINITE), the others exact, the flagged
-    channel's next sample cold and exact; HOLD keeps a frame waiting until released; a reset in the middle of a
+    channel's next sample cold and exact; a channel field beyond 2P taken modulo 2P and flagged; HOLD keeps a frame waiting until released; a reset in the middle of a
     batch loses nothing after it (the core answers the next samples exactly, from cold starts)."""
     tb = IpmTB(dut, seed=7)
     await tb.reset()
@@ -215,6 +215,10 @@ async def nonfinite_hold_reset(dut):
     assert await tb.write(tb.rm["STATUS"], 1 << tb.rm.STATUS_BITS["NONFINITE"]) == AxiResp.OKAY
     assert not (await tb.status())["NONFINITE"]
     await tb.round([(0, 50, tb.words(*tb.state())), (1, 51, tb.words(*tb.state()))], "after nonfinite")
+    # a channel field beyond 2P: taken modulo 2P (the answer echoes the field), STATUS.CHANNEL set
+    await tb.round([(tb.C + 1, 55, tb.words(*tb.state()))], "channel beyond 2P")
+    st = await tb.status()
+    assert st["CHANNEL"], "CHANNEL not set"
     # HOLD: a frame waits
     await tb.set_ctrl(hold=True)
     frame = (0, 60, tb.words(*tb.state()))
