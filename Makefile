@@ -49,7 +49,7 @@ test: setup
 test-slow: setup
 	$(PY) -m pytest tests -q -s -m slow $(PYTEST_ARGS)
 
-## demo: generate CORE (fgm, admm) for PROBLEM and run it in a closed loop with the Verilator model (OUT: build/demo)
+## demo: generate CORE (fgm, admm, ipm) for PROBLEM and run it in a closed loop with the Verilator model (OUT: build/demo)
 demo: setup
 	$(MPC) demo --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT))
 
