@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import re
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,7 +37,7 @@ from mpc_bench.ipm_report import ipm_rows, ipm_section, summary_table
 from mpc_bench.minres import MASSES, SMALL, small_problem, synth_ecp5
 from mpc_bench.minres_report import float_units
 from mpc_bench.qp import QpSection
-from mpc_bench.report import machine, write_csv
+from mpc_bench.report import write_alone
 from mpc_bench.tools import Job, Log, ToolResults, is_cached, run_cycle_test, synth_xc7
 from mpc_cores.flow import REPO
 
@@ -293,19 +292,7 @@ def main(argv=None) -> None:
     run = section.Run(a, out, log, {"errors": [], "sw_seconds": {}})
     sec = Section(run)
     section.run_sections([sec], run)
-    out.mkdir(parents=True, exist_ok=True)
-    write_csv(out / "ipm.csv", sec.rows)
-    m = machine()
-    head = ["# Benchmark of the interior-point core", "",
-            f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} · {m['cpu']}, {m['cores']} cores "
-            f"({m['logical']} logical CPUs) · {m['system']} · Python {m['python']} · "
-            f"{'QUICK' if a.quick else 'full'} run", ""]
-    (out / "ipm_report.md").write_text("\n".join(head + sec.appendix_md()) + "\n")
-    print("\n" + "\n".join(sec.console_summary()))
-    log(f"wrote {out / 'ipm.csv'} and {out / 'ipm_report.md'}")
-    if sec.errors:
-        print("\nfailed steps:\n  " + "\n  ".join(sec.errors))
-        raise SystemExit(1)
+    write_alone(sec, out, "ipm", "interior-point core", a.quick, log)
 
 
 if __name__ == "__main__":

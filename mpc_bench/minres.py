@@ -38,7 +38,7 @@ from mpc_bench import section
 from mpc_bench.baselines_minres import make_systems, merge_times, model_accuracy, time_software
 from mpc_bench.minres_report import float_units, minres_rows, minres_section, summary_table
 from mpc_bench.parsers import ECP5_85F, ecp5_fit, ecp5_resources
-from mpc_bench.report import machine, write_csv
+from mpc_bench.report import write_alone
 from mpc_bench.tools import Job, Log, ToolResults, run_cycle_test, run_yosys, synth_ecp5_and_pnr, synth_xc7
 from mpc_cores.flow import REPO
 
@@ -310,19 +310,7 @@ def main(argv=None) -> None:
     sec.options(Ps=section.ints(a.P, ()) or None, place=False if a.no_place else None,
                 small=False if a.no_small else None, synth_Ps=section.ints(a.synth_P, ()) if a.synth_P else None)
     section.run_sections([sec], run)
-    out.mkdir(parents=True, exist_ok=True)
-    write_csv(out / "minres.csv", sec.rows)
-    m = machine()
-    head = ["# Benchmark of the MINRES core", "",
-            f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} · {m['cpu']}, {m['cores']} cores "
-            f"({m['logical']} logical CPUs) · {m['system']} · Python {m['python']} · "
-            f"{'QUICK' if a.quick else 'full'} run", ""]
-    (out / "minres_report.md").write_text("\n".join(head + sec.appendix_md()) + "\n")
-    print("\n" + "\n".join(sec.console_summary()))
-    log(f"wrote {out / 'minres.csv'} and {out / 'minres_report.md'}")
-    if sec.errors:
-        print("\nfailed steps:\n  " + "\n  ".join(sec.errors))
-        raise SystemExit(1)
+    write_alone(sec, out, "minres", "MINRES core", a.quick, log)
 
 
 if __name__ == "__main__":

@@ -212,3 +212,23 @@ def publish(report: Path, docs: Path, info: dict) -> Path:
     shutil.copyfile(report, dated)
     shutil.copyfile(report, docs / "latest.md")
     return dated
+
+
+def write_alone(sec, out: Path, name: str, title: str, quick: bool, log) -> None:
+    """A section run alone (`python -m mpc_bench.<name>`): <name>.csv and <name>_report.md in `out` (a header with
+    the date and the machine, then the section's appendix), its summary on the console; exit 1 on failed steps."""
+    import time
+
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / f"{name}.csv", sec.rows)
+    m = machine()
+    head = [f"# Benchmark of the {title}", "",
+            f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} · {m['cpu']}, {m['cores']} cores "
+            f"({m['logical']} logical CPUs) · {m['system']} · Python {m['python']} · "
+            f"{'QUICK' if quick else 'full'} run", ""]
+    (out / f"{name}_report.md").write_text("\n".join(head + sec.appendix_md()) + "\n")
+    print("\n" + "\n".join(sec.console_summary()))
+    log(f"wrote {out / f'{name}.csv'} and {out / f'{name}_report.md'}")
+    if sec.errors:
+        print("\nfailed steps:\n  " + "\n  ".join(sec.errors))
+        raise SystemExit(1)

@@ -8,21 +8,13 @@ Every output word is compared with the core's bit-exact golden model, flags incl
 """
 from __future__ import annotations
 
-import json
 import os
 
 import cocotb
 from cocotb.triggers import ClockCycles
 from cocotbext.axi import AxiResp, AxiStreamFrame
 
-from mpc_cores.driver import TB, TIMEOUT_MS  # noqa: F401
-
-
-def _measure(record: dict):
-    path = os.environ.get("CORE_MEASURE")
-    if path:
-        with open(path, "a") as f:
-            f.write(json.dumps(record) + "\n")
+from mpc_cores.driver import TB, TIMEOUT_MS, measure  # noqa: F401
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
@@ -49,7 +41,7 @@ async def bitexact_random(dut):
     assert not ovf, "a datapath word saturated for a state inside the box: the Prop. 1 widths are wrong"
     solves, _ = await tb.read(tb.rm["SOLVES"])
     assert solves == count
-    _measure({"test": "bitexact_random", "module": tb.core["module"], "cases": count})
+    measure({"test": "bitexact_random", "module": tb.core["module"], "cases": count})
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
@@ -77,7 +69,7 @@ async def cycle_contract(dut):
         assert per_iter <= paper, f"L {per_iter} exceeds the paper's {paper}"
     reg, _ = await tb.read(tb.rm["CYCLES_PER_ITER"])
     assert reg == per_iter
-    _measure({"test": "cycle_contract", "module": tb.core["module"], "n": tb.n, "P": tb.core["P"],
+    measure({"test": "cycle_contract", "module": tb.core["module"], "n": tb.n, "P": tb.core["P"],
               "cycles_per_iteration": per_iter, "paper": paper,
               "cycles_per_solve": lat[tb.core["iterations"]], "iterations": tb.core["iterations"]})
 

@@ -6,7 +6,6 @@ compared with the golden model of the generated core (mpc_cores.ipm.core_model, 
 """
 from __future__ import annotations
 
-import json
 import os
 
 import cocotb
@@ -14,7 +13,7 @@ import numpy as np
 from cocotb.triggers import ClockCycles, RisingEdge
 from cocotbext.axi import AxiResp, AxiStreamFrame
 
-from mpc_cores.driver import AxiDriver
+from mpc_cores.driver import AxiDriver, measure
 from mpc_cores.ipm.core_model import IpmCoreModel
 
 TIMEOUT_MS = 2000
@@ -83,13 +82,6 @@ class IpmTB(AxiDriver):
             await self.send(ch, t, data)
 
 
-def _measure(record: dict):
-    path = os.environ.get("CORE_MEASURE")
-    if path:
-        with open(path, "a") as f:
-            f.write(json.dumps(record) + "\n")
-
-
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
 async def bitexact_inflight(dut):
     """Rounds of samples on all 2P channels in random order (2P problems in flight with different data), warm
@@ -119,7 +111,7 @@ async def bitexact_inflight(dut):
     assert not st["NONFINITE"] and not st["CHANNEL"] and not st["TLAST_ERROR"] and not st["BUSY"], st
     solves, _ = await tb.read(tb.rm["SOLVES"])
     assert solves == tag, f"SOLVES {solves} != {tag}"
-    _measure({"test": "bitexact_inflight", "answers": tag})
+    measure({"test": "bitexact_inflight", "answers": tag})
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
@@ -151,7 +143,7 @@ async def latency(dut):
         rec[rnd]["last_cycles"], _ = await tb.read(tb.rm["LAST_CYCLES"])
         last = max((answered[t], ch) for ch, t, _ in jobs)[1]
         assert rec[rnd]["last_cycles"] == rec[rnd]["latency"][last], "LAST_CYCLES is not the last answer's latency"
-    _measure({"test": "latency", "rounds": rec, **({"trace": trace} if trace else {})})
+    measure({"test": "latency", "rounds": rec, **({"trace": trace} if trace else {})})
 
 
 async def _handshakes(dut, now, in_words: int, took: dict, answered: dict):

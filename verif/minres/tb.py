@@ -7,14 +7,13 @@ format (core.json `format`): data words are the format's raw words in the low bi
 """
 from __future__ import annotations
 
-import json
 import os
 
 import cocotb
 import numpy as np
 from cocotbext.axi import AxiResp, AxiStreamFrame
 
-from mpc_cores.driver import AxiDriver
+from mpc_cores.driver import AxiDriver, measure
 from mpc_cores.minres.model import MinresCoreModel
 
 TIMEOUT_MS = 400
@@ -125,13 +124,6 @@ class MinresTB(AxiDriver):
         return exp
 
 
-def _measure(record: dict):
-    path = os.environ.get("CORE_MEASURE")
-    if path:
-        with open(path, "a") as f:
-            f.write(json.dumps(record) + "\n")
-
-
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
 async def bitexact_random(dut):
     """Batches of random problems (full, partial by the flush timeout), random Imax, random idle and backpressure
@@ -157,7 +149,7 @@ async def bitexact_random(dut):
     assert not st >> STATUS_NONFINITE & 1, "NONFINITE set without non-finite data"
     solves, _ = await tb.read(tb.rm["SOLVES"])
     assert solves == total, f"SOLVES {solves} != {total}"
-    _measure({"test": "bitexact_random", "cases": total})
+    measure({"test": "bitexact_random", "cases": total})
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
@@ -177,7 +169,7 @@ async def cycles_per_iteration(dut):
     per_it = meas[4] - meas[3]
     reg, _ = await tb.read(tb.rm["CYCLES_PER_ITER"])
     assert per_it == reg == tb.core["cycles_per_iteration"], (per_it, reg)
-    _measure({"test": "cycles", "cycles_per_iteration": per_it, "batch_cycles": meas,
+    measure({"test": "cycles", "cycles_per_iteration": per_it, "batch_cycles": meas,
               "PN_plus_P": tb.P * tb.N + tb.P})
 
 

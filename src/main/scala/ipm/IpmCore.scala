@@ -69,7 +69,6 @@ class IpmCore(val p: IpmParams) extends Module {
   val badC    = Reg(Vec(slots, Bool()))
   val resC    = Reg(Vec(slots, UInt(W.W)))
   val t0C     = Reg(Vec(slots, UInt(32.W)))
-  val gActive = RegInit(VecInit(false.B, false.B))
   val gIter   = Reg(Vec(2, UInt(16.W)))
   val gInw    = Reg(Vec(2, UInt(16.W)))
   val gCnt    = Reg(Vec(2, UInt(log2Ceil(P + 1).W)))      // problems in the group
@@ -123,7 +122,7 @@ class IpmCore(val p: IpmParams) extends Module {
   }
   private def form(g: UInt): Unit = {
     state := sTakeId; curG := g; forming := true.B
-    gActive(g) := true.B; gIter(g) := 0.U; gInw(g) := inwReg; gCnt(g) := 0.U
+    gIter(g) := 0.U; gInw(g) := inwReg; gCnt(g) := 0.U
   }
 
   private def startGroupUpdate(g: UInt): Unit = {
@@ -246,10 +245,7 @@ class IpmCore(val p: IpmParams) extends Module {
       when(!st1.busy && !outArmed && outCnt === 0.U && !RegNext(st1.start)) {
         when(more) {
           next(); state := sUpd
-        }.otherwise {
-          gActive(curG) := false.B
-          state := sIdle
-        }
+        }.otherwise { state := sIdle }
       }
     }
   }
