@@ -18,7 +18,6 @@ FGM design refuses specs that have them.
 from __future__ import annotations
 
 import json
-import math
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,6 +26,7 @@ import numpy as np
 import scipy.linalg
 
 from mpc_cores.errors import SpecError
+from mpc_cores.schema import check_size, check_spec
 
 
 # Weight on (u_k - u_{k-1}) when `input_rate.weight` is absent: small next to R = I so that it barely moves the
@@ -199,20 +199,8 @@ def _vector(value, n: int, fld: str) -> np.ndarray:
     return a.copy()
 
 
-def _mapping(d, fld: str, allowed: set[str], required: set[str] = frozenset()) -> dict:
-    if not isinstance(d, dict):
-        raise SpecError(f"{fld}: expected a mapping, got {type(d).__name__}")
-    unknown = sorted(set(map(str, d)) - allowed)
-    if unknown:
-        raise SpecError(f"{fld}: unknown key(s) {unknown} (allowed: {sorted(allowed)})")
-    missing = sorted(required - set(d))
-    if missing:
-        raise SpecError(f"{fld}: missing key(s) {missing}")
-    return d
-
-
 def _box(d, n: int, fld: str) -> tuple[np.ndarray, np.ndarray]:
-    d = _mapping(d, fld, {"min", "max"}, {"min", "max"})
+    """d: {min, max} (keys checked by mpc_cores.schema)"""
     lo = _vector(d["min"], n, f"{fld}.min")
     hi = _vector(d["max"], n, f"{fld}.max")
     bad = np.flatnonzero(~(lo < hi))
@@ -222,12 +210,6 @@ def _box(d, n: int, fld: str) -> tuple[np.ndarray, np.ndarray]:
             f"{fld}: min must be < max elementwise, violated at index {i}: min {lo[i]:g} >= max {hi[i]:g}"
         )
     return lo, hi
-
-
-def _timestep(value, fld: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) or value <= 0:
-        raise SpecError(f"{fld}: expected a positive number, got {value!r}")
-    return float(value)
 
 
 def zoh(Ac: np.ndarray, Bc: np.ndarray, Ts: float) -> tuple[np.ndarray, np.ndarray]:
@@ -241,7 +223,6 @@ def zoh(Ac: np.ndarray, Bc: np.ndarray, Ts: float) -> tuple[np.ndarray, np.ndarr
 
 
 def _parse_model(d) -> tuple[np.ndarray, np.ndarray, float | None]:
-    d = _mapping(d, "model", {"A", "B", "Ac", "Bc", "Ts"})
     discrete = "A" in d or "B" in d
     continuous = "Ac" in d or "Bc" in d
     if discrete == continuous:
@@ -262,7 +243,7 @@ def _parse_model(d) -> tuple[np.ndarray, np.ndarray, float | None]:
         raise SpecError(f"model.{b}: expected a non-empty matrix, got shape {_shape(Braw)}")
     if Braw.shape[0] != nx:
         raise SpecError(f"model.{b}: expected {nx} rows to match {a} ({nx}x{nx}), got {Braw.shape[0]}")
-    Ts = _timestep(d["Ts"], "model.Ts") if "Ts" in d else None
+    Ts = float(d["Ts"]) if "Ts" in d else None
     if continuous:
         if Ts is None:
             raise SpecError("model.Ts: required for a continuous model {Ac, Bc}")
@@ -272,19 +253,7 @@ def _parse_model(d) -> tuple[np.ndarray, np.ndarray, float | None]:
     return A, B, Ts
 
 
-def _parse_horizon(v) -> int:
-    if isinstance(v, bool) or not isinstance(v, numbers.Real) or (
-        not isinstance(v, numbers.Integral) and not float(v).is_integer()
-    ):
-        raise SpecError(f"horizon: expected an integer >= 1, got {v!r}")
-    N = int(v)
-    if N < 1:
-        raise SpecError(f"horizon: expected an integer >= 1, got {N}")
-    return N
-
-
 def _parse_tracking(d, nx: int):
-    d = _mapping(d, "tracking", {"C", "outputs", "min", "max"}, {"min", "max"})
     if ("C" in d) == ("outputs" in d):
         raise SpecError("tracking: give exactly one of 'C' (matrix) or 'outputs' (state indices)")
     if "C" in d:
@@ -311,14 +280,7 @@ def _state_indices(v, nx: int, fld: str) -> tuple:
     return tuple(int(i) for i in v)
 
 
-def _positive(v, fld: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or v <= 0:
-        raise SpecError(f"{fld}: expected a positive number, got {v!r}")
-    return float(v)
-
-
 def _parse_input_rate(d, nu: int) -> InputRate:
-    d = _mapping(d, "input_rate", {"min", "max", "weight"}, {"min", "max"})
     lo, hi = _box({"min": d["min"], "max": d["max"]}, nu, "input_rate")
     bad = np.flatnonzero((lo > 0) | (hi < 0))
     if bad.size:
@@ -333,34 +295,42 @@ def _parse_input_rate(d, nu: int) -> InputRate:
 
 
 def _parse_state_set(d, nx: int, fld: str, soft: bool):
-    keys = {"indices", "min", "max"} | ({"sigma1", "sigma2"} if soft else set())
-    d = _mapping(d, fld, keys, keys)
     idx = _state_indices(d["indices"], nx, f"{fld}.indices")
     lo, hi = _box({"min": d["min"], "max": d["max"]}, len(idx), fld)
     lo.setflags(write=False)
     hi.setflags(write=False)
     if not soft:
         return HardStates(indices=idx, xmin=lo, xmax=hi)
-    # sigma2 > 0: Remark 1 of 002, the quadratic slack penalty the fixed-point analysis relies on
-    return SoftStates(indices=idx, xmin=lo, xmax=hi, sigma1=_positive(d["sigma1"], f"{fld}.sigma1"),
-                      sigma2=_positive(d["sigma2"], f"{fld}.sigma2"))
+    return SoftStates(indices=idx, xmin=lo, xmax=hi, sigma1=float(d["sigma1"]), sigma2=float(d["sigma2"]))
 
 
 def problem_from_dict(d: dict, name: str = "problem") -> MpcProblem:
-    d = _mapping(
-        d, "spec",
-        {"name", "description", "model", "cost", "horizon", "inputs", "states", "tracking", "solver",
-         "input_rate", "soft_states", "hard_states"},
-        {"model", "cost", "horizon", "inputs", "states"},
-    )
+    """The problem of a spec: structure, types, ranges (mpc_cores.schema), then the sections, the size limits,
+    and only then the numerics of the cost (the DARE)."""
+    d = check_spec(d)
     name = d.get("name", name)
-    if not isinstance(name, str) or not name:
-        raise SpecError(f"name: expected a non-empty string, got {name!r}")
-
     A, B, Ts = _parse_model(d["model"])
     nx, nu = B.shape
+    N = d["horizon"]
+    umin, umax = _box(d["inputs"], nu, "inputs")
+    xmin, xmax = _box(d["states"], nx, "states")
 
-    cost = _mapping(d["cost"], "cost", {"Q", "R", "QN"}, {"Q", "R"})
+    if d.get("tracking") is not None:
+        C, rmin, rmax = _parse_tracking(d["tracking"], nx)
+    else:
+        C, rmin, rmax = None, np.zeros(0), np.zeros(0)
+
+    input_rate = _parse_input_rate(d["input_rate"], nu) if d.get("input_rate") is not None else None
+    soft = _parse_state_set(d["soft_states"], nx, "soft_states", True) if d.get("soft_states") is not None else None
+    hard = _parse_state_set(d["hard_states"], nx, "hard_states", False) if d.get("hard_states") is not None else None
+    if soft is not None and hard is not None and set(soft.indices) & set(hard.indices):
+        raise SpecError(f"soft_states and hard_states: index sets must be disjoint (eq. (3) of 002), "
+                        f"both contain {sorted(set(soft.indices) & set(hard.indices))}")
+    solver = d.get("solver") or {}
+    check_size(N, nx, nu, 0 if C is None else C.shape[0], 0 if soft is None else len(soft.indices),
+               input_rate is not None, solver.get("P"))
+
+    cost = d["cost"]
     Q = _square_weight(cost["Q"], nx, "cost.Q")
     _check_psd(Q, "cost.Q")
     R = _square_weight(cost["R"], nu, "cost.R")
@@ -378,26 +348,6 @@ def problem_from_dict(d: dict, name: str = "problem") -> MpcProblem:
         QN = _square_weight(qn, nx, "cost.QN")
     _check_psd(QN, "cost.QN")
 
-    N = _parse_horizon(d["horizon"])
-    umin, umax = _box(d["inputs"], nu, "inputs")
-    xmin, xmax = _box(d["states"], nx, "states")
-
-    if d.get("tracking") is not None:
-        C, rmin, rmax = _parse_tracking(d["tracking"], nx)
-    else:
-        C, rmin, rmax = None, np.zeros(0), np.zeros(0)
-
-    solver = d.get("solver") or {}
-    if not isinstance(solver, dict):
-        raise SpecError(f"solver: expected a mapping, got {type(solver).__name__}")
-
-    input_rate = _parse_input_rate(d["input_rate"], nu) if d.get("input_rate") is not None else None
-    soft = _parse_state_set(d["soft_states"], nx, "soft_states", True) if d.get("soft_states") is not None else None
-    hard = _parse_state_set(d["hard_states"], nx, "hard_states", False) if d.get("hard_states") is not None else None
-    if soft is not None and hard is not None and set(soft.indices) & set(hard.indices):
-        raise SpecError(f"soft_states and hard_states: index sets must be disjoint (eq. (3) of 002), "
-                        f"both contain {sorted(set(soft.indices) & set(hard.indices))}")
-
     arrays = [A, B, Q, R, QN, umin, umax, xmin, xmax, rmin, rmax] + ([C] if C is not None else [])
     for a in arrays:
         a.setflags(write=False)
@@ -411,7 +361,12 @@ def load_spec(path) -> MpcProblem:
     ext = path.suffix.lower()
     if ext not in (".yaml", ".yml", ".json"):
         raise SpecError(f"{path}: unknown spec extension {ext!r} (expected .yaml, .yml or .json)")
-    text = path.read_text()
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise SpecError(f"spec file not found: {path}") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise SpecError(f"spec file not readable: {path}: {getattr(e, 'strerror', None) or e}") from None
     if ext in (".yaml", ".yml"):
         import yaml
         try:

@@ -204,7 +204,8 @@ def with_change(path, value):
         (("tracking",), {"outputs": [2], "min": 0, "max": 1}, r"tracking\.outputs: indices \[2\] out of range"),
         (("tracking",), {"C": [[1.0, 0.0, 0.0]], "min": 0, "max": 1}, r"tracking\.C: expected ny x 2"),
         (("tracking",), {"outputs": [0], "min": 1, "max": 0}, r"tracking: min must be < max"),
-        (("extra",), 1, r"spec: unknown key\(s\) \['extra'\]"),
+        (("extra",), 1, r"spec: unknown key 'extra' \(valid keys: name, "),
+        (("horizon",), "10", r"horizon: expected an integer >= 1, got '10'"),
     ],
 )
 def test_spec_errors(path, value, pattern):
