@@ -8,7 +8,8 @@
   test     the verification suite (pytest on tests/ of a source checkout)
 
 Every kind of the registry (mpc_cores.registry) is available through --core; refusals are one line
-`error: <rule>: <values>` with exit status 2.
+`error: <rule>: <values>` with exit status 2: the options and the spec are checked (mpc_cores.schema) before any
+numerics run.
 """
 from __future__ import annotations
 
@@ -19,6 +20,9 @@ from pathlib import Path
 from mpc_cores import registry
 from mpc_cores.errors import DesignError, GeneratorError, SpecError
 from mpc_cores.flow import REPO
+from mpc_cores.schema import check_override, check_size
+
+OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format")
 
 
 def refuse(msg: str) -> None:
@@ -26,13 +30,35 @@ def refuse(msg: str) -> None:
     sys.exit(2)
 
 
-def _overrides(a) -> dict:
-    ov = {}
-    for k in ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format"):
-        v = getattr(a, k, None)
-        if v not in (None, ""):
-            ov[k] = v
-    return ov
+class _Parser(argparse.ArgumentParser):
+    """argparse's own errors (unknown option, missing value) as refusals too."""
+
+    def error(self, message):
+        refuse(message)
+
+
+def _overrides(a, kind) -> dict:
+    """The overrides given, each checked by its rule (mpc_cores.schema.check_override) and converted."""
+    ov = {k: getattr(a, k, None) for k in OVERRIDES}
+    ov = {k: v for k, v in ov.items() if v not in (None, "")}
+    bad = sorted(set(ov) - set(kind.overrides))
+    if bad:
+        refuse(f"CORE={kind.name} takes the overrides {', '.join(kind.overrides)}: got {', '.join(bad)}")
+    try:
+        return {k: check_override(kind, k, v) for k, v in ov.items()}
+    except SpecError as e:
+        refuse(str(e))
+
+
+def _load(path, kind, ov: dict):
+    """The spec at `path`; an override of the dense cores' row units P is held to the multiplier limit."""
+    from mpc_cores.problem import load_spec
+
+    p = load_spec(path)
+    if "P" in ov and "P" in kind.spec_section:
+        check_size(p.N, p.nx, p.nu, p.ny, len(p.soft_states.indices) if p.soft_states else 0,
+                   p.input_rate is not None, ov["P"])
+    return p
 
 
 def _kind(a):
@@ -43,15 +69,10 @@ def _kind(a):
 
 
 def _design(a):
-    from mpc_cores.problem import load_spec
-
     kind = _kind(a)
-    ov = _overrides(a)
-    bad = sorted(set(ov) - set(kind.overrides))
-    if bad:
-        refuse(f"CORE={kind.name} takes the overrides {', '.join(kind.overrides)}: got {', '.join(bad)}")
+    ov = _overrides(a, kind)
     try:
-        return kind, kind.design(load_spec(a.problem), **ov)
+        return kind, kind.design(_load(a.problem, kind, ov), **ov)
     except (DesignError, SpecError) as e:
         refuse(str(e))
 
@@ -72,8 +93,11 @@ def cmd_design(a) -> None:
                f"`make design CORE={kind.name}` without TOL")
     from mpc_cores.kind import load
 
+    ov = _overrides(a, kind)
     try:
-        load(kind.tol_fn)(kind, a.problem, a.tol, _overrides(a), a.out)
+        tol = check_override(kind, "tol", a.tol)
+        _load(a.problem, kind, ov)
+        load(kind.tol_fn)(kind, a.problem, tol, ov, a.out)
     except (DesignError, SpecError) as e:
         refuse(str(e))
 
@@ -131,23 +155,24 @@ def cmd_test(rest: list[str]) -> None:
 def main(argv=None) -> None:
     argv = list(sys.argv[1:] if argv is None else argv)
     kinds = registry.names()
-    ap = argparse.ArgumentParser(prog="mpc-cores", description=__doc__.split("\n\n")[0])
+    ap = _Parser(prog="mpc-cores", description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     for name, what in (("design", "design report (with --tol: certified design)"),
                        ("verilog", "generate a core"), ("demo", "closed loop with the RTL")):
         s = sub.add_parser(name, help=what)
         s.add_argument("--core", default="fgm", help=f"core kind: {', '.join(kinds)}")
         s.add_argument("--problem", default=str(REPO / "examples/masses.yaml"))
-        s.add_argument("--P", type=int)
-        s.add_argument("--frac-bits", dest="frac_bits", type=int)
-        s.add_argument("--lat-add", dest="lat_add", type=int)
-        s.add_argument("--lat-mul", dest="lat_mul", type=int)
-        s.add_argument("--rounding", choices=["truncate", "nearest"])
-        s.add_argument("--iterations", type=int)
-        s.add_argument("--format", help="float format (MINRES): binary32 or e<E>m<M>, e.g. e8m17")
+        # the overrides are text here, checked and converted by their rules (mpc_cores.schema)
+        s.add_argument("--P")
+        s.add_argument("--frac-bits", dest="frac_bits")
+        s.add_argument("--lat-add", dest="lat_add")
+        s.add_argument("--lat-mul", dest="lat_mul")
+        s.add_argument("--rounding", help="truncate or nearest")
+        s.add_argument("--iterations")
+        s.add_argument("--format", help="float format (MINRES, ipm): binary32, binary16 or e<E>m<M>, e.g. e8m17")
         s.add_argument("--out")
         if name == "design":
-            s.add_argument("--tol", type=float, help="target ||z_fixed - z*||_2 over the state box")
+            s.add_argument("--tol", help="target ||z_fixed - z*||_2 over the state box")
         if name == "demo":
             s.add_argument("--steps", type=int, default=60)
             s.add_argument("--hold", type=int, default=20)
