@@ -26,6 +26,8 @@ OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "
 
 
 def refuse(msg: str) -> None:
+    """The refusal: one line on stderr (a message spanning lines, e.g. a long array, is joined), exit status 2."""
+    msg = " ".join(line.strip() for line in str(msg).splitlines() if line.strip())
     print(f"error: {msg}", file=sys.stderr)
     sys.exit(2)
 

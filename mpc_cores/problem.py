@@ -372,7 +372,9 @@ def load_spec(path) -> MpcProblem:
         try:
             d = yaml.safe_load(text)
         except yaml.YAMLError as e:
-            raise SpecError(f"{path}: invalid YAML: {e}") from None
+            mark = getattr(e, "problem_mark", None)
+            where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+            raise SpecError(f"{path}: invalid YAML{where}: {getattr(e, 'problem', None) or e}") from None
     elif ext == ".json":
         try:
             d = json.loads(text)
