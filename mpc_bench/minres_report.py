@@ -57,10 +57,10 @@ def useful_flops(nnz: int, N: int) -> int:
     return 2 * nnz + 15 * N + 15
 
 
-def band_flops(N: int, M: int) -> int:
-    """What the core issues for the same iteration: every one of the 2M - 1 band products and 2M - 2 tree adds of
-    every row (structural zeros included), and the same vector and scalar updates."""
-    return N * (4 * M - 3) + 16 * N + 15
+def band_flops(N: int, K: int) -> int:
+    """What the core issues for the same iteration: the K slot products and K - 1 tree adds of every row (unused
+    slots and the band's corners outside the matrix included), and the same vector and scalar updates."""
+    return N * (2 * K - 1) + 16 * N + 15
 
 
 def utilisation(flops: int, operators: int, slot_cycles: int) -> float:
@@ -178,9 +178,9 @@ def minres_rows(cores: list, sw: dict | None, nnz: dict) -> list[dict]:
             "latency_per_problem_us_150": latency_us(cyc, F_001_MHZ) / P,
             "latency_001_us_150": latency_us(cycles_001(N, p001, imax), F_001_MHZ),
             "latency_001_per_problem_us_150": latency_us(cycles_001(N, p001, imax), F_001_MHZ) / p001,
-            "nnz": nnz.get(c.problem), "useful_flops": flops, "band_flops": band_flops(N, M),
+            "nnz": nnz.get(c.problem), "useful_flops": flops, "band_flops": band_flops(N, cj["K"]), "K": cj["K"],
             "utilisation": utilisation(flops, ops, cj["slot_cycles"]) if flops and ops else None,
-            "utilisation_band": utilisation(band_flops(N, M), ops, cj["slot_cycles"]) if ops else None,
+            "utilisation_band": utilisation(band_flops(N, cj["K"]), ops, cj["slot_cycles"]) if ops else None,
         })
         _sw_columns(r, (sw or {}).get(c.problem, {}).get("solvers"), lat_b, P)
         out.append(r)
@@ -305,16 +305,18 @@ def minres_section(cores: list, recs: list[dict], sw: dict | None, info: dict) -
                  "CCU2C", "FF", "DP16KD", "DPR16X4", "DSP48E1", "LUT", "FF", "RAMB36", "LUTRAM/SRL"], body)
     L += ["", "FP operators: instances of the float library's FMul, FAdd, FDiv and FSqrt in the generated "
           "SystemVerilog (counted through the hierarchy). 001's Table I counts 4M - 3 floating-point units in the "
-          "dot-product block and 27 others for its linear solver, 4M + 24; ours has 2M - 1 + 17 FMul, "
-          "2M - 2 + 8 + 2 l_A FAdd, 4 FDiv and 2 FSqrt (README, MINRES core): the same 4M - 3 in the dot-product "
-          f"block and {_n(r0['fp_units'] - (4 * r0['M'] - 3) if r0['fp_units'] else None)} others (the 2-norm's own "
+          "dot-product block and 27 others for its linear solver, 4M + 24; ours has K + 17 FMul, "
+          "K - 1 + 8 + 2 l_A FAdd, 4 FDiv and 2 FSqrt (docs/minres.md): 2K - 1 in the dot-product block, K the "
+          f"most nonzeros of a row of the band ({r0['K']} for {r0['problem']} "
+          f"against 2M - 1 = {2 * r0['M'] - 1}), and {_n(r0['fp_units'] - (2 * r0['K'] - 1) if r0['fp_units'] else None)} others (the 2-norm's own "
           "accumulator, l_A partial sums per streaming accumulator, a fully pipelined scalar part). 001 reports no LUT, register, DSP "
           "or memory counts for a given problem (Fig. 6 plots them against n for a Virtex-6 VSX475T synthesised "
           "with XST), so there is nothing to put beside the Yosys counts. ECP5: `synth_ecp5`; xc7: `synth_xilinx "
           "-family xc7 -flatten` (RAMB in 36 Kb blocks); Yosys gives no timing for the Xilinx part. The vector "
           "memories are simple-dual-port block RAMs (one write and one registered read port each; v is kept in "
           "three copies, one per reader, and w in two banks by the parity of the iteration), so their words go to "
-          "DP16KD / RAMB and FF and LUT4 hardly grow with P; the constant ROM of the band stays in logic.", "",
+          "DP16KD / RAMB and FF and LUT4 hardly grow with P; the band's constant coefficients (per row key and slot) "
+          "stay in logic.", "",
           "Memories as Yosys inferred them (memory_libmap):", ""]
     L += [f"- {c.tag}: ECP5 {mem_list(c.ecp5_mem) or '-'}; xc7 {mem_list(c.xc7_mem) or '-'}" for c in cores
           if c.ecp5_mem or c.xc7_mem] or ["- (none reported)"]
@@ -332,8 +334,8 @@ def minres_section(cores: list, recs: list[dict], sw: dict | None, info: dict) -
         s0 = small[0][1]
         L += ["", f"`{s0['problem']}` is a small MINRES problem built in mpc_bench/minres.py (a double integrator, "
               f"n = {s0['n']}, m = {s0['m']}, T = {s0['T']}: N = {s0['N']}, M = {s0['M']}) with the same "
-              "operators, scalar part and memories; its dot-product block has 2M - 1 = "
-              f"{2 * s0['M'] - 1} products where masses has {2 * r0['M'] - 1}."]
+              "operators, scalar part and memories; its dot-product block has K = "
+              f"{s0['K']} products where masses has {r0['K']}."]
     est = next((r["fmax_est_mhz"] for r in br if r.get("fmax_est_mhz")), None)
     L += ["", "### Latency", ""]
     if est:
@@ -409,8 +411,8 @@ def minres_section(cores: list, recs: list[dict], sw: dict | None, info: dict) -
           "and x, 17 scalar operations: 2 nnz + 15 N + 15. Capacity: every FMul, FAdd, FDiv and FSqrt can start "
           "one operation per cycle, and a problem owns the whole datapath for its slot of S cycles (P problems, P "
           "slots per iteration), so utilisation = useful flops / (operators x S). Issued: what the core computes, "
-          "the full band of 2M - 1 products and 2M - 2 adds per row (zeros of the band included) and the same "
-          "updates. The idle share is the band's zeros, the scalar units (busy a few cycles per slot), the "
+          "K products and K - 1 adds per row (the row's slots, unused ones included) and the same "
+          "updates. The idle share is the unused slots, the scalar units (busy a few cycles per slot), the "
           "FDiv/FSqrt counted as one operator each, and the stretched slots when P is below eq. (15).", ""]
     L += ["### Step times (s; empty when cached)", ""]
     body = [[c.tag] + [_f(c.seconds.get(k), "{:.0f}", "") for k in ("sbt", "verilator", "yosys_ecp5", "nextpnr",

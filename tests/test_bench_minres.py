@@ -122,7 +122,7 @@ def test_flop_counts_agree_on_a_full_band():
     for n, m, T in ((2, 1, 3), (8, 4, 10), (3, 2, 7)):
         N, M = sizes(n, m, T)
         nnz_band = N * (2 * M - 1) - M * (M - 1)
-        assert minres_report.band_flops(N, M) - minres_report.useful_flops(nnz_band, N) == 2 * M * (M - 1)
+        assert minres_report.band_flops(N, 2 * M - 1) - minres_report.useful_flops(nnz_band, N) == 2 * M * (M - 1)
 
 
 def test_useful_flops_counts_the_minres_iteration():
@@ -215,7 +215,7 @@ def test_median_and_merge_times():
 
 
 def _core(problem, P, N, M, S, imax, cpi, over, pnr=None, role="sweep", measured=True, ecp5=None):
-    cj = {"N": N, "M": M, "P": P, "n": 8, "m": 4, "T": 10, "lat_add": 4, "lat_mul": 3, "lat_div": 16,
+    cj = {"N": N, "M": M, "K": 13, "P": P, "n": 8, "m": 4, "T": 10, "lat_add": 4, "lat_mul": 3, "lat_div": 16,
           "lat_sqrt": 16, "P_eq15": 3, "slot_cycles": S, "cycles_per_iteration": cpi, "batch_cycles_imax0": over,
           "multipliers": 56, "storage_words": 1, "storage_bound_001": 2, "storage_dense_cds": 3, "module": "Top",
           "sv": "Top.sv"}

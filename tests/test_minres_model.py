@@ -4,11 +4,14 @@ float64 MINRES, direct solve)."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from conftest import random_problem
+from mpc_cores.minres import band as band_mod
+from mpc_cores.minres.band import band_pattern
 from mpc_cores.minres.kkt import (Layout, const_rom, dense_cds_words, from_half_cds, half_bandwidth, kkt_matrix,
                               paper_bound_words, random_weights, sizes, storage_table, structured_words,
                               to_half_cds)
@@ -145,7 +148,7 @@ def test_word_arithmetic_equals_float32_path():
     slow = MinresCoreModel(n, m, T, rom, lat_add=3)
     slow.ops = WordOps(Format(8, 23))
     slow.rom = slow.ops.value(rom)
-    slow.Cconst = slow.ops.value(fast.Cconst)
+    slow.coef = slow.ops.value(fast.coef)
     for k in range(3):
         b = rng.standard_normal(fast.N)
         assert fast.solve(diag, b, 4 + 3 * k).words == slow.solve(diag, b, 4 + 3 * k).words
@@ -192,3 +195,43 @@ def test_format_from_spec_and_override():
     assert (d.format, d.lat["lat_div"], d.lat["lat_sqrt"]) == ("e8m17", 13, 13)
     assert design_minres(p, format="binary32").format == "binary32"
     assert max(d.config()["rom"][0]) < 1 << 26
+
+
+@pytest.mark.parametrize("n,m,T", SHAPES)
+def test_band_pattern_rows(n, m, T):
+    """The sparse rows (mpc_cores.minres.band) rebuild the KKT matrix exactly, K is the most nonzeros of a row
+    (at most 2M - 1), and a slot never takes two offsets within one key."""
+    p, K, rom, diag, rng = system(n, m, T, 7)
+    pat = band_pattern(n, m, T, rom)
+    mdl = MinresCoreModel(n, m, T, rom, lat_add=4)
+    rows_nnz = int(np.max(np.count_nonzero(K, axis=1)))
+    assert pat.K == rows_nnz <= 2 * Layout(n, m, T).M - 1
+    assert np.array_equal(mdl.matrix(diag.astype(np.float32)), K.astype(np.float32).astype(float))
+    for offs in pat.offsets:
+        used = [o for o in offs if o is not None]
+        assert len(used) == len(set(used))
+
+
+def test_band_pattern_masses_and_refusals():
+    """masses: a lambda row holds A, B and a -1, so K = n + m + 1 = 13 products per row instead of 2M - 1 = 39. A
+    pattern that drops a nonzero, or gives a slot a wrong coefficient, is refused."""
+    from mpc_cores.problem import load_spec
+    from mpc_cores.minres.kkt import problem_matrices
+    p = load_spec(Path(__file__).resolve().parents[1] / "examples/masses.yaml")
+    A, B, Q, R, QN, T = problem_matrices(p)
+    rom = const_rom(A, B, Q, R, QN, T)
+    pat = band_pattern(p.nx, p.nu, T, rom)
+    assert pat.K == p.nx + p.nu + 1 == 13
+    C = band_mod.const_cds(p.nx, p.nu, T, rom)
+    primal = np.zeros(Layout(p.nx, p.nu, T).N, dtype=bool)
+    primal[Layout(p.nx, p.nu, T).primal_rows()] = True
+    band_mod._check(pat, C, primal)
+    q = next(q for q, offs in enumerate(pat.offsets) if -1 in offs)
+    dropped = [list(o) for o in pat.offsets]
+    dropped[q][dropped[q].index(-1)] = None
+    with pytest.raises(AssertionError, match="differs from the band"):
+        band_mod._check(dataclasses.replace(pat, offsets=tuple(map(tuple, dropped))), C, primal)
+    wrong = pat.coefs.copy()
+    wrong[q, list(pat.offsets[q]).index(-1)] *= 2
+    with pytest.raises(AssertionError, match="differs from the band"):
+        band_mod._check(dataclasses.replace(pat, coefs=wrong), C, primal)

@@ -52,7 +52,7 @@ def minres_cores():
     args = []
     base = designs["n2_m1_t3_pauto"].config()
     bad = {"lat_add0": dict(base, lat_add=0), "p_big": dict(base, P=65),
-           "rom_shape": dict(base, rom=base["rom"][:-1]), "fmt_wide": dict(base, exp_width=9, man_width=23),
+           "band_shape": dict(base, band_offsets=base["band_offsets"][:-1]), "fmt_wide": dict(base, exp_width=9, man_width=23),
            "fmt_exp": dict(base, exp_width=1, man_width=10)}
     bdir = BUILD / "refused"
     bdir.mkdir(parents=True, exist_ok=True)
@@ -68,7 +68,7 @@ def test_generator_refusals(minres_cores):
     _, msg, bdir, bad = minres_cores
     assert "lat_add0.json: requirement failed: lat_add must be >= 1" in msg
     assert "p_big.json: requirement failed: P must be in [1, 64]" in msg
-    assert "rom_shape.json: requirement failed: rom must be" in msg
+    assert "band_shape.json: requirement failed: band_offsets and band_coefs must be" in msg
     assert ("fmt_wide.json: requirement failed: the float format must fit the 32-bit stream word (1 + expW + manW "
             "<= 32): got expW=9, manW=23 (33 bits)") in msg
     assert "fmt_exp.json: requirement failed: FloatFormat: exponent width expW must be in [2, 16]: got expW=1" in msg

@@ -12,6 +12,7 @@ import numpy as np
 from mpc_cores.errors import DesignError  # the error the command line reports
 from mpc_cores.float import vector as fv
 from mpc_cores.float.model import Format
+from mpc_cores.minres.band import BandPattern, band_pattern
 from mpc_cores.minres.kkt import Layout, const_rom, kkt_matrix, problem_matrices
 
 # default latencies of the binary32 operators (float library defaults); divide and square root follow the format
@@ -82,7 +83,13 @@ class MinresDesign:
         return {"core": "minres", "name": self.name, "n": self.n, "m": self.m, "T": self.T, "P": self.P,
                 "iterations": self.iterations, "flush_cycles": self.flush_cycles, **self.lat,
                 "format": self.format, "exp_width": self.fmt.expW, "man_width": self.fmt.manW,
-                "h_diag": [float(v) for v in self.h_diag], "rom": rom.tolist(), "warm": self.warm}
+                "h_diag": [float(v) for v in self.h_diag], "rom": rom.tolist(), "warm": self.warm,
+                **self.pattern.config(lambda v: fv.encode(self.fmt, v).astype(np.int64))}
+
+    @property
+    def pattern(self) -> BandPattern:
+        """The sparse rows of the band the core multiplies by (mpc_cores.minres.band)."""
+        return band_pattern(self.n, self.m, self.T, np.asarray(self.rom, dtype=np.float64))
 
     def write_config(self, path) -> None:
         Path(path).write_text(json.dumps(self.config()))

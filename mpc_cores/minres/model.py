@@ -11,7 +11,7 @@ Operation order (x_0 = 0; one "init" pass, then Imax iterations j = 1..Imax):
 
     init:   u = (b - 0*0) - 0*0;  nrm2 = acc(u*u);  g' = sqrt(nrm2);  v_1 = u / g'
             state: c = c_prev = 1, s = s_prev = 0, g = g', eta = g'
-    iter j: y_i = tree(coef_i,t * v_(i+t-(M-1)))         matvec, 2M-1 products, pairwise tree
+    iter j: y_i = tree(coef_i,s * v_(i+o_s))            matvec: the K slots of the row's key (band.py), pairwise tree
             delta = acc(v_i * y_i)
             u = (y - delta*v_j) - g*v_(j-1)               v_0 = 0
             nrm2 = acc(u*u);  g' = sqrt(nrm2)
@@ -36,6 +36,7 @@ import numpy as np
 
 from mpc_cores.float import vector as fv
 from mpc_cores.float.model import Format
+from mpc_cores.minres.band import band_pattern
 from mpc_cores.minres.kkt import Layout
 
 f32 = np.float32
@@ -204,54 +205,30 @@ class MinresCoreModel:
         self.lat_add = lat_add
         self.rom = o.value(rom)
         assert self.rom.shape == (2 * n + m, self.M - 1)
-        # constant half-CDS columns d = 1..M-1 of every row (lambda rows generated, rows past the end zero)
-        N, M = self.N, self.M
-        C = o.zeros((N, M))
-        for i in range(N):
-            kind, q = self.L.row_kind(i)
-            if kind == "lam":
-                C[i, n] = o.value(-1.0)
-            elif kind == "x":
-                C[i, 1:] = self.rom[q]
-            elif kind == "u":
-                C[i, 1:] = self.rom[n + q]
-            else:
-                C[i, 1:] = self.rom[n + m + q]
-        for d in range(M):
-            C[N - d:, d] = o.zero
-        self.Cconst = C
+        # the sparse rows (mpc_cores.minres.band): per row i and slot s the column, whether the product is taken,
+        # the constant coefficient and whether it is the variable diagonal
+        self.pattern = band_pattern(n, m, T, o.to_float(self.rom))
+        self.cols, self.inrange, coef, isdiag = self.pattern.rows()
+        self.coef = o.value(coef)
+        pos = np.full(self.N, -1, dtype=np.int64)
         self.primal = self.L.primal_rows()
-        # band index t = 0..2M-2 is offset o = t - (M-1); in-range mask
-        offs = np.arange(2 * M - 1) - (M - 1)
-        cols = np.arange(N)[:, None] + offs[None, :]
-        self.inrange = (cols >= 0) & (cols < N)
-        self.cols = np.clip(cols, 0, N - 1)
-        self.offs = offs
+        pos[self.primal] = np.arange(len(self.primal))
+        self.diag_rows, self.diag_slots = np.nonzero(isdiag)
+        self.diag_pos = pos[self.diag_rows]
 
     def to_words(self, x) -> list[int]:
         """float values rounded to the format, as raw words (what the testbench sends)."""
         return self.ops.words(self.ops.value(x))
 
     def band(self, diag: np.ndarray) -> np.ndarray:
-        """N x (2M-1) coefficients of every row, offsets -(M-1)..M-1, +0 outside the matrix, in the arithmetic's
-        representation (float32 values or raw words); `diag`: float values of the variable column."""
+        """N x K coefficients of every row's slots (mpc_cores.minres.band), +0 where no product is taken, in the
+        arithmetic's representation (float32 values or raw words); `diag`: float values of the variable column."""
         return self._band(self.ops.value(diag))
 
     def _band(self, diag) -> np.ndarray:
-        o = self.ops
-        C = self.Cconst.copy()
-        C[self.primal, 0] = diag
-        N, M = self.N, self.M
-        B = o.zeros((N, 2 * M - 1))
-        rows = np.arange(N)
-        for t, off in enumerate(self.offs):
-            if off >= 0:
-                B[:, t] = C[:, off]
-            else:
-                src = rows + off
-                ok = src >= 0
-                B[ok, t] = C[src[ok], -off]
-        B[~self.inrange] = o.zero
+        B = self.coef.copy()
+        B[self.diag_rows, self.diag_slots] = diag[self.diag_pos]
+        B[~self.inrange] = self.ops.zero
         return B
 
     def matvec(self, band: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -265,10 +242,8 @@ class MinresCoreModel:
         N = self.N
         K = np.zeros((N, N))
         B = np.asarray(self.ops.to_float(self.band(diag)), dtype=float)
-        for t, off in enumerate(self.offs):
-            idx = np.arange(N)
-            ok = self.inrange[:, t]
-            K[idx[ok], idx[ok] + off] = B[ok, t]
+        rows = np.repeat(np.arange(N)[:, None], self.pattern.K, axis=1)
+        K[rows[self.inrange], self.cols[self.inrange]] = B[self.inrange]
         return K
 
     def solve(self, diag, b, imax: int) -> Result:

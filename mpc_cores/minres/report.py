@@ -11,7 +11,7 @@ def core_json(d, hw: dict) -> dict:
          "man_width": d.fmt.manW, "word_width": d.fmt.width, **d.lat}
     assert (hw["format"], hw["exp_width"], hw["man_width"]) == (c["format"], c["exp_width"], c["man_width"]), \
         f"the generator built {hw['format']}, the design asks for {c['format']}"
-    for k in ("N", "M", "P", "P_eq15", "k1", "k2", "slot_cycles", "cycles_per_iteration", "cycles_bound",
+    for k in ("N", "M", "K", "P", "P_eq15", "k1", "k2", "slot_cycles", "cycles_per_iteration", "cycles_bound",
               "batch_cycles_formula", "batch_cycles_imax0", "schedule", "storage_words", "storage_variable",
               "storage_constant", "storage_dense_cds", "storage_bound_001", "frame_words", "multipliers",
               "out_words", "warm", "storage_warm",
@@ -19,8 +19,8 @@ def core_json(d, hw: dict) -> dict:
         c[k] = hw[k]
     assert c["storage_dense_cds"] == dense_cds_words(d.n, d.m, d.T, c["P"])
     assert c["storage_bound_001"] == paper_bound_words(d.n, d.m, d.T, c["P"])
-    c["eq15"] = (f"P = ceil((2N + M + k1 ceil(log2(2M-1)) + k2) / N), k1 = {c['k1']}, k2 = {c['k2']} "
-                 f"(001: 3N, k1 = 24, k2 = 154)")
+    c["eq15"] = (f"P = ceil((2N + M + k1 ceil(log2(K)) + k2) / N), K = {c['K']} products per row, k1 = {c['k1']}, "
+                 f"k2 = {c['k2']} (001: 3N, 2M - 1 products, k1 = 24, k2 = 154)")
     return c
 
 

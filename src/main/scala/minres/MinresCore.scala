@@ -75,9 +75,9 @@ class PassCounter(p: MinresParams) {
   * Schedule: slot p of iteration j starts its feed at ((j P + p) S); every pass serves one slot at a time, so
   * one instance of each unit serves all problems:
   *   feed + matvec: v_j is read into a shift register of 2M-1 words (vector alignment by shifting) M cycles
-  *     ahead of its rows; row i multiplies the window by the 2M-1 band coefficients (the upper half from the
-  *     variable column and the constant ROM, the lower half the same columns delayed d cycles, symmetry) in the
-  *     dot-product block (2M-1 multipliers, adder tree); delta = v_j . A v_j streams into an accumulator;
+  *     ahead of its rows; row i multiplies K words of the window, chosen by the row's key, by their band
+  *     coefficients (constants, and the variable diagonal) in the dot-product block (K multipliers, adder tree;
+  *     K is the most nonzeros of a row, mpc_cores/minres/band.py); delta = v_j . A v_j streams into an accumulator;
   *   pass B: u = (A v_j - delta v_j) - gamma_j v_{j-1} and ||u||^2 (accumulator);
   *   scalar part: gamma_{j+1}, the Givens rotation, its coefficients (fully pipelined units);
   *   pass C: v_{j+1} = u / gamma_{j+1}, w_{j+1}, x.
@@ -104,7 +104,6 @@ class MinresCore(val p: MinresParams) extends Module {
   import ops.{add, div, mul, sqrt, sub}
   private val zero   = 0.U(W.W)
   private val one    = (BigInt(fmt.bias) << fmt.manW).U(W.W)
-  private val negOne = ((BigInt(1) << (W - 1)) | (BigInt(fmt.bias) << fmt.manW)).U(W.W)
   /** the exponent field is not all ones */
   private def finite(w: UInt): Bool = w(W - 2, fmt.manW) =/= fmt.maxExpField.U
 
@@ -243,25 +242,29 @@ class MinresCore(val p: MinresParams) extends Module {
   val row      = Stages.delay(rowPre, 1)
   val rowValid = Stages.delayValid(feed.valid, M + p.latFeed)
 
-  // ---- band coefficients of row i: column 0 variable (dmem), 1..M-1 constant or generated (lambda rows). The
-  // constant columns stay a ROM in logic: (2n+m) rows, M-1 words read at once (too wide for one block RAM).
-  private val isLam  = row.r < n.U
-  private val romRow = Mux(isLam, 0.U, Mux(row.k === T.U, row.r + m.U, row.r - n.U))
-  // one multiplexer per ROM column (no nested arrays in the emitted Verilog)
-  private val romSel = (0 until M - 1).map(c => VecInit(p.rom.map(_(c).U(W.W)))(romRow))
+  // ---- the sparse row (mpc_cores/minres/band.py): the row's key (position in the period, or a row of the last
+  // stage) selects, per slot, an offset o of the window and a coefficient: a constant, or the variable diagonal
+  // (dmem) at o = 0. Operands are registered before the products (latMatvec counts that cycle).
+  private val keyW   = log2Ceil(p.keys)
+  private def keyOf(c: MinresCtl): UInt =
+    Mux(c.k === T.U, (p.period).U(keyW.W) +& c.r, c.r.pad(keyW))(keyW - 1, 0)
+  private val key    = RegNext(keyOf(rowPre))
   private val dRead  = dmem.read(0, adr2(runBank, rowPre.slot, Mux(rowPre.r < n.U, 0.U, rowPre.prim), nPrimal))
-  val colU = Wire(Vec(M, UInt(W.W)))
-  colU(0) := Mux(isLam, zero, dRead)
-  for (dd <- 1 until M) colU(dd) := Mux(isLam, if (dd == n) negOne else zero, romSel(dd - 1))
-  val dot = Module(new FDotProduct(fmt, taps, p.latMul, p.latAdd))
-  require(dot.latency == p.latMatvec, "matvec latency")
-  for (t <- 0 until taps) {
-    val o = t - (M - 1)
-    val (coef, ok) =
-      if (o >= 0) (colU(o), row.e < (N - o).U)
-      else (Stages.delay(colU(-o), -o), row.e >= (-o).U)
-    dot.io.a(t) := Mux(ok, coef, zero)
-    dot.io.b(t) := Mux(ok, sr(M - 1 - o), zero)
+  val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd))
+  require(dot.latency + 1 == p.latMatvec, "matvec latency")
+  private def perKey[T <: Data](f: Int => T): T = VecInit((0 until p.keys).map(f))(key)
+  for (s <- 0 until p.K) {
+    val cands = p.candidates(s)
+    val sel   = perKey(q => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W))
+    val used  = perKey(q => p.offsets(q)(s).isDefined.B)
+    val diag  = perKey(q => p.offsets(q)(s).contains(0).B)
+    val coef  = perKey(q => p.coefs(q)(s).U(W.W))
+    // the window word at offset o and whether column e + o is inside the matrix, per candidate offset
+    val word  = VecInit(cands.map(o => sr(M - 1 - o)))(sel)
+    val in    = VecInit(cands.map(o => if (o >= 0) row.e < (N - o).U else row.e >= (-o).U))(sel)
+    val ok    = used && in
+    dot.io.a(s) := RegNext(Mux(ok, Mux(diag, dRead, coef), zero))
+    dot.io.b(s) := RegNext(Mux(ok, word, zero))
   }
   val ay   = Timed(dot.io.sum, p.latMatvec)
   // warm form: row i scaled by d_i (its read addressed a cycle ahead)

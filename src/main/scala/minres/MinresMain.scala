@@ -21,6 +21,7 @@ object MinresMain extends App {
       "word_width" -> p.fmt.width,
       "N" -> p.N,
       "M" -> p.M,
+      "K" -> p.K,
       "P" -> p.P,
       "P_eq15" -> p.pAuto,
       "k1" -> p.k1,

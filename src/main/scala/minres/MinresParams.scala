@@ -12,7 +12,7 @@ import chisel3.util.log2Ceil
   * the matvec, the Lanczos update (pass B), the scalar part and the vector updates (pass C), at fixed offsets
   * from its slot start. P * S must cover the chain from a slot's feed to the first v_{j+1} word being written:
   * `need` cycles. P = 0 in the configuration means "the smallest P with P N >= need", eq. (15) of 001 in this
-  * core's form: P = ceil((2N + M + k1 ceil(log2(2M-1)) + k2) / N) with k1 = lat_add, k2 below.
+  * core's form: P = ceil((2N + M + k1 ceil(log2(K)) + k2) / N) with k1 = lat_add, k2 below.
   */
 case class MinresParams(
     name: String,
@@ -26,7 +26,8 @@ case class MinresParams(
     latSqrt: Int,
     imaxDefault: Int,
     flushCycles: Int,
-    rom: Seq[Seq[BigInt]],
+    offsets: Seq[Seq[Option[Int]]],
+    coefs: Seq[Seq[BigInt]],
     expW: Int = 8,
     manW: Int = 23,
     warm: Boolean = false) {
@@ -47,19 +48,29 @@ case class MinresParams(
   val period: Int = 2 * n + m
   /** words of the variable part: the diagonal of the primal rows */
   val nPrimal: Int = T * (n + m) + n
+  /** the window of the band: offsets -(M-1)..M-1 around the row */
   val taps: Int    = 2 * M - 1
-  val depth: Int   = log2Ceil(taps)
-  require(rom.length == period && rom.forall(_.length == M - 1),
-    s"rom must be ${period} x ${M - 1} (constant half-CDS columns 1..M-1): got ${rom.length} x ${rom.headOption.map(_.length).getOrElse(0)}")
-  require(rom.flatten.forall(w => w >= 0 && w < (BigInt(1) << fmt.width)),
-    s"rom words must be raw words of the format (0 .. 2^${fmt.width}-1)")
+  /** row keys (position in the period, then the rows of the last stage) and slots per row */
+  val keys: Int    = period + 2 * n
+  val K: Int       = offsets.headOption.map(_.length).getOrElse(0)
+  val depth: Int   = log2Ceil(K)
+  require(K >= 1 && offsets.length == keys && offsets.forall(_.length == K) && coefs.length == keys &&
+    coefs.forall(_.length == K), s"band_offsets and band_coefs must be $keys keys x K slots (K >= 1): got " +
+    s"${offsets.length} x ${offsets.map(_.length).distinct.mkString("/")} and ${coefs.length} x " +
+    s"${coefs.map(_.length).distinct.mkString("/")}")
+  require(offsets.flatten.flatten.forall(o => o > -M && o < M), s"band offsets must be in (-$M, $M)")
+  require(offsets.forall(r => r.flatten.distinct.length == r.flatten.length), "a key takes each offset once")
+  require(coefs.flatten.forall(w => w >= 0 && w < (BigInt(1) << fmt.width)),
+    s"band coefficients must be raw words of the format (0 .. 2^${fmt.width}-1)")
+  /** per slot, the distinct offsets it takes over all keys (its window multiplexer) */
+  val candidates: Seq[Seq[Int]] = (0 until K).map(s => offsets.flatMap(_(s)).distinct.sorted)
   /** partial sums of the streaming accumulators */
   val accParts: Int = latAdd
   require(N > accParts, s"N = $N must exceed lat_add = $latAdd (the accumulator's partial sums)")
 
   // ---- latencies of the pipelines (MinresCore checks its own against these)
-  /** matvec: products, then the adder tree */
-  val latMatvec: Int = latMul + latAdd * depth
+  /** matvec: the registered slot operands, the products, then the adder tree */
+  val latMatvec: Int = 1 + latMul + latAdd * depth
   /** from the last term entering an accumulator to its result readable in the per-problem register */
   val accTail: Int = latAdd + 2 + latAdd * log2Ceil(accParts)
   /** pass B: u = (y - delta v_j) - gamma v_{j-1} */
@@ -94,7 +105,7 @@ case class MinresParams(
   /** cycles of a batch of P problems: the init pass and Imax iterations, up to the last x write */
   def batchCycles(imax: Int): Int = (imax + 1) * P * S - S + tC + N + latCx
 
-  val multipliers: Int = taps + 1 + 3 + 10 + 3 + (if (warm) 2 else 0) // matvec, delta, B, scalar, C, scaling
+  val multipliers: Int = K + 1 + 3 + 10 + 3 + (if (warm) 2 else 0) // matvec, delta, B, scalar, C, scaling
   /** "binary32", "binary16" or e<E>m<M> (the names of mpc_cores/minres/design.py) */
   val formatName: String = (expW, manW) match {
     case (8, 23) => "binary32"
@@ -109,7 +120,7 @@ case class MinresParams(
   val storageVariable: Int = 2 * P * nPrimal
   /** vectors of the warm form beside the matrix: d and z0, double-buffered */
   val storageWarm: Int = if (warm) 4 * P * N else 0
-  val storageConstant: Int = period * (M - 1)
+  val storageConstant: Int = offsets.flatten.count(o => o.exists(_ != 0))
   val storageWords: Int    = storageVariable + storageConstant
   val storageDense: Int    = 2 * P * N * M
   val storageBound: Int    = 2 * P * (1 + T * (m + n) + n) * n + (1 + m + n) * (m + n)
@@ -137,7 +148,8 @@ object MinresParams {
       latSqrt = j("lat_sqrt").num.toInt,
       imaxDefault = j("iterations").num.toInt,
       flushCycles = j("flush_cycles").num.toInt,
-      rom = j("rom").arr.toSeq.map(_.arr.toSeq.map(v => BigInt(v.num.toLong))),
+      offsets = j("band_offsets").arr.toSeq.map(_.arr.toSeq.map(v => if (v.isNull) None else Some(v.num.toInt))),
+      coefs = j("band_coefs").arr.toSeq.map(_.arr.toSeq.map(v => BigInt(v.num.toLong))),
       expW = j.obj.get("exp_width").map(_.num.toInt).getOrElse(8),
       manW = j.obj.get("man_width").map(_.num.toInt).getOrElse(23),
       warm = j.obj.get("warm").exists(_.bool)
