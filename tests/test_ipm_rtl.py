@@ -45,13 +45,13 @@ def test_masses_core_json(tmp_path_factory):
     out = BUILD / "masses"
     core = generate("ipm", [(design_ipm(load_spec(REPO / "examples/masses.yaml")), out)])[0]
     assert (core["N"], core["M"], core["P"], core["problems_in_flight"]) == (216, 20, 3, 6)
-    assert core["format"] == "binary32" and (core["i_nw"], core["iterations"]) == (8, 17)
+    assert core["format"] == "binary32" and (core["i_nw"], core["iterations"]) == (8, 18)
     assert core["stage1_hidden"], "Stage 1 must hide behind MINRES at the default I_MR"
     assert set(core["storage_words"]) == {"minres", "stage1_slots", "stage1_const"}
-    # Stage 1 hidden: a Newton iteration of both groups is two MINRES batches and their answers' streams
-    batch = core["minres_batch_cycles_imax0"] + core["iterations"] * core["cycles_per_iteration"]
-    assert core["cycles_per_newton_iteration"] == 2 * (batch + core["P"] * (core["N"] + 2) + 3)
-    assert core["eq18_cycles"] == 2 * 8 * (3 * 216 + 3) * 17 and "eq. (18)" in core["latency_formula"]
+    # Stage 1 hidden: a Newton iteration of both groups is two MINRES batches back to back (P S = P N here)
+    assert core["cycles_per_iteration"] == 3 * 216
+    assert core["cycles_per_newton_iteration"] == 2 * (18 + 1) * 3 * 216
+    assert core["eq18_cycles"] == 2 * 8 * (3 * 216 + 3) * 18 and "eq. (18)" in core["latency_formula"]
     for f in (core["sv"], core["header"]):
         assert (out / f).exists()
 
@@ -69,10 +69,12 @@ def test_rtl_matches_golden_model(cid, ipm_cores):
     rec = [json.loads(ln) for ln in measure.read_text().splitlines()]
     assert next(r for r in rec if r["test"] == "bitexact_inflight")["answers"] > 0
     # the cycle contract: every answer's latency (id word to status word) equals the cycle model's, for 2P
-    # problems sent back to back from cold starts and again warm
+    # problems sent back to back from cold starts, again warm, and warm at I_MR = 1 and at a large I_MR
     lat = next(r for r in rec if r["test"] == "latency")["rounds"]
     order = list(range(2 * core["P"]))
-    for rnd, warm in (("0", set()), ("1", set(order))):
-        want = {str(c): v["latency"] for c, v in simulate(core, order, warm=warm).items()}
+    assert [lat[r]["i_mr"] for r in "0123"] == [core["iterations"]] * 2 + [1, 2 * core["iterations"] + 3]
+    for rnd, warm in (("0", set()), ("1", set(order)), ("2", set(order)), ("3", set(order))):
+        want = {str(c): v["latency"] for c, v in simulate(core, order, warm=warm, i_nw=lat[rnd]["i_nw"],
+                                                           i_mr=lat[rnd]["i_mr"]).items()}
         assert lat[rnd]["latency"] == want, (rnd, lat[rnd]["latency"], want)
     assert max(lat["1"]["latency"].values()) == core["latency_cycles"]

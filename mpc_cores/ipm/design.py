@@ -3,9 +3,9 @@ the MINRES solver in its warm form (mpc_cores.minres.design, P problems per batc
 format, and the convergence tolerances, written to the config.json the generator (ipm.IpmMain) reads.
 
 Defaults: I_NW = 8; I_MR the larger of 12 (the masses closed loop within 0.1 % of OSQP with the equilibration,
-docs/ipm.md) and the smallest I_MR at which MINRES's time per problem, (I_MR + 1) S, covers Stage 1's
-(linearise + update), so that the added iterations cost no latency; P from eq. (15) of 001 (the MINRES core's
-form). Spec keys (solver section): ipm_P, ipm_newton, ipm_minres, ipm_format, ipm_mu_tol, ipm_res_tol.
+docs/ipm.md) and the smallest I_MR at which Stage 1 hides behind MINRES (a Newton iteration of 2P problems
+takes two MINRES batches back to back, mpc_cores.ipm.timing), so that the added iterations cost no latency; P from
+eq. (15) of 001 (the MINRES core's form). Spec keys (solver section): ipm_P, ipm_newton, ipm_minres, ipm_format, ipm_mu_tol, ipm_res_tol.
 """
 from __future__ import annotations
 
@@ -20,6 +20,8 @@ from mpc_cores.float import vector as fv
 from mpc_cores.ipm import stage1_config
 from mpc_cores.ipm.program import Stage1, build
 from mpc_cores.ipm.sparse import SparseMpc, sparse_mpc
+from mpc_cores.ipm.timing import stage1_hidden
+from mpc_cores.minres.schedule import schedule
 from mpc_cores.minres.design import MinresDesign, design_minres
 
 SIGMA, TAU, START, FLOOR = 0.1, 0.99, 1.0, 1e-2
@@ -110,9 +112,19 @@ def stage1_cycles(d: IpmDesign) -> dict:
     return d.st1.cycles(d.lat)
 
 
+def planned_core(d: IpmDesign, i_mr: int) -> dict:
+    """What mpc_cores.ipm.timing needs of core.json, from the design (the MINRES schedule of
+    mpc_cores.minres.schedule, checked against the generator's when core.json is written)."""
+    L = d.md.layout
+    sch = schedule(L.N, L.M, d.md.pattern.K, d.md.lat, d.md.P, True)
+    return {"P": sch["P"], "N": L.N, "stage1_cycles": stage1_cycles(d), "i_nw": d.i_nw, "iterations": i_mr,
+            "minres_batch_cycles_imax0": sch["batch_cycles_imax0"], "cycles_per_iteration": sch["cycles_per_iteration"]}
+
+
 def hiding_imr(d: IpmDesign) -> int:
-    """The smallest I_MR with (I_MR + 1) N >= linearise + update: MINRES's time per problem (slots of N cycles when
-    P is at least eq. (15)) covers Stage 1's."""
-    c = stage1_cycles(d)
-    per_problem = c["linearise"] + c["receive"] + c["update"]
-    return max(1, -(-per_problem // d.md.layout.N) - 1)
+    """The smallest I_MR at which Stage 1 hides behind MINRES: with 2P problems in flight a Newton iteration takes
+    2 (I_MR + 1) P S cycles, MINRES's batches back to back (mpc_cores.ipm.timing.stage1_hidden)."""
+    i_mr = 1
+    while not stage1_hidden(planned_core(d, i_mr)):
+        i_mr += 1
+    return i_mr

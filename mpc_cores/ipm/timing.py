@@ -9,10 +9,13 @@ The hand-offs, in cycles (IpmCore, MinresCore):
   the last word of a MINRES frame is taken one cycle after linearise is done; the sequencer sees the frame sent
   one cycle later, and acts on the next (another frame of the forming group: its id word on the cycle after;
   the next problem's update likewise); else it closes the batch and decides in its idle state a cycle later;
-  MINRES starts a full batch the cycle after its last word (a closed partial batch one cycle later) or the cycle
-  after its previous batch's last answer word, and streams its answers (batch cycles) + 1 cycles later;
+  MINRES starts a full batch the cycle after its last word (a closed partial batch one cycle later), but no
+  earlier than (I_MR + 1) P S cycles after it started the previous batch (when that batch's feed has taken its
+  last element: batches overlap), and streams its answers (batch cycles) + 1 cycles later, or the cycle after the
+  previous batch's last answer word was taken if that is later;
   a receive waiting for MINRES is done N + 3 cycles after MINRES starts streaming (its k-th problem N + 2 cycles
-  later each), else after its own cycles; MINRES is free the cycle after the last receive is done;
+  later each), on the cycle it takes the last word, else after its own cycles, one more from the second problem
+  on (the id word between two problems' words);
   an answer's status word leaves 3 cycles after output is done; the sequencer acts 2 cycles later (the next
   problem's update) or decides in its idle state 2 cycles later.
 The model assumes Stage 1 is in its receive when MINRES starts streaming (Stage 1 hidden, see `hidden`) or late
@@ -36,7 +39,9 @@ def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | 
     chans: list[list[int]] = [[], []]    # per group its channels in batch order (empty: idle)
     solves = [0, 0]
     fifo: list[tuple[int, int]] = []     # (group, cycle its batch is complete in MINRES), oldest first
-    mr_free = 0                          # first cycle MINRES may start its next batch
+    mr_next = 0                          # first cycle MINRES may start its next batch (the previous one's feed)
+    out_free = 0                         # first cycle MINRES may stream a batch's answers (the previous ones taken)
+    span = (i_mr + 1) * core["cycles_per_iteration"]
     take, answer = {}, {}
 
     def close(g: int, f: int) -> int:
@@ -64,11 +69,13 @@ def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | 
         assert fifo, "the cycle model has nothing to do"
         g, full = fifo.pop(0)
         solves[g] += 1
-        o = max(full, mr_free) + 1 + batch     # MINRES streams the answers
+        start = max(full, mr_next)
+        mr_next = start + span
+        o = max(start + 1 + batch, out_free)   # MINRES streams the answers
         done = t + 1
         for k in range(len(chans[g])):
-            done = max(done + C["receive"], o + N + 3 + k * (N + 2))
-        mr_free = done + 1
+            done = max(done + C["receive"] + (k > 0), o + N + 3 + k * (N + 2))
+        out_free = done + 1
         for k, c in enumerate(chans[g]):
             last = k == len(chans[g]) - 1
             end = done + C["update"]
@@ -89,24 +96,35 @@ def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | 
     return {c: {"take": take[c], "answer": answer[c], "latency": answer[c] - take[c]} for c in order}
 
 
+def newton_cycles(c: dict) -> int:
+    """Cycles one more Newton iteration adds to the last of 2P problems sent back to back (warm)."""
+    order = list(range(2 * c["P"]))
+    warm = simulate(c, order, warm=set(order))
+    more = simulate(c, order, warm=set(order), i_nw=c["i_nw"] + 1)
+    return max(v["latency"] for v in more.values()) - max(v["latency"] for v in warm.values())
+
+
+def stage1_hidden(c: dict) -> bool:
+    """Stage 1 hides behind MINRES: a Newton iteration of 2P problems takes two MINRES batches back to back,
+    2 (I_MR + 1) P S cycles."""
+    return newton_cycles(c) == 2 * (c["iterations"] + 1) * c["cycles_per_iteration"]
+
+
 def timing(c: dict) -> dict:
-    """core.json's cycle facts: Stage 1 per problem against MINRES per problem, the latency of 2P problems sent
-    back to back (cold and warm), and eq. (18) of 001."""
-    st1 = c["stage1_cycles"]
-    P, N, imr, inw, S = c["P"], c["N"], c["iterations"], c["i_nw"], c["slot_cycles"]
-    per_problem_st1 = st1["linearise"] + st1["receive"] + st1["update"]
-    minres_per_problem = (imr + 1) * S
-    hidden = per_problem_st1 <= minres_per_problem
+    """core.json's cycle facts: whether Stage 1 hides behind MINRES, the latency of 2P problems sent back to back
+    (cold and warm), and eq. (18) of 001."""
+    P, N, imr, inw = c["P"], c["N"], c["iterations"], c["i_nw"]
     order = list(range(2 * P))
     cold = simulate(c, order)
     warm = simulate(c, order, warm=set(order))
     eq18 = 2 * inw * (P * N + P) * imr
-    more = simulate(c, order, warm=set(order), i_nw=inw + 1)
-    per_newton = max(v["latency"] for v in more.values()) - max(v["latency"] for v in warm.values())
+    per_newton = newton_cycles(c)
+    bound = 2 * (imr + 1) * c["cycles_per_iteration"]
+    hidden = per_newton == bound
     return {
         "stage1_hidden": hidden,
-        "stage1_note": "" if hidden else (f"linearise + receive + update = {per_problem_st1} cycles per problem > "
-                                          f"(I_MR + 1) S = {minres_per_problem}: Stage 1 sets the pace"),
+        "stage1_note": "" if hidden else (f"a Newton iteration takes {per_newton} cycles > 2 (I_MR + 1) P S = {bound}: "
+                                          "Stage 1 sets the pace"),
         "latency_cycles_cold": max(v["latency"] for v in cold.values()),
         "latency_cycles": max(v["latency"] for v in warm.values()),
         "latency_per_channel": [warm[ch]["latency"] for ch in order],

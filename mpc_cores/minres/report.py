@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from mpc_cores.minres.kkt import dense_cds_words, paper_bound_words
+from mpc_cores.minres.schedule import schedule
 
 
 def core_json(d, hw: dict) -> dict:
@@ -17,6 +18,9 @@ def core_json(d, hw: dict) -> dict:
               "out_words", "warm", "storage_warm",
               "axil_addr_width", "registers", "regions"):
         c[k] = hw[k]
+    planned = schedule(c["N"], c["M"], c["K"], d.lat, d.P, d.warm)
+    got = {k: c[k] for k in planned}
+    assert planned == got, f"the MINRES schedule of mpc_cores.minres.schedule {planned} differs from the generator's {got}"
     assert c["storage_dense_cds"] == dense_cds_words(d.n, d.m, d.T, c["P"])
     assert c["storage_bound_001"] == paper_bound_words(d.n, d.m, d.T, c["P"])
     c["eq15"] = (f"P = ceil((2N + M + k1 ceil(log2(K)) + k2) / N), K = {c['K']} products per row, k1 = {c['k1']}, "

@@ -116,9 +116,9 @@ async def bitexact_inflight(dut):
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
 async def latency(dut):
-    """2P problems sent back to back on an idle core (cold starts, then warm): the cycles from each id word to its
-    answer's status word (LAST_CYCLES of the last answer, and the testbench's own count for all) against the
-    cycle model of core.json."""
+    """2P problems sent back to back on an idle core (cold starts, then warm, then warm at other I_MR and I_NW): the
+    cycles from each id word to its answer's status word (LAST_CYCLES of the last answer, and the testbench's own
+    count for all) against the cycle model of core.json."""
     tb = IpmTB(dut, seed=5)
     await tb.reset()
     now = [0]
@@ -134,11 +134,17 @@ async def latency(dut):
     took, answered = {}, {}
     cocotb.start_soon(_handshakes(dut, now, tb.core["in_words"], took, answered))
     rec = {}
-    for rnd in range(2):
+    # cold, warm, then warm at I_MR = 1 (Stage 1 sets the pace) and at a large I_MR with I_NW = 2 (MINRES does)
+    settings = [None, None, (tb.model.i_nw, 1), (2, 2 * tb.model.i_mr + 3)]
+    for rnd, setting in enumerate(settings):
+        if setting:
+            tb.model.i_nw, tb.model.i_mr = setting
+            await tb.set_reg("INW", setting[0])
+            await tb.set_reg("IMAX", setting[1])
         jobs = [(ch, 100 * rnd + ch, tb.words(*tb.state())) for ch in range(tb.C)]
         t0 = now[0]
         await tb.round(jobs, f"latency {rnd}")
-        rec[rnd] = {"all_done": now[0] - t0,
+        rec[rnd] = {"all_done": now[0] - t0, "i_nw": tb.model.i_nw, "i_mr": tb.model.i_mr,
                     "latency": {ch: answered[t] - took[t] for ch, t, _ in jobs}}
         rec[rnd]["last_cycles"], _ = await tb.read(tb.rm["LAST_CYCLES"])
         last = max((answered[t], ch) for ch, t, _ in jobs)[1]
@@ -165,7 +171,8 @@ async def _handshakes(dut, now, in_words: int, took: dict, answered: dict):
 
 async def _trace(dut, now, trace):
     """events of the two stages, by cycle: Stage 1 starts (program, slot) and dones, MINRES frames in (last word),
-    MINRES state changes (0 idle, 1 run, 2 output), answers (status word)"""
+    MINRES state changes (bits: batch 0 running, batch 1 running, batch 0 answers out, batch 1 answers out),
+    answers (status word)"""
     prev = None
     while True:
         await RisingEdge(dut.clock)
@@ -177,7 +184,8 @@ async def _trace(dut, now, trace):
             trace.append((t, "done"))
         if mr.s_axis_tvalid.value and mr.s_axis_tready.value and mr.s_axis_tlast.value:
             trace.append((t, "mr_in_last"))
-        st = int(mr.state.value)
+        st = int(mr.active_0.value) | int(mr.active_1.value) << 1 | int(mr.doneB_0.value) << 2 | \
+            int(mr.doneB_1.value) << 3
         if st != prev:
             trace.append((t, "mr_state", st))
             prev = st

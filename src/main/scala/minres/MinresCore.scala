@@ -11,6 +11,7 @@ import shell.{Field, RegMap, SolverRegs}
   * for the feed the position of the row in the MPC structure (row r of stage k, primal index).
   */
 class MinresCtl(p: MinresParams) extends Bundle {
+  val bank = UInt(1.W) // the batch's bank of the double-buffered memories
   val e    = UInt(log2Ceil(p.S + 1).W)
   val slot = UInt(math.max(1, log2Ceil(p.P)).W)
   val j    = UInt(16.W)
@@ -26,23 +27,23 @@ class MinresOutWord extends Bundle {
   val badId = Bool() // an id word with bit 31 set (STATUS.NONFINITE when it is sent)
 }
 
-/** Counter of a pass: elements 0..S-1 of slots 0..P-1 of iterations 0..Imax, one element per cycle. `abort` stops
-  * it: a new batch starts while the passes of the previous one may still count through the idle end (e >= N) of
-  * their last slot, which is the case when S is stretched well beyond N. Left running, such a pass would compare
-  * its iteration with the new batch's Imax, run on past its own last iteration and write into the new batch's
-  * buffers.
+/** Counter of a pass: elements 0..S-1 of slots 0..P-1 of iterations 0..Imax of one batch, one element per cycle.
+  * It latches the batch's Imax and bank at its start, so that it finishes its own batch while the next one
+  * starts: a batch starts no earlier than the cycle on which the previous batch's feed takes its last element,
+  * so each pass starts the next batch on or after its own last cycle of the previous one.
   */
 class PassCounter(p: MinresParams) {
-  val run = RegInit(false.B)
-  val c   = RegInit(0.U.asTypeOf(new MinresCtl(p)))
+  val run  = RegInit(false.B)
+  val c    = RegInit(0.U.asTypeOf(new MinresCtl(p)))
+  val imax = RegInit(0.U(16.W))
   /** an element of the matrix order is processed this cycle */
   def valid: Bool = run && c.e < p.N.U
-  def tick(start: Bool, imax: UInt, abort: Bool): Unit = {
+  def tick(start: Bool, imaxIn: UInt, bank: UInt): Unit = {
     when(start) {
-      run := true.B
-      c   := 0.U.asTypeOf(c)
-    }.elsewhen(abort) {
-      run := false.B
+      run    := true.B
+      c      := 0.U.asTypeOf(c)
+      c.bank := bank
+      imax   := imaxIn
     }.elsewhen(run) {
       val lastE = c.e === (p.S - 1).U
       c.e := Mux(lastE, 0.U, c.e + 1.U)
@@ -70,7 +71,9 @@ class PassCounter(p: MinresParams) {
   * 32-bit stream words (the upper bits are ignored on input and zero on output), tlast on the last word. The
   * next batch loads into the other bank while one solves. The core runs the init pass and Imax MINRES
   * iterations on every slot, then sends per problem the id (bit 31 set if an input word or the solution is
-  * not finite) and the solution z (N words).
+  * not finite) and the solution z (N words). Batches overlap: the next one starts as soon as the previous one's
+  * feed has taken its last element (its passes, and then its answers, finish meanwhile), so back to back
+  * batches of Imax iterations take (Imax + 1) P S cycles each.
   *
   * Schedule: slot p of iteration j starts its feed at ((j P + p) S); every pass serves one slot at a time, so
   * one instance of each unit serves all problems:
@@ -115,7 +118,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val vpmem = new VecRam("vpmem", P * N, W)             // v_{j-1} for pass B (pass B copies v_j into it)
   val umem  = new VecRam("umem", P * N, W)              // u, from pass B to pass C
   val wmem  = Seq(new VecRam("wmem0", P * N, W), new VecRam("wmem1", P * N, W)) // w_j in bank j % 2
-  val xmem  = new VecRam("xmem", P * N, W)              // x: pass C, then the output stream
+  val xmem  = new VecRam("xmem", 2 * P * N, W, copies = 2) // x by bank: copy 0 pass C, copy 1 the output stream
   val ymem  = new VecRam("ymem", P * N, W)              // A v_j, from the matvec to pass B
   val bmem  = new VecRam("bmem", 2 * P * N, W)          // right-hand sides, double-buffered (load bank)
   val dmem  = new VecRam("dmem", 2 * P * nPrimal, W)    // variable column (primal diagonal), double-buffered
@@ -131,7 +134,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val delta = scal(); val nrm2 = scal()
   val cR = scal(); val cpR = scal(); val sR = scal(); val spR = scal(); val gamR = scal(); val etaR = scal()
   val g1R = scal(); val a1R = scal(); val a2R = scal(); val a3R = scal(); val cetaR = scal()
-  val res0R = scal() // ||r_0||: the init pass's norm (sent after x in the warm form)
+  val res0R = Reg(Vec(2 * P, UInt(W.W))) // ||r_0||, bank * P + slot: the init pass's norm (sent after x, warm form)
 
   // ---- input: frames into the load bank
   val ldBank = RegInit(0.U(1.W))
@@ -177,17 +180,21 @@ class MinresCore(val p: MinresParams) extends Module {
     }
   }
 
-  // ---- solver state
-  val sIdle :: sRun :: sOut :: Nil = Enum(3)
-  val state   = RegInit(sIdle)
-  val runBank = RegInit(0.U(1.W))
-  val imax    = RegInit(1.U(16.W))
-  val count   = RegInit(0.U(log2Ceil(P + 1).W))
-  val g       = RegInit(0.U(32.W))
-  val gEnd    = RegInit(0.U(32.W))
-  val xBad    = Reg(Vec(P, Bool()))
+  // ---- batches: one per bank. A batch starts when its bank is loaded and the previous batch's feed has taken its
+  // last element, so consecutive batches keep the matrix-vector product busy; a finished batch's answers stream
+  // out of its bank while the next one runs. The bank is loaded again once its answers are out.
+  val started = RegInit(VecInit(false.B, false.B)) // running, or finished with answers not yet all out
+  val active  = RegInit(VecInit(false.B, false.B)) // running: its x not yet complete
+  val doneB   = RegInit(VecInit(false.B, false.B)) // finished: its answers are streaming or waiting to
+  val nextBank = RegInit(0.U(1.W))                // bank of the next batch to start
+  val curBank  = RegInit(0.U(1.W))                // bank of the batch started last
+  val g        = Reg(Vec(2, UInt(32.W)))           // cycles since the batch's start
+  val gEnd     = Reg(Vec(2, UInt(32.W)))           // its last x write
+  val gFeed    = Reg(Vec(2, UInt(32.W)))           // its feed's last element
+  val batchCyc = Reg(Vec(2, UInt(32.W)))
+  val xBad     = Reg(Vec(2 * P, Bool()))
 
-  // A partly filled bank is sent on after flushCycles idle cycles of the input while the solver waits.
+  // A partly filled bank is sent on after flushCycles idle cycles of the input while the solver has nothing to do.
   val idleCnt = RegInit(0.U(16.W))
   val partial = ldWord === 0.U && ldSlot =/= 0.U && !full(ldBank)
   private val closeNow = p.warm.B && partial && ipm.map(_.close).getOrElse(false.B)
@@ -197,7 +204,8 @@ class MinresCore(val p: MinresParams) extends Module {
     ldBank       := ~ldBank
     ldSlot       := 0.U
   }
-  when(!p.warm.B && partial && !s_axis.tvalid && state === sIdle && !full(runBank)) {
+  private val solverIdle = !started.asUInt.orR && !full(~ldBank)
+  when(!p.warm.B && partial && !s_axis.tvalid && solverIdle) {
     idleCnt := idleCnt + 1.U
     when(idleCnt === (p.flushCycles - 1).U) {
       full(ldBank) := true.B
@@ -208,32 +216,42 @@ class MinresCore(val p: MinresParams) extends Module {
     }
   }.otherwise { idleCnt := 0.U }
 
-  val startBatch = state === sIdle && full(runBank)
+  private val prevFed  = !active(curBank) || g(curBank) >= gFeed(curBank)
+  val startBatch = full(nextBank) && !started(nextBank) && prevFed
+  private val imaxIn = ipm.map(_.imax).getOrElse(regs.imaxReg)
   when(startBatch) {
-    state := sRun
-    g     := 0.U
-    val im = ipm.map(_.imax).getOrElse(regs.imaxReg)
-    imax  := im
-    count := cnt(runBank)
-    gEnd  := (im * p.cyclesPerIteration.U +& (p.batchCycles(0) - 1).U)
-    xBad.foreach(_ := false.B)
+    started(nextBank) := true.B
+    active(nextBank)  := true.B
+    g(nextBank)       := 0.U
+    gEnd(nextBank)    := imaxIn * p.cyclesPerIteration.U +& (p.batchCycles(0) - 1).U
+    gFeed(nextBank)   := imaxIn * p.cyclesPerIteration.U +& (p.cyclesPerIteration - 1).U
+    for (q <- 0 until P) xBad(nextBank * P.U + q.U) := false.B
+    curBank  := nextBank
+    nextBank := ~nextBank
   }
-  when(state === sRun) { g := g + 1.U }
-  private def startAt(t: Int): Bool = if (t == 0) startBatch else state === sRun && g === (t - 1).U
+  for (b <- 0 until 2) when(active(b)) {
+    g(b) := g(b) + 1.U
+    when(g(b) === gEnd(b)) {
+      active(b)   := false.B
+      doneB(b)    := true.B
+      batchCyc(b) := g(b) + 1.U
+    }
+  }
+  private def startAt(t: Int): Bool = if (t == 0) startBatch else active(curBank) && g(curBank) === (t - 1).U
 
   // The memories have a registered read: passes B and C count one cycle ahead (address phase, counters pbA and
   // pcA) and their words and control meet one cycle later (bc, cc), at the offsets tB and tC. The feed's first
   // shift-register stage is the read register of its vmem copy.
-  val feed = new PassCounter(p); feed.tick(startAt(0), imax, false.B)
-  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - 1), imax, startBatch)
-  val ps   = new PassCounter(p); ps.tick(startAt(p.tS), imax, startBatch)
-  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - 1), imax, startBatch)
+  val feed = new PassCounter(p); feed.tick(startAt(0), imaxIn, nextBank)
+  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - 1), feed.imax, curBank)
+  val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, curBank)
+  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - 1), feed.imax, curBank)
 
   // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
   private val sr0 = vmem.read(0, adr1(feed.c.slot, inN(feed.c.e)))
   // warm form: d v_j (z0 in the init pass), latFeed = lat_mul cycles later
   private val feedWord = if (!p.warm) sr0 else {
-    val fAdr = adr2(runBank, feed.c.slot, inN(feed.c.e), N)
+    val fAdr = adr2(feed.c.bank, feed.c.slot, inN(feed.c.e), N)
     val dv   = mul(Timed(smem.get.read(0, fAdr), 0), Timed(sr0, 0))
     Mux(Stages.delay(RegNext(feed.c.j === 0.U), p.latFeed), Stages.delay(zmem.get.read(0, fAdr), p.latFeed), dv.v)
   }
@@ -249,7 +267,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private def keyOf(c: MinresCtl): UInt =
     Mux(c.k === T.U, (p.period).U(keyW.W) +& c.r, c.r.pad(keyW))(keyW - 1, 0)
   private val key    = RegNext(keyOf(rowPre))
-  private val dRead  = dmem.read(0, adr2(runBank, rowPre.slot, Mux(rowPre.r < n.U, 0.U, rowPre.prim), nPrimal))
+  private val dRead  = dmem.read(0, adr2(rowPre.bank, rowPre.slot, Mux(rowPre.r < n.U, 0.U, rowPre.prim), nPrimal))
   val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
   private def perKey[T <: Data](f: Int => T): T = VecInit((0 until p.keys).map(f))(key)
@@ -270,7 +288,7 @@ class MinresCore(val p: MinresParams) extends Module {
   // warm form: row i scaled by d_i (its read addressed a cycle ahead)
   val y    = if (!p.warm) ay else {
     val pre = ops.delayTo(row, 0, ay.t - 1)
-    mul(Timed(smem.get.read(1, adr2(runBank, pre.slot, inN(pre.e), N)), ay.t), ay)
+    mul(Timed(smem.get.read(1, adr2(pre.bank, pre.slot, inN(pre.e), N)), ay.t), ay)
   }
   val rowY = ops.delayTo(row, 0, y.t)
   ymem.write(Stages.delayValid(rowValid, y.t), adr1(rowY.slot, rowY.e), y.v)
@@ -287,7 +305,7 @@ class MinresCore(val p: MinresParams) extends Module {
   // ---- pass B: u = (y - delta v_j) - gamma v_{j-1}; ||u||^2; v_j copied into vpmem for the next iteration
   private val bA     = pbA.c
   private val bAdr   = adr1(bA.slot, inN(bA.e))
-  private val bRhs   = bmem.read(0, adr2(runBank, bA.slot, inN(bA.e), N))
+  private val bRhs   = bmem.read(0, adr2(bA.bank, bA.slot, inN(bA.e), N))
   private val bY     = ymem.read(0, bAdr)
   private val bVj    = vmem.read(1, bAdr)
   private val bVjm1  = vpmem.read(0, bAdr)
@@ -339,7 +357,7 @@ class MinresCore(val p: MinresParams) extends Module {
     val q = scW.slot
     when(scW.j === 0.U) {
       cR(q) := one; cpR(q) := one; sR(q) := zero; spR(q) := zero
-      gamR(q) := g1d; etaR(q) := g1d; res0R(q) := g1d
+      gamR(q) := g1d; etaR(q) := g1d; res0R(scW.bank * P.U + q) := g1d
     }.otherwise {
       cpR(q) := cR(q); cR(q) := c1d; spR(q) := sR(q); sR(q) := s1d
       gamR(q) := g1d; etaR(q) := eta1.v
@@ -349,17 +367,13 @@ class MinresCore(val p: MinresParams) extends Module {
   }
 
   // ---- pass C: v_{j+1} = u / gamma_{j+1}; w_{j+1} = ((v_j - a3 w_{j-1}) - a2 w_j) / a1; x += c eta w_{j+1}
-  // The output stream reads xmem through the same port once the batch is done (state sOut, no pass C element).
+  // x is double-buffered by bank: copy 0 for pass C, copy 1 for the output stream of a finished batch.
   private val cA     = pcA.c
   private val cAdr   = adr1(cA.slot, inN(cA.e))
   private val cU     = umem.read(0, cAdr)
   private val cVj    = vmem.read(2, cAdr)
   private val cW01   = wmem.map(_.read(0, cAdr))
-  // output position (the output stream below): problem issSlot, word issIdx (0: the id word)
-  val issSlot = RegInit(0.U(log2Ceil(P + 1).W))
-  val issIdx  = RegInit(0.U(log2Ceil(N + 2).W))
-  private val outAdr = adr1(issSlot, Mux(issIdx === 0.U, 0.U, issIdx - 1.U))
-  private val cX0    = xmem.read(0, Mux(state === sOut, outAdr, cAdr))
+  private val cX0    = xmem.read(0, adr2(cA.bank, cA.slot, inN(cA.e), N))
   private val cc     = RegNext(cA)
   private val cValid = RegNext(pcA.valid, false.B)
   private val par    = cc.j(0)  // bank of w_j; w_{j-1} and w_{j+1} are in the other
@@ -379,33 +393,34 @@ class MinresCore(val p: MinresParams) extends Module {
   for (k <- 0 until 2) wmem(k).write(wEn && cW.j(0) =/= k.U, adr1(cW.slot, cW.e), wNew.v) // w_{j+1}: bank (j+1) % 2
   private val cX  = ops.delayTo(cc, 0, xNew.t)
   private val xEn = Stages.delayValid(cValid, xNew.t) && cX.j =/= 0.U
-  xmem.write(xEn, adr1(cX.slot, cX.e), xNew.v)
-  when(xEn && !finite(xNew.v)) { xBad(cX.slot) := true.B }
-
-  // ---- end of the batch
-  val batchCycles = RegInit(0.U(32.W))
-  when(state === sRun && g === gEnd) {
-    state       := sOut
-    batchCycles := g + 1.U
-  }
+  xmem.write(xEn, adr2(cX.bank, cX.slot, cX.e, N), xNew.v)
+  when(xEn && !finite(xNew.v)) { xBad(cX.bank * P.U + cX.slot) := true.B }
 
   // ---- output: per problem the id word, then z (N words from xmem). The read is registered, so words are
   // issued one cycle ahead into a 3-word queue (enough for one word per cycle under any backpressure: a word is
   // issued only if the queue will have room for it); m_axis is the queue's head.
+  // Batches finish in the order they start, so the output takes the banks in turn (outBank).
+  val outBank = RegInit(0.U(1.W))
+  val issSlot = RegInit(0.U(log2Ceil(P + 1).W)) // output position: problem issSlot, word issIdx (0: the id word)
+  val issIdx  = RegInit(0.U(log2Ceil(N + 2).W))
+  private val outAdr = adr2(outBank, issSlot, Mux(issIdx === 0.U, 0.U, issIdx - 1.U), N)
+  private val xOut   = xmem.read(1, outAdr)
+  private val ob     = outBank * P.U + issSlot
+  private val count  = cnt(outBank)
   val outQ    = Module(new Queue(new MinresOutWord, 3))
   val issDone = RegInit(false.B)
   val pending = RegInit(false.B)
-  private val issue = state === sOut && !issDone && (outQ.io.count +& pending) < 3.U
-  private val oBad  = inBad(runBank * P.U + issSlot) || xBad(issSlot)
+  private val issue = doneB(outBank) && !issDone && (outQ.io.count +& pending) < 3.U
+  private val oBad  = inBad(ob) || xBad(ob)
   pending := issue
   private val pendId   = RegNext(issIdx === 0.U)
-  private val pendWord = RegNext(Cat(oBad, ids(runBank * P.U + issSlot)))
+  private val pendWord = RegNext(Cat(oBad, ids(ob)))
   private val lastIdx  = (p.outWords - 1).U
   private val pendLast = RegNext(issIdx === lastIdx)
   private val pendRes  = RegNext(issIdx === (N + 1).U)
-  private val pendR0   = RegNext(res0R(issSlot))
+  private val pendR0   = RegNext(res0R(ob))
   outQ.io.enq.valid      := pending
-  outQ.io.enq.bits.data  := Mux(pendId, pendWord, Mux(pendRes && p.warm.B, pendR0, cX0))
+  outQ.io.enq.bits.data  := Mux(pendId, pendWord, Mux(pendRes && p.warm.B, pendR0, xOut))
   outQ.io.enq.bits.last  := pendLast
   outQ.io.enq.bits.badId := pendId && pendWord(31)
   when(issue) {
@@ -423,21 +438,22 @@ class MinresCore(val p: MinresParams) extends Module {
   when(m_axis.fire) {
     when(outQ.io.deq.bits.badId) { nonfinite := true.B }
     when(outQ.io.deq.bits.last) {
-      regs.solveDone(batchCycles)
+      regs.solveDone(batchCyc(outBank))
       oSlot := oSlot + 1.U
       when(oSlot === count - 1.U) {
-        oSlot         := 0.U
-        issSlot       := 0.U
-        issDone       := false.B
-        state         := sIdle
-        full(runBank) := false.B
-        runBank       := ~runBank
+        oSlot            := 0.U
+        issSlot          := 0.U
+        issDone          := false.B
+        doneB(outBank)   := false.B
+        started(outBank) := false.B
+        full(outBank)    := false.B
+        outBank          := ~outBank
       }
     }
   }
 
   // ---- registers: the shared ones and STATUS.NONFINITE (MinresRegs)
-  regs.busy := state =/= sIdle || full.asUInt.orR || ldWord =/= 0.U || ldSlot =/= 0.U || s_axis.fire
+  regs.busy := started.asUInt.orR || full.asUInt.orR || ldWord =/= 0.U || ldSlot =/= 0.U || s_axis.fire
   regs.writes()
 }
 
