@@ -10,7 +10,8 @@ The interior-point core (Algorithm 1 of 001: Stage 1 engine + MINRES in its warm
   units      FMul, FAdd, FDiv, FSqrt instances of the generated SystemVerilog under the Stage 1 engine and the MINRES
              core, beside Table I of 001 (Stage 1 3i, linear solver 4M + 24);
   resources  Yosys synth_ecp5 (MULT18X18D, LUT4, FF, DP16KD; fit on the LFE5U-85F) on the small core at P = 1, and in
-             a full run synth_xilinx xc7 on it and both on masses at P = 1;
+             a full run synth_xilinx xc7 on it and both on masses at P = 1, binary32 and e8m17 (the masses core
+             that fits the part);
   Fmax       nextpnr-ecp5 on the LFE5U-85F (speed 8, constraints/ipm_core.lpf) for the cores that fit;
   software   OSQP (default and tuned), PIQP and Clarabel on the QPs of the masses closed loop under the core's
              bit-exact model, against the core's latency at that Fmax (an estimate for the cores not placed) and at
@@ -54,7 +55,7 @@ class IpmCore(ToolResults):
     problem: str
     out: Path
     design: object               # mpc_cores.ipm.design.IpmDesign
-    role: str                    # "masses" (default design), "masses_p1", "small", "small_p1"
+    role: str                    # "masses" (default design), "masses_p1", "masses_e8m17_p1", "small", "small_p1"
     kind: str = "ipm"
     simulate: bool = False
     synth: bool = False
@@ -68,7 +69,8 @@ class IpmCore(ToolResults):
 
     @property
     def tag(self) -> str:
-        return f"IPM {self.problem} P={self.P or 'eq15'}"
+        fmt = self.design.format
+        return f"IPM {self.problem} P={self.P or 'eq15'}" + ("" if fmt == "binary32" else f" {fmt}")
 
     @property
     def placeable(self) -> bool:
@@ -200,19 +202,22 @@ class Section(QpSection):
         masses, small = load_spec(MASSES), small_problem()
         self.problem = masses
         full = not self.quick
-        plan = [(masses, None, "masses", {}), (small, None, "small", {}),
-                (small, 1, "small_p1", dict(simulate=True, synth=True, place=self.place))]
+        plan = [(masses, None, "masses", {}, None), (small, None, "small", {}, None),
+                (small, 1, "small_p1", dict(simulate=True, synth=True, place=self.place), None)]
         if full:
-            plan.append((masses, 1, "masses_p1", dict(simulate=True, synth=True, place=self.place)))
-        for p, P, role, steps in plan:
-            d = design_ipm(p, P=P)
+            # masses at P = 1: binary32 (simulated; too big for the part) and e8m17 (the core that fits, placed)
+            plan += [(masses, 1, "masses_p1", dict(simulate=True, synth=True), None),
+                     (masses, 1, "masses_e8m17_p1", dict(synth=True, place=self.place), "e8m17")]
+        for p, P, role, steps, fmt in plan:
+            d = design_ipm(p, P=P, format=fmt)
             if role == "masses":
                 self.designs[p.name] = d
-            self.cores.append(IpmCore(p.name, root / "cores" / f"{p.name}_{f'p{P}' if P else 'default'}", d, role, **steps))
+            folder = f"{p.name}_{f'p{P}' if P else 'default'}" + (f"_{fmt}" if fmt else "")
+            self.cores.append(IpmCore(p.name, root / "cores" / folder, d, role, **steps))
         self.plan_text = (f"Cores: masses at its default P (cycles from core.json), {small.name} (n = {small.nx}, "
                           f"m = {small.nu}, T = {small.N}) at its default P and at P = 1 (Verilator, Yosys ECP5"
                           f"{', xc7' if self.xilinx else ''}, nextpnr{'' if self.place else ' off'}"
-                          + ("); masses at P = 1 (Verilator, Yosys)." if full else
+                          + ("); masses at P = 1 (Verilator, Yosys) and in e8m17 at P = 1 (Yosys, nextpnr)." if full else
                              " from the cache only); QUICK: masses not simulated or synthesised."))
         self.log("IPM: " + self.plan_text)
 

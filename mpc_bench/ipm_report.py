@@ -155,7 +155,8 @@ def _cycles_part(recs: list[dict]) -> list[str]:
                  "ratio", "measured", "measured = core.json", "per Newton iteration (2 (P N + P) I_MR)",
                  "one problem alone", "cold 2P", "measured cold"], body)
     L += ["", "Stage 1 program cycles per problem (mpc_cores.ipm.isa, core.json `stage1_cycles`) and whether Stage 1 "
-          "hides behind MINRES (linearise + receive + update <= (I_MR + 1) S, MINRES's time per problem):", ""]
+          "hides behind MINRES (a Newton iteration of the 2P problems takes two MINRES batches back to back, "
+          "2 (I_MR + 1) P S cycles; mpc_cores.ipm.timing.stage1_hidden):", ""]
     body = [[r["problem"], str(r["P"]), *(str(r[f"stage1_{k}"]) for k in
                                            ("sample", "cold", "warm", "linearise", "receive", "update", "output")),
              str(r["stage1_per_problem"]), f"{r['minres_per_problem']} (S = {r['slot_cycles']})",
@@ -163,10 +164,11 @@ def _cycles_part(recs: list[dict]) -> list[str]:
     L += _table(["problem", "P", "sample", "cold", "warm", "linearise", "receive", "update", "output",
                  "Stage 1 per problem", "MINRES per problem", "hidden"], body)
     L += ["", "Where the core takes more than eq. (18): 001 counts I_NW linear solves of (P N + P) I_MR cycles for "
-          "both halves of the 2P problems; the core adds per Newton step MINRES's init pass, drain and answer stream "
-          "(the batch is (I_MR + 1) P S + c) and the Stage 1 programs that cannot overlap (sample and cold/warm "
-          "start before the first batch, update and output after the last), and with P below eq. (15) the slots "
-          "stretch (S > N). Below its eq. (15) P a core is far from eq. (18) by construction.", ""]
+          "both halves of the 2P problems. MINRES runs consecutive batches back to back, so once Stage 1 hides, a "
+          "Newton iteration takes 2 (I_MR + 1) P S: the core adds the init pass of each batch (r_0 = b - d A z_0, "
+          "the warm start) and the Stage 1 programs that cannot overlap (sample and cold/warm start before the "
+          "first batch, update and output after the last). With P below eq. (15) the slots stretch (S > N), and "
+          "such a core is far from eq. (18) by construction.", ""]
     return L
 
 
