@@ -69,12 +69,16 @@ def test_rtl_matches_golden_model(cid, ipm_cores):
     rec = [json.loads(ln) for ln in measure.read_text().splitlines()]
     assert next(r for r in rec if r["test"] == "bitexact_inflight")["answers"] > 0
     # the cycle contract: every answer's latency (id word to status word) equals the cycle model's, for 2P
-    # problems sent back to back from cold starts, again warm, and warm at I_MR = 1 and at a large I_MR
+    # problems sent back to back from cold starts, again warm, warm at I_MR = 1 and at a large I_MR, and with the
+    # answers carrying z (CTRL.OUT_ALL)
     lat = next(r for r in rec if r["test"] == "latency")["rounds"]
     order = list(range(2 * core["P"]))
-    assert [lat[r]["i_mr"] for r in "0123"] == [core["iterations"]] * 2 + [1, 2 * core["iterations"] + 3]
-    for rnd, warm in (("0", set()), ("1", set(order)), ("2", set(order)), ("3", set(order))):
-        want = {str(c): v["latency"] for c, v in simulate(core, order, warm=warm, i_nw=lat[rnd]["i_nw"],
-                                                           i_mr=lat[rnd]["i_mr"]).items()}
+    assert [lat[r]["i_mr"] for r in "01234"] == [core["iterations"]] * 2 + [1, 2 * core["iterations"] + 3,
+                                                                             core["iterations"]]
+    assert [lat[r]["out_all"] for r in "01234"] == [False] * 4 + [True]
+    for rnd in "01234":
+        want = {str(c): v["latency"] for c, v in simulate(core, order, warm=set() if rnd == "0" else set(order),
+                                                           i_nw=lat[rnd]["i_nw"], i_mr=lat[rnd]["i_mr"],
+                                                           out_all=lat[rnd]["out_all"]).items()}
         assert lat[rnd]["latency"] == want, (rnd, lat[rnd]["latency"], want)
     assert max(lat["1"]["latency"].values()) == core["latency_cycles"]

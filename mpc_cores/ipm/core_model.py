@@ -1,8 +1,9 @@
 """The golden model of a generated interior-point core, from its config.json alone: the Stage 1 programs it was
 built with on the interpreter (mpc_cores.ipm.stage1_config.machine, 2P slots) and its MINRES in the warm form
 (MinresCoreModel.solve_warm), in the core's order: per sample sample, cold or warm, I_NW times (linearise, MINRES,
-update), output. The answer is what the core streams: u0 (m words), mu, ||r_0|| of the last Newton system and
-the status word (bit 0 non-finite, bit 1 not converged, bits 31:16 the Newton iterations)."""
+update), output. The answer is what the core streams: u0 (m words), mu, with CTRL.OUT_ALL the whole iterate z (N
+words, deviations from the steady state) and the steady state (x_s, u_s) (n + m words), then ||r_0|| of the last
+Newton system and the status word (bit 0 non-finite, bit 1 not converged, bits 31:16 the Newton iterations)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -15,7 +16,7 @@ from mpc_cores.minres.model import MinresCoreModel
 
 @dataclass
 class Answer:
-    words: list          # u0 (m), mu, ||r_0|| as raw words of the format
+    words: list          # u0 (m), mu, (OUT_ALL: z (N), x_s (n), u_s (m)), ||r_0|| as raw words of the format
     status: int          # the status word
     u: np.ndarray        # u0 as float values
 
@@ -58,9 +59,10 @@ class IpmCoreModel:
         sign = 1 << (self.W - 1)
         return w == sign or (not w & sign and w <= tol)
 
-    def solve(self, slot: int, x, r=None, warm: bool = True, x_words: list | None = None) -> Answer:
+    def solve(self, slot: int, x, r=None, warm: bool = True, x_words: list | None = None,
+              out_all: bool = False) -> Answer:
         """One sample on channel `slot`: x, r as float values (rounded to the format) or x_words as the raw words
-        sent (x then r)."""
+        sent (x then r); `out_all`: the answer carries z and the steady state (CTRL.OUT_ALL)."""
         M, o = self.machine, self.ops
         data = x_words if x_words is not None else self.mr.to_words(
             np.concatenate([np.atleast_1d(x), np.atleast_1d(r if r is not None else [])]))
@@ -81,11 +83,11 @@ class IpmCoreModel:
             M.inq.extend(np.atleast_1d(o.from_words(r_.words)).tolist())
             self._run("receive", slot)
             self._run("update", slot)
-        self._run("output", slot)
+        self._run("output_all" if out_all else "output", slot)
         out = M.take()
         words = M.words(out) + o.words(np.atleast_1d(res))
         bad = bad or not o.finite(out)
-        conv = self._le(words[self.m], self.mu_tol) and self._le(words[self.m + 1], self.res_tol)
+        conv = self._le(words[self.m], self.mu_tol) and self._le(words[-1], self.res_tol)
         if bad:
             self.started[slot] = False
         status = (self.i_nw << 16) | (0 if conv else 2) | int(bad)

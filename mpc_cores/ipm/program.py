@@ -13,6 +13,8 @@ th - lo) = h - G th, RG = (rGu, rGl), WT = (wu, wl), TT = (tu, tl). Programs:
              before it updates, so that MINRES can start its next batch)
   update     dz = d x; lines 4-7 of Algorithm 1 (direction, line search, step)
   output     u0 = clamp(z_u0, lo, hi) + u_s, mu of the last linearise; OUT
+  output_all output, then OUT the whole iterate z (N words, the KKT order of mpc_cores.minres.kkt: lambda_k, x_k,
+             u_k per stage, the primal words as deviations from the steady state) and ss = (x_s, u_s)
 A sample runs: sample, cold (the first sample of a slot, or on request) or warm, then I_NW times (linearise, MINRES,
 receive, update), then output.
 
@@ -239,6 +241,9 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
            I("ADD", m, d=S(a["u"]), a=S(a["u"]), b=S(a["ss"] + n), note="u0 = clamp(du0) + u_s"),
            I("MUL", 1, d=S(a["mu"]), a=S(a["acc"]), b=C(c["inv_ineq"]), note="mu (7) of the last linearise"),
            I("OUT", m + 1, a=S(a["u"]), note="u0, mu")]
+    out_all = out + [I("OUT", N, a=S(a["z"]), note="z, deviations from the steady state"),
+                     I("OUT", n + m, a=S(a["ss"]), note="the steady state (x_s, u_s)")]
 
     return Stage1(a, c, cw, tables, sa.size, {"sample": sample, "cold": cold, "warm": warm, "linearise": lin,
-                                              "receive": receive, "update": upd, "output": out})
+                                              "receive": receive, "update": upd, "output": out,
+                                              "output_all": out_all})

@@ -26,8 +26,9 @@ from __future__ import annotations
 
 
 def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | None = None,
-             i_mr: int | None = None) -> dict:
-    """Frames for the channels in `order` (distinct, 2P at most) wait at the input from cycle 0. Returns
+             i_mr: int | None = None, out_all: bool = False) -> dict:
+    """Frames for the channels in `order` (distinct, 2P at most) wait at the input from cycle 0 (`out_all`: the
+    answers carry z and the steady state, CTRL.OUT_ALL). Returns
     {"take": id word handshake cycle, "answer": status word cycle, "latency": their difference} per channel."""
     P, N = core["P"], core["N"]
     C = core["stage1_cycles"]
@@ -86,7 +87,7 @@ def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | 
                 else:
                     done = f + 2         # the next problem's update
             else:
-                answer[c] = end + C["output"] + 3
+                answer[c] = end + C["output_all" if out_all else "output"] + 3
                 if last:
                     t = answer[c] + 2
                 else:

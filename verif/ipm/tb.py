@@ -28,6 +28,7 @@ class IpmTB(AxiDriver):
         self.model = IpmCoreModel(self.cfg, self.P)
         self.nrng = np.random.default_rng(seed)
         self.warm = True
+        self.out_all = False
 
     def state(self, scale: float = 1.0):
         """a random state and reference (float values)"""
@@ -42,13 +43,14 @@ class IpmTB(AxiDriver):
     async def recv(self) -> tuple[int, int, list[int], int]:
         f = await self.sink.recv()
         d = list(f.tdata)
-        assert len(d) == self.m + 4, f"answer of {len(d)} words, expected {self.m + 4}"
+        want = self.m + 4 + (self.core["N"] + self.n + self.m if self.out_all else 0)
+        assert len(d) == want, f"answer of {len(d)} words, expected {want}"
         return (d[0] >> 24) & 0x3F, d[0] & 0xFFFFFF, d[1:-1], d[-1]
 
     async def set_ctrl(self, hold: bool = False):
         bit = self.rm.CTRL_BITS
-        assert await self.write(self.rm["CTRL"], int(self.warm) << bit["WARM_START"] | int(hold) << bit["HOLD"]) \
-            == AxiResp.OKAY
+        word = int(self.warm) << bit["WARM_START"] | int(hold) << bit["HOLD"] | int(self.out_all) << bit["OUT_ALL"]
+        assert await self.write(self.rm["CTRL"], word) == AxiResp.OKAY
 
     async def set_reg(self, name: str, value: int):
         assert await self.write(self.rm[name], value) == AxiResp.OKAY
@@ -58,7 +60,8 @@ class IpmTB(AxiDriver):
         checks each against the model; returns tag -> answer."""
         exp = {}
         for ch, t, data in jobs:
-            exp[t] = self.model.solve(ch % self.C, None, x_words=data, warm=self.warm)  # the channel modulo 2P
+            exp[t] = self.model.solve(ch % self.C, None, x_words=data, warm=self.warm,  # the channel modulo 2P
+                                      out_all=self.out_all)
         sends = cocotb.start_soon(self._send_all(jobs))
         got = {}
         for _ in jobs:
@@ -85,14 +88,18 @@ class IpmTB(AxiDriver):
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
 async def bitexact_inflight(dut):
     """Rounds of samples on all 2P channels in random order (2P problems in flight with different data), warm
-    starts carried per channel, random I_NW and I_MR between rounds, random idle and backpressure on both streams:
-    every answer word and status equals the model's."""
+    starts carried per channel, random I_NW and I_MR between rounds, random idle and backpressure on both streams,
+    one round with CTRL.OUT_ALL (z and the steady state in the answer): every answer word and status equals the
+    model's."""
     tb = IpmTB(dut, seed=3)
     await tb.reset()
     rounds = int(os.environ.get("CORE_ROUNDS") or "3")
     tag = 0
     for k in range(rounds):
         tb.backpressure(k % 2 == 1)
+        if k in (1, 2):     # the answers with the whole iterate and the steady state (CTRL.OUT_ALL), then without
+            tb.out_all = k == 1
+            await tb.set_ctrl()
         if k == 2:
             inw, imr = tb.rng.randint(1, 4), tb.rng.randint(1, 9)
             await tb.set_reg("INW", inw)
@@ -134,17 +141,20 @@ async def latency(dut):
     took, answered = {}, {}
     cocotb.start_soon(_handshakes(dut, now, tb.core["in_words"], took, answered))
     rec = {}
-    # cold, warm, then warm at I_MR = 1 (Stage 1 sets the pace) and at a large I_MR with I_NW = 2 (MINRES does)
-    settings = [None, None, (tb.model.i_nw, 1), (2, 2 * tb.model.i_mr + 3)]
+    # cold, warm, then warm at I_MR = 1 (Stage 1 sets the pace), at a large I_MR with I_NW = 2 (MINRES does), and
+    # with CTRL.OUT_ALL (longer answers)
+    i_nw, i_mr = tb.model.i_nw, tb.model.i_mr
+    settings = [None, None, (i_nw, 1, False), (2, 2 * i_mr + 3, False), (i_nw, i_mr, True)]
     for rnd, setting in enumerate(settings):
         if setting:
-            tb.model.i_nw, tb.model.i_mr = setting
+            tb.model.i_nw, tb.model.i_mr, tb.out_all = setting
             await tb.set_reg("INW", setting[0])
             await tb.set_reg("IMAX", setting[1])
+            await tb.set_ctrl()
         jobs = [(ch, 100 * rnd + ch, tb.words(*tb.state())) for ch in range(tb.C)]
         t0 = now[0]
         await tb.round(jobs, f"latency {rnd}")
-        rec[rnd] = {"all_done": now[0] - t0, "i_nw": tb.model.i_nw, "i_mr": tb.model.i_mr,
+        rec[rnd] = {"all_done": now[0] - t0, "i_nw": tb.model.i_nw, "i_mr": tb.model.i_mr, "out_all": tb.out_all,
                     "latency": {ch: answered[t] - took[t] for ch, t, _ in jobs}}
         rec[rnd]["last_cycles"], _ = await tb.read(tb.rm["LAST_CYCLES"])
         last = max((answered[t], ch) for ch, t, _ in jobs)[1]

@@ -109,7 +109,8 @@ class IpmCore(val p: IpmParams) extends Module {
   val toArmed  = RegInit(false.B)
   val toCnt    = RegInit(0.U(log2Ceil(p.mr.frameWords + 1).W))
   val outArmed = RegInit(false.B)
-  val outCnt   = RegInit(0.U(log2Ceil(p.outWords + 1).W))
+  val outCnt   = RegInit(0.U(log2Ceil(p.outWordsAll + 1).W))
+  val outAll   = RegInit(false.B) // the answer being sent carries z and the steady state (CTRL.OUT_ALL)
   private val toIdle  = !toArmed && toCnt === 0.U
   private val outIdle = !outArmed && outCnt === 0.U
 
@@ -236,7 +237,9 @@ class IpmCore(val p: IpmParams) extends Module {
         }.otherwise {
           outExt   := true.B
           outArmed := true.B
+          outAll   := regs.ctrlOutAll
           run("output", curC)
+          when(regs.ctrlOutAll) { st1.prog := p.prog("output_all").U }
           state := sOutDrain
         }
       }
@@ -289,9 +292,10 @@ class IpmCore(val p: IpmParams) extends Module {
 
   val outBad = Reg(Bool())
   val outMu  = Reg(UInt(W.W))
-  private val oPass  = outCnt >= 1.U && outCnt <= (m + 1).U
-  private val oRes   = outCnt === (m + 2).U
-  private val oStat  = outCnt === (m + 3).U
+  private val oLen   = Mux(outAll, (p.outWordsAll - 3).U, (p.outWords - 3).U) // Stage 1's words of the answer
+  private val oPass  = outCnt >= 1.U && outCnt <= oLen
+  private val oRes   = outCnt === oLen + 1.U
+  private val oStat  = outCnt === oLen + 2.U
   private val conv   = atMost(outMu, muTol(W - 1, 0)) && atMost(resC(curC), resTol(W - 1, 0))
   private val bad    = outBad || badC(curC)
   private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)

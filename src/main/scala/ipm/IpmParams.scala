@@ -46,13 +46,15 @@ case class IpmParams(
   // the stream protocol of the programs (mpc_cores/ipm/program.py)
   private val protocol = Seq(("sample", IN, n + ny), ("sample", OUT, 0), ("cold", IN, 0), ("cold", OUT, 0),
     ("warm", IN, 0), ("warm", OUT, 0), ("linearise", IN, 0), ("linearise", OUT, npr + 3 * N), ("receive", IN, N),
-    ("receive", OUT, 0), ("update", IN, 0), ("update", OUT, 0), ("output", IN, 0), ("output", OUT, m + 1))
+    ("receive", OUT, 0), ("update", IN, 0), ("update", OUT, 0), ("output", IN, 0), ("output", OUT, m + 1),
+    ("output_all", IN, 0), ("output_all", OUT, m + 1 + N + n + m))
   for ((pr, op, w) <- protocol) require(words(pr, op) == w,
     s"program $pr must ${ops(op)} $w words (the core's stream protocol): got ${words(pr, op)}")
 
-  /** frames: in id, x (n), r (ny); out id, u0 (m), mu, ||r_0||, status */
-  val inWords: Int  = 1 + n + ny
-  val outWords: Int = m + 4
+  /** frames: in id, x (n), r (ny); out id, u0 (m), mu, (CTRL.OUT_ALL: z (N), x_s (n), u_s (m)), ||r_0||, status */
+  val inWords: Int     = 1 + n + ny
+  val outWords: Int    = m + 4
+  val outWordsAll: Int = outWords + N + n + m
   val axiAddrW: Int = log2Ceil(SolverRegs.RegionStart) + 2
   val moduleName: String =
     s"IpmCore_${name}_n${n}_m${m}_t${T}_p$P" + (if (mr.formatName == "binary32") "" else s"_${mr.formatName}")
@@ -94,7 +96,9 @@ object IpmRegs {
       ctrl = SolverRegs.ctrlFields(warmDefault = true, outAllDefault = false, "",
         warmText = "start each sample from its channel's previous iterate (001, unshifted, (lambda, s) raised to " +
           "the floor); else, and on a channel's first sample or after a non-finite one, the cold start",
-        outText = "no effect on this core (the answer is u0, mu, ||r_0|| and the status word)"),
+        outText = "after u0 and mu, the answer also carries the whole iterate z (N words in the KKT order, lambda_k, " +
+          "x_k, u_k per stage, the primal words as deviations from the steady state) and the steady state (x_s, " +
+          "u_s); read when a problem's answer starts"),
       status = SolverRegs.statusFields(warm = false, unused = Set("SAT", "OVERFLOW", "WRITE_REJECTED"),
         extra = Seq(
           Field.w1c("NONFINITE", 6, "an answer had a non-finite input word or result (its status word bit 0)"),
