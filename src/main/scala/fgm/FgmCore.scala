@@ -198,6 +198,7 @@ class FgmCore(val p: FgmParams) extends Module {
   m_axis.tvalid := seq.io.outValid
   m_axis.tdata  := zReg(seq.io.outIndex).pad(p.streamW).asUInt
   m_axis.tlast  := seq.io.outIsLast
+  bus.Protocol.streamOut("m_axis", m_axis)
 
   // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
   import regs.{dataWrite, wA, wD}

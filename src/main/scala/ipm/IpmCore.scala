@@ -137,7 +137,9 @@ class IpmCore(val p: IpmParams) extends Module {
     inExt   := false.B
     state   := sRecv
   }
+  private val pushed = WireDefault(false.B)
   private def pushBatch(g: UInt): Unit = {
+    pushed := true.B
     when(gCnt(g) =/= P.U) { close := true.B }
     fifoG(fifoN(0)) := g // fifoN is 0 or 1 here
     fifoN := fifoN + 1.U
@@ -146,6 +148,8 @@ class IpmCore(val p: IpmParams) extends Module {
 
   // the id word is taken in sTakeId
   private val takeId = state === sTakeId && s_axis.tvalid
+  bus.Protocol.noOverflow("batch order", pushed, fifoN =/= 2.U)
+  bus.Protocol.noOverflow("group", takeId, gCnt(curG) =/= P.U && !busyC(headCh))
   switch(state) {
     is(sIdle) {
       val other = ~fifoG(0)
@@ -303,6 +307,7 @@ class IpmCore(val p: IpmParams) extends Module {
   m_axis.tdata  := Mux(outCnt === 0.U, tagC(curC).pad(32),
     Mux(oPass, st1.m_axis.tdata, Mux(oRes, resC(curC).pad(32), status)))
   m_axis.tlast  := oStat
+  bus.Protocol.streamOut("m_axis", m_axis)
   st1.m_axis.tready := Mux(outExt, oPass && m_axis.tready, toCnt =/= 0.U && mr.s_axis.tready)
   when(m_axis.fire) {
     outCnt := Mux(oStat, 0.U, outCnt + 1.U)

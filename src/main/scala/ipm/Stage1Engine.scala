@@ -156,4 +156,6 @@ class Stage1Engine(p: Stage1Params) extends Module {
   m_axis.tdata      := outQ.io.deq.bits(w - 1, 0).pad(32)
   m_axis.tlast      := outQ.io.deq.bits(w)
   outQ.io.deq.ready := m_axis.tready
+  bus.Protocol.streamOut("m_axis", m_axis)
+  bus.Protocol.noOverflow("output buffer", outQ.io.enq.valid, outQ.io.enq.ready)
 }

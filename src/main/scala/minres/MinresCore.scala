@@ -434,6 +434,9 @@ class MinresCore(val p: MinresParams) extends Module {
   m_axis.tdata        := outQ.io.deq.bits.data
   m_axis.tlast        := outQ.io.deq.bits.last
   outQ.io.deq.ready   := m_axis.tready
+  bus.Protocol.streamOut("m_axis", m_axis)
+  bus.Protocol.noOverflow("output queue", outQ.io.enq.valid, outQ.io.enq.ready)
+  bus.Protocol.noOverflow("load bank", s_axis.fire, !full(ldBank))
   val oSlot = RegInit(0.U(log2Ceil(P + 1).W))
   when(m_axis.fire) {
     when(outQ.io.deq.bits.badId) { nonfinite := true.B }

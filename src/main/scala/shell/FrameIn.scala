@@ -63,6 +63,7 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
     when(last) { full := true.B }
   }
   when(io.take) { full := false.B }
+  bus.Protocol.noOverflow("input frame", fire, !full)
   io.full    := full
   io.frame   := buf
   io.partial := cnt =/= 0.U
