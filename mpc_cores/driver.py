@@ -46,9 +46,10 @@ def measure(record: dict) -> None:
 
 class AxiDriver:
     """Any generated core: its core.json, config.json and register map (from its .rdl), the clock, a reset pulse,
-    the AXI4-Stream source and sink (random backpressure on request) and the AXI4-Lite master."""
+    the AXI4-Stream source and sink (random backpressure on request) and the AXI4-Lite master (cocotbext-axi's, or
+    `axil(dut, rng)`: an object with its write and read methods)."""
 
-    def __init__(self, dut, seed: int = 1):
+    def __init__(self, dut, seed: int = 1, axil=None):
         self.dut = dut
         self.out = out = Path(os.environ["CORE_OUT"])
         self.core = json.loads((out / "core.json").read_text())
@@ -59,7 +60,8 @@ class AxiDriver:
         cocotb.start_soon(Clock(dut.clock, 10, unit="ns").start())
         self.src = AxiStreamSource(AxiStreamBus.from_prefix(dut, "s_axis"), dut.clock, dut.reset, byte_lanes=1)
         self.sink = AxiStreamSink(AxiStreamBus.from_prefix(dut, "m_axis"), dut.clock, dut.reset, byte_lanes=1)
-        self.axil = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axil"), dut.clock, dut.reset)
+        self.axil = axil(dut, self.rng) if axil else AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axil"), dut.clock,
+                                                                    dut.reset)
 
     async def reset(self):
         self.dut.reset.value = 1
@@ -99,8 +101,8 @@ class AxiDriver:
 class TB(AxiDriver):
     """A fixed-point core (FGM, ADMM) with its golden model beside it and a monitor of the stream handshakes."""
 
-    def __init__(self, dut, seed: int = 1):
-        super().__init__(dut, seed)
+    def __init__(self, dut, seed: int = 1, **kw):
+        super().__init__(dut, seed, **kw)
         self.sw = self.core["stream_width"]
         self.n, self.nu, self.nw = self.core["n"], self.core["nu"], self.core["nw"]
         self.model = golden_model(self.cfg)

@@ -22,6 +22,7 @@ class Field:
     w1c: bool            # writing 1 clears it
     reset: int | None
     desc: str
+    hw: str = "r"        # hardware access: "r" (the core uses it), "w" (the core sets it) or "na" (a constant)
 
     @property
     def readable(self) -> bool:
@@ -97,7 +98,7 @@ def read_rdl(path) -> tuple[str, dict[str, Register]]:
     for r in top.registers(unroll=False):
         fields = {f.inst_name: Field(f.inst_name, f.lsb, f.width, _access(f),
                                      f.get_property("onwrite") == OnWriteType.woclr, f.get_property("reset"),
-                                     f.get_property("desc") or "")
+                                     f.get_property("desc") or "", f.get_property("hw").name)
                   for f in r.fields()}
         dims = tuple(r.array_dimensions) if r.is_array else ()
         regs[r.inst_name] = Register(r.inst_name, r.raw_absolute_address, fields, r.get_property("desc") or "", dims,

@@ -20,8 +20,8 @@ TIMEOUT_MS = 2000
 
 
 class IpmTB(AxiDriver):
-    def __init__(self, dut, seed: int = 1):
-        super().__init__(dut, seed)
+    def __init__(self, dut, seed: int = 1, **kw):
+        super().__init__(dut, seed, **kw)
         c = self.core
         self.P, self.n, self.m, self.ny = c["P"], c["n"], c["m"], c["ny"]
         self.C = 2 * self.P
@@ -37,8 +37,13 @@ class IpmTB(AxiDriver):
     def words(self, x, r) -> list[int]:
         return self.model.mr.to_words(np.concatenate([x, r]))
 
+    @staticmethod
+    def frame(ch: int, tag: int, data: list[int]) -> list[int]:
+        """The words of one input frame: the id word (channel, tag), then x and r."""
+        return [(ch << 24) | (tag & 0xFFFFFF)] + list(data)
+
     async def send(self, ch: int, tag: int, data: list[int]):
-        await self.src.send(AxiStreamFrame(tdata=[(ch << 24) | (tag & 0xFFFFFF)] + list(data)))
+        await self.src.send(AxiStreamFrame(tdata=self.frame(ch, tag, data)))
 
     async def recv(self) -> tuple[int, int, list[int], int]:
         f = await self.sink.recv()

@@ -21,8 +21,8 @@ STATUS_NONFINITE = 6
 
 
 class MinresTB(AxiDriver):
-    def __init__(self, dut, seed: int = 1):
-        super().__init__(dut, seed)
+    def __init__(self, dut, seed: int = 1, **kw):
+        super().__init__(dut, seed, **kw)
         c = self.core
         self.N, self.P, self.n, self.m, self.T = c["N"], c["P"], c["n"], c["m"], c["T"]
         self.model = MinresCoreModel.from_config(self.cfg)
@@ -73,15 +73,23 @@ class MinresTB(AxiDriver):
         await RisingEdge(self.dut.clock)
         self.dut.ipm_close.value = 0
 
-    async def send(self, pid: int, diag, b, d=None, z0=None):
-        """One input frame; in a format narrower than 32 bits the unused upper bits of the data words are random
-        (the core ignores them)."""
+    def frame(self, pid: int, diag, b, d=None, z0=None) -> list[int]:
+        """The words of one input frame; in a format narrower than 32 bits the unused upper bits of the data words
+        are random (the core ignores them)."""
         W = self.core.get("word_width", 32)
 
         def words(x):
             return [w | (self.rng.getrandbits(32 - W) << W if W < 32 else 0) for w in self.model.to_words(x)]
         data = words(diag) + (words(d) + words(b) + words(z0) if self.warm else words(b))
-        await self.src.send(AxiStreamFrame(tdata=[pid & 0x7FFFFFFF] + data))
+        return [pid & 0x7FFFFFFF] + data
+
+    async def send(self, pid: int, diag, b, d=None, z0=None):
+        await self.src.send(AxiStreamFrame(tdata=self.frame(pid, diag, b, d, z0)))
+
+    def answer(self, pid: int, r, res=None) -> list[int]:
+        """The output frame of problem `pid` with the model's result r (and ||r_0|| res in the warm form): the id
+        with bit 31 the flag, then the words (not compared when flagged)."""
+        return [pid & 0x7FFFFFFF | int(r.flag) << 31] + r.words + (self.model.to_words([res]) if self.warm else [])
 
     async def recv(self) -> tuple[int, bool, list[int]]:
         f = await self.sink.recv()
@@ -117,7 +125,7 @@ class MinresTB(AxiDriver):
             flag, z = got[pid]
             assert flag == r.flag, f"{tag}: id {pid}: flag {flag} != model {r.flag}"
             if not r.flag:
-                want = r.words + (self.model.to_words([res[pid]]) if self.warm else [])
+                want = self.answer(pid, r, res[pid])[1:]
                 bad = [i for i in range(len(want)) if z[i] != want[i]]
                 assert not bad, (f"{tag}: id {pid}: {len(bad)} words differ, first at {bad[0]}: "
                                  f"RTL {z[bad[0]]:#010x} model {want[bad[0]]:#010x}")
