@@ -69,7 +69,7 @@ class IpmCore(ToolResults):
 
     @property
     def tag(self) -> str:
-        fmt = self.design.format
+        fmt = (self.core or {}).get("format") or (self.design.format if self.design else "binary32")
         return f"IPM {self.problem} P={self.P or 'eq15'}" + ("" if fmt == "binary32" else f" {fmt}")
 
     @property

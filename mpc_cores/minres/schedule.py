@@ -4,10 +4,37 @@ from __future__ import annotations
 
 import math
 
+# The scalar part of an iteration in program order (name, kind, operands), as minres.MinresParams.scalarOps;
+# sources: nrm = ||u||^2, delta, c, cp, s, sp, gamma, eta.
+SCALAR_OPS = (
+    ("g1", "sqrt", ("nrm",)), ("m1", "mul", ("c", "delta")), ("m2", "mul", ("cp", "s")),
+    ("m3", "mul", ("m2", "gamma")), ("a0", "sub", ("m1", "m3")), ("m4", "mul", ("a0", "a0")),
+    ("s4", "add", ("m4", "nrm")), ("a1", "sqrt", ("s4",)), ("m5", "mul", ("s", "delta")),
+    ("m6", "mul", ("cp", "c")), ("m7", "mul", ("m6", "gamma")), ("a2", "add", ("m5", "m7")),
+    ("a3", "mul", ("sp", "gamma")), ("c1", "div", ("a0", "a1")), ("s1", "div", ("g1", "a1")),
+    ("ceta", "mul", ("c1", "eta")), ("seta", "mul", ("s1", "eta")))
+SCALAR_SOURCES = ("nrm", "delta", "c", "cp", "s", "sp", "gamma", "eta")
+
 
 def _log2ceil(x: int) -> int:
     """chisel3.util.log2Ceil: bits of x - 1 (0 for x = 1)."""
     return (x - 1).bit_length()
+
+
+def shared_latency(lat: dict) -> int:
+    """Cycles of the scalar part on one operator per kind (minres.StaticSchedule: ASAP in program order, an
+    operation issues when its operands are ready and its operator is free)."""
+    unit_lat = {"mul": lat["lat_mul"], "add": lat["lat_add"], "div": lat["lat_div"], "sqrt": lat["lat_sqrt"]}
+    ready = dict.fromkeys(SCALAR_SOURCES, 0)
+    busy = set()
+    for name, kind, args in SCALAR_OPS:
+        unit = "add" if kind == "sub" else kind
+        t = max(ready[a] for a in args)
+        while (unit, t) in busy:
+            t += 1
+        busy.add((unit, t))
+        ready[name] = t + unit_lat[unit]
+    return max(ready[o[0]] for o in SCALAR_OPS)
 
 
 def schedule(N: int, M: int, K: int, lat: dict, P: int, warm: bool) -> dict:
@@ -18,15 +45,19 @@ def schedule(N: int, M: int, K: int, lat: dict, P: int, warm: bool) -> dict:
     lat_matvec = 1 + lm + la * _log2ceil(K)
     acc_tail = la + 2 + la * _log2ceil(la)
     lat_b = lm + 2 * la
-    lat_scalar = 4 * lm + 2 * la + ls + ld
     lat_cx = 2 * lm + 3 * la + ld
     t_row = M + (lm if warm else 0)
     t_b = t_row + N - 1 + lat_matvec + lm + acc_tail
     t_s = t_b + N - 1 + lat_b + lm + acc_tail
+
+    def plan(lat_scalar: int) -> tuple[int, int, int]:
+        need = t_s + lat_scalar + 1 + ld + 1
+        p = P or math.ceil(need / N)
+        return need, p, max(N, math.ceil(need / p))
+
+    shared = shared_latency(lat)
+    lat_scalar = shared if plan(shared)[2] > shared else 4 * lm + 2 * la + ls + ld
+    need, P_, S = plan(lat_scalar)
     t_c = t_s + lat_scalar + 1
-    need = t_c + ld + 1
-    p_auto = math.ceil(need / N)
-    P = P or p_auto
-    S = max(N, math.ceil(need / P))
-    return {"P": P, "P_eq15": p_auto, "slot_cycles": S, "cycles_per_iteration": P * S,
-            "batch_cycles_imax0": P * S - S + t_c + N + lat_cx}
+    return {"P": P_, "P_eq15": math.ceil(need / N), "slot_cycles": S, "cycles_per_iteration": P_ * S,
+            "batch_cycles_imax0": P_ * S - S + t_c + N + lat_cx}

@@ -82,7 +82,8 @@ class PassCounter(p: MinresParams) {
   *     coefficients (constants, and the variable diagonal) in the dot-product block (K multipliers, adder tree;
   *     K is the most nonzeros of a row, mpc_cores/minres/band.py); delta = v_j . A v_j streams into an accumulator;
   *   pass B: u = (A v_j - delta v_j) - gamma_j v_{j-1} and ||u||^2 (accumulator);
-  *   scalar part: gamma_{j+1}, the Givens rotation, its coefficients (fully pipelined units);
+  *   scalar part: gamma_{j+1}, the Givens rotation, its coefficients (once per slot: one operator per kind on a
+  *     static schedule, or one per operation when the slots are shorter than that schedule);
   *   pass C: v_{j+1} = u / gamma_{j+1}, w_{j+1}, x.
   * Offsets are in MinresParams; P S >= need guarantees that v_{j+1} is written before the slot's next feed.
   */
@@ -333,26 +334,33 @@ class MinresCore(val p: MinresParams) extends Module {
   val nSlot = ops.delayTo(bc.slot, 0, nTerm.t + nAcc.latency)
   when(nAcc.io.done) { nrm2(nSlot) := nAcc.io.sum }
 
-  // ---- scalar part: gamma_{j+1}, Givens rotation (eq. numbers: Elman, Silvester, Wathen Alg. 2.4)
+  // ---- scalar part: gamma_{j+1}, Givens rotation (eq. numbers: Elman, Silvester, Wathen Alg. 2.4), the graph of
+  // MinresParams.scalarOps once per slot: on one operator per kind (SharedScalar) when the slots are long enough,
+  // else on one operator per operation
   private val sc = ps.c
   private val sSlot = sc.slot
   private def at0(v: UInt) = Timed(v, 0)
-  val nrm = at0(nrm2(sSlot)); val dl = at0(delta(sSlot))
-  val c0 = at0(cR(sSlot)); val cp0 = at0(cpR(sSlot)); val s0 = at0(sR(sSlot)); val sp0 = at0(spR(sSlot))
-  val gm = at0(gamR(sSlot)); val et = at0(etaR(sSlot))
-  val g1   = sqrt(nrm)
-  val a0   = sub(mul(c0, dl), mul(mul(cp0, s0), gm))
-  val a1   = sqrt(add(mul(a0, a0), nrm))
-  val a2   = add(mul(s0, dl), mul(mul(cp0, c0), gm))
-  val a3   = mul(sp0, gm)
-  val c1   = div(a0, a1)
-  val s1   = div(g1, a1)
-  val ceta = mul(c1, et)
-  val eta1 = ops.neg(mul(s1, et))
   private val tS = p.latScalar
-  require(Seq(ceta, eta1).forall(_.t == tS), "scalar latency")
+  private val srcs = Map("nrm" -> nrm2(sSlot), "delta" -> delta(sSlot), "c" -> cR(sSlot), "cp" -> cpR(sSlot),
+    "s" -> sR(sSlot), "sp" -> spR(sSlot), "gamma" -> gamR(sSlot), "eta" -> etaR(sSlot))
+  private val res: String => UInt = if (p.sharedScalar) {
+    val sh = new SharedScalar(fmt, p.scalarSchedule, ps.valid && sc.e === 0.U, srcs)
+    name => sh.value(name, tS)
+  } else {
+    val v = scala.collection.mutable.Map[String, Timed]() ++ srcs.map { case (k, x) => k -> at0(x) }
+    for ((name, kind, args) <- p.scalarOps) v(name) = kind match {
+      case "mul"  => mul(v(args(0)), v(args(1)))
+      case "add"  => add(v(args(0)), v(args(1)))
+      case "sub"  => sub(v(args(0)), v(args(1)))
+      case "div"  => div(v(args(0)), v(args(1)))
+      case "sqrt" => sqrt(v(args(0)))
+    }
+    require(p.scalarOps.map(o => v(o._1).t).max == tS, "scalar latency")
+    name => ops.at(v(name), tS)
+  }
+  private val Seq(g1d, a1d, a2d, a3d, c1d, s1d, cetaD) = Seq("g1", "a1", "a2", "a3", "c1", "s1", "ceta").map(res)
+  private val eta1D = res("seta") ^ (BigInt(1) << (W - 1)).U // eta_{j+1} = -(s eta)
   private val scW = ops.delayTo(sc, 0, tS)
-  private val Seq(g1d, a1d, a2d, a3d, c1d, s1d) = Seq(g1, a1, a2, a3, c1, s1).map(ops.at(_, tS))
   when(Stages.delayValid(ps.valid && sc.e === 0.U, tS)) {
     val q = scW.slot
     when(scW.j === 0.U) {
@@ -360,10 +368,10 @@ class MinresCore(val p: MinresParams) extends Module {
       gamR(q) := g1d; etaR(q) := g1d; res0R(scW.bank * P.U + q) := g1d
     }.otherwise {
       cpR(q) := cR(q); cR(q) := c1d; spR(q) := sR(q); sR(q) := s1d
-      gamR(q) := g1d; etaR(q) := eta1.v
+      gamR(q) := g1d; etaR(q) := eta1D
     }
     g1R(q) := g1d; a1R(q) := a1d; a2R(q) := a2d; a3R(q) := a3d
-    cetaR(q) := ceta.v
+    cetaR(q) := cetaD
   }
 
   // ---- pass C: v_{j+1} = u / gamma_{j+1}; w_{j+1} = ((v_j - a3 w_{j-1}) - a2 w_j) / a1; x += c eta w_{j+1}

@@ -75,8 +75,21 @@ case class MinresParams(
   val accTail: Int = latAdd + 2 + latAdd * log2Ceil(accParts)
   /** pass B: u = (y - delta v_j) - gamma v_{j-1} */
   val latB: Int = latMul + 2 * latAdd
-  /** scalar part (norms, Givens rotation) */
-  val latScalar: Int = 4 * latMul + 2 * latAdd + latSqrt + latDiv
+  /** the scalar part (gamma_{j+1}, the Givens rotation, its coefficients) in program order: (name, kind, operands);
+    * sources nrm = ||u||^2, delta, c, cp (c_{j-1}), s, sp (s_{j-1}), gamma, eta; mpc_cores/minres/schedule.py
+    * holds the same list */
+  val scalarOps: Seq[(String, String, Seq[String])] = Seq(
+    ("g1", "sqrt", Seq("nrm")), ("m1", "mul", Seq("c", "delta")), ("m2", "mul", Seq("cp", "s")),
+    ("m3", "mul", Seq("m2", "gamma")), ("a0", "sub", Seq("m1", "m3")), ("m4", "mul", Seq("a0", "a0")),
+    ("s4", "add", Seq("m4", "nrm")), ("a1", "sqrt", Seq("s4")), ("m5", "mul", Seq("s", "delta")),
+    ("m6", "mul", Seq("cp", "c")), ("m7", "mul", Seq("m6", "gamma")), ("a2", "add", Seq("m5", "m7")),
+    ("a3", "mul", Seq("sp", "gamma")), ("c1", "div", Seq("a0", "a1")), ("s1", "div", Seq("g1", "a1")),
+    ("ceta", "mul", Seq("c1", "eta")), ("seta", "mul", Seq("s1", "eta")))
+  val scalarSchedule: StaticSchedule = StaticSchedule(scalarOps,
+    Map("mul" -> latMul, "add" -> latAdd, "div" -> latDiv, "sqrt" -> latSqrt),
+    Set("nrm", "delta", "c", "cp", "s", "sp", "gamma", "eta"))
+  /** the scalar part on one operator per operation: its critical path */
+  val latScalarParallel: Int = 4 * latMul + 2 * latAdd + latSqrt + latDiv
   /** pass C: v_{j+1} (a divide), w_{j+1} and x */
   val latCv: Int = latDiv
   val latCw: Int = latMul + 2 * latAdd + latDiv
@@ -92,20 +105,31 @@ case class MinresParams(
   val tB: Int     = tDelta
   val tNrm: Int   = tB + N - 1 + latB + latMul + accTail
   val tS: Int     = tNrm
+  /** need, P and S for a scalar part of `ls` cycles: the first v_{j+1} word must be written before the slot's
+    * next feed reads it */
+  private def plan(ls: Int): (Int, Int, Int) = {
+    val need = tS + ls + 1 + latCv + 1
+    val pp   = if (pRequested == 0) (need + N - 1) / N else pRequested
+    (need, pp, math.max(N, (need + pp - 1) / pp))
+  }
+  /** the scalar part shares one operator per kind when a slot lasts longer than its schedule (one trigger per
+    * slot) */
+  val sharedScalar: Boolean = plan(scalarSchedule.latency)._3 > scalarSchedule.latency
+  val latScalar: Int = if (sharedScalar) scalarSchedule.latency else latScalarParallel
   val tC: Int     = tS + latScalar + 1
-  /** the first v_{j+1} word must be written before the slot's next feed reads it */
-  val need: Int = tC + latCv + 1
-  val k1: Int   = latAdd
-  val k2: Int   = need - 2 * N - M - k1 * depth
-  val pAuto: Int = (need + N - 1) / N
-  val P: Int     = if (pRequested == 0) pAuto else pRequested
+  val need: Int   = tC + latCv + 1
+  val k1: Int     = latAdd
+  val k2: Int     = need - 2 * N - M - k1 * depth
+  val pAuto: Int  = (need + N - 1) / N
+  val P: Int      = if (pRequested == 0) pAuto else pRequested
   /** slot length: N when P is at least pAuto, else stretched so that P S >= need */
   val S: Int = math.max(N, (need + P - 1) / P)
+  require(!sharedScalar || S > latScalar, "the shared scalar part must finish within a slot")
   val cyclesPerIteration: Int = P * S
   /** cycles of a batch of P problems: the init pass and Imax iterations, up to the last x write */
   def batchCycles(imax: Int): Int = (imax + 1) * P * S - S + tC + N + latCx
 
-  val multipliers: Int = K + 1 + 3 + 10 + 3 + (if (warm) 2 else 0) // matvec, delta, B, scalar, C, scaling
+  val multipliers: Int = K + 1 + 3 + (if (sharedScalar) 1 else 10) + 3 + (if (warm) 2 else 0) // matvec, delta, B, scalar, C, scaling
   /** "binary32", "binary16" or e<E>m<M> (the names of mpc_cores/minres/design.py) */
   val formatName: String = (expW, manW) match {
     case (8, 23) => "binary32"

@@ -1,0 +1,82 @@
+package minres
+
+import chisel3._
+import chisel3.util.{log2Ceil, MuxCase, RegEnable}
+import float.{FAdd, FDiv, FMul, FSqrt, FloatFormat}
+
+/** A static schedule of a small dataflow graph of float operations on one operator per kind: `ops` in program
+  * order, each (name, kind, operand names), kind "mul", "add", "sub" (one FAdd for both), "div" or "sqrt";
+  * operands are other operations or sources (valid at time 0). Each operation issues at the first cycle at which
+  * its operands are ready and its operator is free (ASAP list scheduling in program order); `ready` is the cycle
+  * its result appears. mpc_cores/minres/schedule.py computes the same schedule.
+  */
+case class StaticSchedule(ops: Seq[(String, String, Seq[String])], lat: Map[String, Int], sources: Set[String]) {
+  private def unit(kind: String): String = if (kind == "sub") "add" else kind
+  val (issue, ready): (Map[String, Int], Map[String, Int]) = {
+    val busy  = scala.collection.mutable.Set[(String, Int)]()
+    val ready = scala.collection.mutable.Map[String, Int]() ++ sources.map(_ -> 0)
+    val issue = scala.collection.mutable.Map[String, Int]()
+    for ((name, kind, args) <- ops) {
+      require(args.forall(ready.contains), s"operation $name reads an operand not computed before it: $args")
+      var t = args.map(ready).max
+      while (busy((unit(kind), t))) t += 1
+      busy += ((unit(kind), t))
+      issue(name) = t
+      ready(name) = t + lat(unit(kind))
+    }
+    (issue.toMap, ready.toMap)
+  }
+  /** cycles from the trigger to the last result */
+  val latency: Int = ops.map(o => ready(o._1)).max
+  def units: Seq[String] = ops.map(o => unit(o._2)).distinct
+}
+
+/** The hardware of a StaticSchedule: one FMul, FAdd, FDiv and FSqrt (those the graph uses), their operands
+  * selected by a cycle counter started by `trigger`. The sources are read on the trigger cycle; every value is
+  * kept in a register from its ready cycle until the next trigger, which must come at least `latency` cycles
+  * later. Each operation is rounded as on an operator of its own, so the results equal a fully pipelined
+  * evaluation of the graph word for word.
+  */
+class SharedScalar(fmt: FloatFormat, s: StaticSchedule, trigger: Bool, sources: Map[String, UInt]) {
+  require(sources.keySet == s.ready.keySet -- s.issue.keySet, "the sources must be the schedule's")
+  private val L = s.latency
+  private val k = RegInit(0.U(log2Ceil(L + 2).W)) // cycles since the trigger (0: idle or the trigger cycle)
+  when(trigger) { k := 1.U }.elsewhen(k =/= 0.U && k < L.U) { k := k + 1.U }.otherwise { k := 0.U }
+  private def at(t: Int): Bool = if (t == 0) trigger else k === t.U
+  private val lat = s.lat
+
+  private class Unit(kind: String) {
+    val (in_valid, a, b, out, sub) = kind match {
+      case "mul" =>
+        val u = Module(new FMul(fmt, lat("mul"))); (u.in_valid, u.a, u.b, u.out, None)
+      case "add" =>
+        val u = Module(new FAdd(fmt, lat("add"))); (u.in_valid, u.a, u.b, u.out, Some(u.sub))
+      case "div" =>
+        val u = Module(new FDiv(fmt, lat("div"))); (u.in_valid, u.a, u.b, u.out, None)
+      case "sqrt" =>
+        val u = Module(new FSqrt(fmt, lat("sqrt"))); (u.in_valid, u.a, u.a, u.out, None)
+    }
+  }
+  private val units = s.units.map(u => u -> new Unit(u)).toMap
+  private def unitOf(kind: String): String = if (kind == "sub") "add" else kind
+  private val raw: Map[String, UInt] =
+    sources ++ s.ops.map { case (name, kind, _) => name -> units(unitOf(kind)).out }
+  private val held: Map[String, UInt] = raw.map { case (name, v) => name -> RegEnable(v, at(s.ready(name))) }
+
+  /** the value of `name` at cycle t (at or after its ready cycle) */
+  def value(name: String, t: Int): UInt = {
+    require(t >= s.ready(name), s"$name is ready at ${s.ready(name)}, needed at $t")
+    if (t == s.ready(name)) raw(name) else held(name)
+  }
+
+  for ((u, hw) <- units) {
+    val mine = s.ops.filter(o => unitOf(o._2) == u)
+    def operand(i: Int): UInt = MuxCase(0.U(fmt.width.W), mine.map { case (name, _, args) =>
+      at(s.issue(name)) -> value(args(math.min(i, args.length - 1)), s.issue(name))
+    })
+    hw.in_valid := true.B
+    hw.a := operand(0)
+    if (u != "sqrt") hw.b := operand(1)
+    hw.sub.foreach(_ := MuxCase(false.B, mine.map { case (name, kind, _) => at(s.issue(name)) -> (kind == "sub").B }))
+  }
+}
