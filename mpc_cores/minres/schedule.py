@@ -21,20 +21,46 @@ def _log2ceil(x: int) -> int:
     return (x - 1).bit_length()
 
 
-def shared_latency(lat: dict) -> int:
-    """Cycles of the scalar part on one operator per kind (minres.StaticSchedule: ASAP in program order, an
-    operation issues when its operands are ready and its operator is free)."""
-    unit_lat = {"mul": lat["lat_mul"], "add": lat["lat_add"], "div": lat["lat_div"], "sqrt": lat["lat_sqrt"]}
-    ready = dict.fromkeys(SCALAR_SOURCES, 0)
+def _asap(ops, unit_lat: dict, sources) -> int:
+    """minres.StaticSchedule: ASAP in program order, an operation issuing when its operands are ready and its
+    operator (one per kind, sub on the adder) is free; the cycle of the last result."""
+    ready = dict.fromkeys(sources, 0)
     busy = set()
-    for name, kind, args in SCALAR_OPS:
+    for name, kind, args in ops:
         unit = "add" if kind == "sub" else kind
         t = max(ready[a] for a in args)
         while (unit, t) in busy:
             t += 1
         busy.add((unit, t))
         ready[name] = t + unit_lat[unit]
-    return max(ready[o[0]] for o in SCALAR_OPS)
+    return max(ready[o[0]] for o in ops)
+
+
+def shared_latency(lat: dict) -> int:
+    """Cycles of the scalar part on one operator per kind (minres.SharedScalar)."""
+    return _asap(SCALAR_OPS, {"mul": lat["lat_mul"], "add": lat["lat_add"], "div": lat["lat_div"],
+                              "sqrt": lat["lat_sqrt"]}, SCALAR_SOURCES)
+
+
+def tree_latency(la: int) -> int:
+    """Cycles of the pairwise reduction of la partial sums on one adder (minres.FStreamAcc.treeSchedule)."""
+    level, ops = [f"p{i}" for i in range(la)], []
+    while len(level) > 1:
+        nxt = []
+        for k in range(0, len(level), 2):
+            if k + 1 < len(level):
+                ops.append((f"t{len(ops)}", "add", (level[k], level[k + 1])))
+                nxt.append(ops[-1][0])
+            else:
+                nxt.append(level[k])
+        level = nxt
+    return _asap(ops, {"add": la}, [f"p{i}" for i in range(la)])
+
+
+def acc_latency(N: int, la: int) -> int:
+    """minres.FStreamAcc.latency for a stream of N terms (the shared reduction when the stream is long enough)."""
+    shared = la > 1 and N > tree_latency(la) + 1
+    return la + 1 + (tree_latency(la) if shared else la * _log2ceil(la))
 
 
 def schedule(N: int, M: int, K: int, lat: dict, P: int, warm: bool) -> dict:
@@ -43,7 +69,7 @@ def schedule(N: int, M: int, K: int, lat: dict, P: int, warm: bool) -> dict:
     apart)."""
     la, lm, ld, ls = lat["lat_add"], lat["lat_mul"], lat["lat_div"], lat["lat_sqrt"]
     lat_matvec = 1 + lm + la * _log2ceil(K)
-    acc_tail = la + 2 + la * _log2ceil(la)
+    acc_tail = acc_latency(N, la) + 1
     lat_b = lm + 2 * la
     lat_cx = 2 * lm + 3 * la + ld
     t_row = M + (lm if warm else 0)

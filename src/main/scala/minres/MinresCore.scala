@@ -295,7 +295,7 @@ class MinresCore(val p: MinresParams) extends Module {
   ymem.write(Stages.delayValid(rowValid, y.t), adr1(rowY.slot, rowY.e), y.v)
   // delta = v_j . A v_j (warm form: (d v_j) . (A d v_j), the same sum on the feed's words)
   val dTerm = mul(Timed(sr(M - 1), 0), ay)
-  val dAcc  = Module(new FStreamAcc(fmt, N, p.latAdd))
+  val dAcc  = Module(new FStreamAcc(fmt, N, p.latAdd, p.shareAcc))
   dAcc.io.valid := Stages.delayValid(rowValid, dTerm.t)
   dAcc.io.index := ops.delayTo(row.e, 0, dTerm.t)
   dAcc.io.term  := dTerm.v
@@ -326,7 +326,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val bcU = ops.delayTo(bc, 0, u.t)
   umem.write(Stages.delayValid(bValid, u.t), adr1(bcU.slot, bcU.e), u.v)
   val nTerm = mul(u, u)
-  val nAcc  = Module(new FStreamAcc(fmt, N, p.latAdd))
+  val nAcc  = Module(new FStreamAcc(fmt, N, p.latAdd, p.shareAcc))
   nAcc.io.valid := Stages.delayValid(bValid, nTerm.t)
   nAcc.io.index := ops.delayTo(bc.e, 0, nTerm.t)
   nAcc.io.term  := nTerm.v

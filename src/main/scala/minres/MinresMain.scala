@@ -32,7 +32,7 @@ object MinresMain extends App {
       "batch_cycles_formula" -> s"(Imax + 1) * ${p.cyclesPerIteration} + ${p.batchCycles(0) - p.cyclesPerIteration}",
       "batch_cycles_imax0" -> p.batchCycles(0),
       "schedule" -> ujson.Obj("t_row" -> p.tRow, "t_delta" -> p.tDelta, "t_B" -> p.tB, "t_scalar" -> p.tS,
-        "t_C" -> p.tC, "need" -> p.need, "lat_matvec" -> p.latMatvec, "lat_scalar" -> p.latScalar, "shared_scalar" -> p.sharedScalar,
+        "t_C" -> p.tC, "need" -> p.need, "lat_matvec" -> p.latMatvec, "lat_scalar" -> p.latScalar, "shared_scalar" -> p.sharedScalar, "shared_acc" -> p.shareAcc,
         "acc_tail" -> p.accTail),
       "storage_words" -> p.storageWords,
       "storage_variable" -> p.storageVariable,

@@ -66,13 +66,15 @@ case class MinresParams(
   val candidates: Seq[Seq[Int]] = (0 until K).map(s => offsets.flatMap(_(s)).distinct.sorted)
   /** partial sums of the streaming accumulators */
   val accParts: Int = latAdd
+  /** the streaming accumulators reduce their partial sums on one adder (FStreamAcc.shareTree) */
+  val shareAcc: Boolean = FStreamAcc.shares(N, latAdd)
   require(N > accParts, s"N = $N must exceed lat_add = $latAdd (the accumulator's partial sums)")
 
   // ---- latencies of the pipelines (MinresCore checks its own against these)
   /** matvec: the registered slot operands, the products, then the adder tree */
   val latMatvec: Int = 1 + latMul + latAdd * depth
   /** from the last term entering an accumulator to its result readable in the per-problem register */
-  val accTail: Int = latAdd + 2 + latAdd * log2Ceil(accParts)
+  val accTail: Int = FStreamAcc.latency(latAdd, shareAcc) + 1
   /** pass B: u = (y - delta v_j) - gamma v_{j-1} */
   val latB: Int = latMul + 2 * latAdd
   /** the scalar part (gamma_{j+1}, the Givens rotation, its coefficients) in program order: (name, kind, operands);
