@@ -71,6 +71,16 @@ $(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed
 bench: setup $(VENV)/.bench-installed
 	$(MPC) bench --out $(BENCH) $(if $(QUICK),--quick) $(BENCH_ARGS)
 
+## soak: N random solves of CORE (default 10^4) over random configurations (sizes, constraint sets, P, b, latencies,
+## roundings, formats), each generated and run in Verilator against its golden model word for word under random idle
+## and backpressure; report docs/soak/CORE.md and CORE.json (SEED; CONFIG_SEED=<seed> N=<solves> reruns one)
+N           ?= 10000
+SEED        ?= 1
+CONFIG_SEED ?=
+.PHONY: soak
+soak: setup
+	$(MPC) soak --core $(CORE) --solves $(N) --seed $(SEED) $(if $(CONFIG_SEED),--config-seed $(CONFIG_SEED))
+
 ## clean: remove build folders only
 clean:
 	rm -rf build target project/target project/project

@@ -5,6 +5,7 @@
   demo     the closed loop with the RTL (Verilator) on the bundled example
   table2   closed-loop cost tables (mpc_bench.tables)
   bench    benchmark report (mpc_bench)
+  soak     random configurations against the golden model in Verilator, report in docs/soak/ (mpc_cores.soak)
   test     the verification suite (pytest on tests/ of a source checkout)
 
 Every kind of the registry (mpc_cores.registry) is available through --core; refusals are one line
@@ -181,13 +182,15 @@ def main(argv=None) -> None:
             s.add_argument("--seed", type=int, default=0)
     for name, what in (("table2", "closed-loop cost tables (options: see `mpc-cores table2 --help`)"),
                        ("bench", "benchmark report (options: see `mpc-cores bench --help`)"),
+                       ("soak", "random configurations against the golden model (see `mpc-cores soak --help`)"),
                        ("test", "the verification suite (pytest options follow)")):
         sub.add_parser(name, help=what, add_help=False)
-    if argv and argv[0] in ("table2", "bench", "test"):
+    if argv and argv[0] in ("table2", "bench", "soak", "test"):
         cmd, rest = argv[0], argv[1:]
         if cmd == "test":
             return cmd_test(rest)
-        return _forward({"table2": "mpc_bench.tables", "bench": "mpc_bench.bench"}[cmd], rest)
+        return _forward({"table2": "mpc_bench.tables", "bench": "mpc_bench.bench", "soak": "mpc_cores.soak.run"}[cmd],
+                        rest)
     a = ap.parse_args(argv)
     if a.cmd == "demo" and not a.out:
         a.out = "build/demo"

@@ -14,6 +14,7 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
   golden_model(cfg)    the bit-exact model of a generated core, from its config.json
   testbench            the cocotb module of verif/ with its scenarios, `cycle_test` among them (the cycle contract)
   bench                the module of mpc_bench with its section of the benchmark
+  soak                 its random configurations and testbench knobs for `make soak` (mpc_cores.soak.space.SoakSpace)
   certificate(d)       optional: the guarantees of a design, printed by `make design` after its report
   controllers(d)       optional: the optimal (float64) and golden-model controllers of the closed loop and the
                        reference schedule's holdability, for `make demo` with the RTL (None: no demo)
@@ -43,7 +44,7 @@ def load(ref: str):
 class CoreKind:
     """A core kind; the module references default to the layout's conventions for `name`: design function
     mpc_cores.<name>.design:design_<name>, report module mpc_cores.<name>.report, testbench verif.<name>.tb,
-    benchmark section mpc_bench.<name>, generator main <name>.<Name>Main."""
+    benchmark section mpc_bench.<name>, generator main <name>.<Name>Main, soak space mpc_cores.<name>.soak:SOAK."""
     name: str
     title: str
     model_fn: str                  # "module:callable" taking the config.json dict
@@ -52,6 +53,7 @@ class CoreKind:
     report_module: str = ""        # module with core_json(d, hw) and design_report(d, core=None)
     testbench: str = ""            # cocotb test module
     bench: str = ""                # benchmark section module
+    soak: str = ""                 # "module:attribute", the SoakSpace of `make soak`
     spec_section: tuple[str, ...] = ()
     overrides: tuple[str, ...] = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations")
     controllers_fn: str | None = None  # "module:function(design) -> (optimal, golden, holdable)" for the demo
@@ -65,7 +67,7 @@ class CoreKind:
         for attr, default in (("generator_main", f"{n}.{n.capitalize()}Main"),
                               ("design_fn", f"mpc_cores.{n}.design:design_{n}"),
                               ("report_module", f"mpc_cores.{n}.report"), ("testbench", f"verif.{n}.tb"),
-                              ("bench", f"mpc_bench.{n}")):
+                              ("bench", f"mpc_bench.{n}"), ("soak", f"mpc_cores.{n}.soak:SOAK")):
             if not getattr(self, attr):
                 object.__setattr__(self, attr, default)
 

@@ -3,7 +3,9 @@ verif/<core>/tb.py adds the core's own (its data memories over AXI4-Lite) and im
 them all in one module.
 
 Environment: CORE_OUT = the generator's output folder (core.json, config.json); CORE_RANDOM = random solves in
-the bit-exact test; CORE_MEASURE = file to append measured cycle counts to (JSON lines).
+the bit-exact test; CORE_MEASURE = file to append measured cycle counts to (JSON lines); CORE_SEED = the seed of
+the bit-exact test's random solves (default 11); CORE_TIMEOUT_MS = the simulated-time limit of each scenario in ms
+(default mpc_cores.driver.TIMEOUT_MS; `make soak` sets it from the number of solves).
 Every output word is compared with the core's bit-exact golden model, flags included.
 """
 from __future__ import annotations
@@ -14,14 +16,17 @@ import cocotb
 from cocotb.triggers import ClockCycles
 from cocotbext.axi import AxiResp, AxiStreamFrame
 
-from mpc_cores.driver import TB, TIMEOUT_MS, measure  # noqa: F401
+from mpc_cores.driver import TB, measure  # noqa: F401
+from mpc_cores import driver
+
+TIMEOUT_MS = float(os.environ.get("CORE_TIMEOUT_MS") or driver.TIMEOUT_MS)
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
 async def bitexact_random(dut):
     """Random states (some outside the box), random warm/cold start and Imax, random idle and backpressure on both
     streams: every output word equals the golden model, and the SAT and OVERFLOW flags agree."""
-    tb = TB(dut, seed=11)
+    tb = TB(dut, seed=int(os.environ.get("CORE_SEED") or 11))
     await tb.reset()
     count = int(os.environ.get("CORE_RANDOM") or "30")
     sat = ovf = False

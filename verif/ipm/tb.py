@@ -1,8 +1,10 @@
 """cocotb testbench of the interior-point core (Verilator), through its AXI4-Stream and AXI4-Lite interfaces.
 
 Environment: CORE_OUT = the generator's output folder (core.json, config.json); CORE_ROUNDS = rounds of 2P
-samples in the bit-exact test; CORE_MEASURE = file to append measurements to (JSON lines). Every answer word is
-compared with the golden model of the generated core (mpc_cores.ipm.core_model, from config.json).
+samples in the bit-exact test; CORE_MEASURE = file to append measurements to (JSON lines); CORE_SEED = the seed of
+the bit-exact test (default 3); CORE_TIMEOUT_MS = the simulated-time limit of each scenario in ms (default 2000).
+Every answer word is compared with the golden model of the generated core (mpc_cores.ipm.core_model, from
+config.json).
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ from cocotbext.axi import AxiResp, AxiStreamFrame
 from mpc_cores.driver import AxiDriver, measure
 from mpc_cores.ipm.core_model import IpmCoreModel
 
-TIMEOUT_MS = 2000
+TIMEOUT_MS = float(os.environ.get("CORE_TIMEOUT_MS") or 2000)
 
 
 class IpmTB(AxiDriver):
@@ -96,7 +98,7 @@ async def bitexact_inflight(dut):
     starts carried per channel, random I_NW and I_MR between rounds, random idle and backpressure on both streams,
     one round with CTRL.OUT_ALL (z and the steady state in the answer): every answer word and status equals the
     model's."""
-    tb = IpmTB(dut, seed=3)
+    tb = IpmTB(dut, seed=int(os.environ.get("CORE_SEED") or 3))
     await tb.reset()
     rounds = int(os.environ.get("CORE_ROUNDS") or "3")
     tag = 0

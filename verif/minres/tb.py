@@ -1,7 +1,8 @@
 """cocotb testbench of the MINRES core (Verilator), through its AXI4-Stream and AXI4-Lite interfaces.
 
 Environment: CORE_OUT = the generator's output folder (core.json, config.json); CORE_RANDOM = random problems in
-the bit-exact test; CORE_MEASURE = file to append measurements to (JSON lines).
+the bit-exact test; CORE_MEASURE = file to append measurements to (JSON lines); CORE_SEED = the seed of the
+bit-exact test (default 11); CORE_TIMEOUT_MS = the simulated-time limit of each scenario in ms (default 400).
 Every output word is compared with the bit-exact golden model (mpc_cores/minres/model.py) in the core's float
 format (core.json `format`): data words are the format's raw words in the low bits of the 32-bit stream words.
 """
@@ -16,7 +17,7 @@ from cocotbext.axi import AxiResp, AxiStreamFrame
 from mpc_cores.driver import AxiDriver, measure
 from mpc_cores.minres.model import MinresCoreModel
 
-TIMEOUT_MS = 400
+TIMEOUT_MS = float(os.environ.get("CORE_TIMEOUT_MS") or 400)
 STATUS_NONFINITE = 6
 
 
@@ -136,7 +137,7 @@ class MinresTB(AxiDriver):
 async def bitexact_random(dut):
     """Batches of random problems (full, partial by the flush timeout), random Imax, random idle and backpressure
     on both streams: every word equals the golden model, every id comes back once with its own solution."""
-    tb = MinresTB(dut, seed=11)
+    tb = MinresTB(dut, seed=int(os.environ.get("CORE_SEED") or 11))
     await tb.reset()
     total = int(os.environ.get("CORE_RANDOM") or "12")
     sent, k = 0, 0

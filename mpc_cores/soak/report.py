@@ -1,0 +1,115 @@
+"""The report of a soak (mpc_cores.soak.run): <kind>.md and the same facts in <kind>.json beside it."""
+from __future__ import annotations
+
+import datetime
+import json
+import subprocess
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+from mpc_cores import registry
+from mpc_cores.flow import REPO
+from mpc_cores.kind import load
+
+STATUSES = ("passed", "mismatch", "hang", "error", "refused", "refused_generator")
+SOURCES = ("src", "build.sbt", "mpc_cores", "verif")   # what the soaked RTL, models and testbenches come from
+
+
+def _git(*args: str) -> str:
+    p = subprocess.run(["git", *args], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    return p.stdout if p.returncode == 0 else ""
+
+
+def revision() -> dict:
+    """The commit and the sources changed since (the soak ran what is in the tree)."""
+    changed = [ln[3:] for ln in _git("status", "--porcelain", "--", *SOURCES).splitlines() if ln.strip()]
+    return {"commit": _git("rev-parse", "--short=12", "HEAD").strip(), "uncommitted": changed}
+
+
+def _duration(sec: float) -> str:
+    h, rem = divmod(int(round(sec)), 3600)
+    return f"{h} h {rem // 60:02d} min" if h else f"{rem // 60} min {rem % 60:02d} s"
+
+
+def totals(s) -> dict:
+    count = {k: sum(o.status == k for o in s.outcomes) for k in STATUSES}
+    wall = time.time() - s.started
+    return {"configurations": len(s.outcomes), "simulated": sum(o.status not in ("refused", "refused_generator",
+                                                                                "pending") for o in s.outcomes),
+            "refused": count["refused"] + count["refused_generator"], **count,
+            "solves": sum(o.solves for o in s.outcomes), "wall_seconds": round(wall), "wall_time": _duration(wall)}
+
+
+def _options(design: dict) -> str:
+    short = {"frac_bits": "b", "iterations": "Imax", "lat_add": "lA", "lat_mul": "lM", "warm_start": "warm",
+             "output_all": "all", "newton": "I_NW"}
+    return ", ".join(f"{short.get(k, k)}={'P_eq15' if k == 'P' and v == 0 else v}" for k, v in design.items())
+
+
+def _command(s) -> str:
+    return f"make soak CORE={s.kind} N={s.requested} SEED={s.seed}"
+
+
+def markdown(s, finished: bool) -> str:
+    kind = registry.get(s.kind)
+    t, rev = totals(s), revision()
+    when = datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
+    tree = f"commit {rev['commit']}" + (f" with uncommitted changes in {', '.join(rev['uncommitted'])}"
+                                         if rev["uncommitted"] else "")
+    lines = [f"# Soak: {s.kind}", "",
+             f"{kind.title}. `{_command(s)}`, seed {s.seed}, {s.per_config} solves per configuration; "
+             f"{'finished' if finished else 'running, last written'} {when}; {tree}.", "",
+             "| configurations | simulated | refused | solves | mismatches | hangs | errors | wall time |",
+             "|---|---|---|---|---|---|---|---|",
+             f"| {t['configurations']} | {t['simulated']} | {t['refused']} | {t['solves']} | {t['mismatch']} | "
+             f"{t['hang']} | {t['error']} | {t['wall_time']} |", "",
+             "Every solve's output words are compared with the bit-exact golden model of the generated core "
+             "(flags and status included). A mismatch is a failed check of the test, a hang its simulated-time "
+             "limit (several times the expected cycles), an error any other end of the simulation.", "",
+             "## Random space", ""]
+    lines += [f"- {item}" for item in load(kind.soak).space]
+    lines += ["", "## Configurations", "",
+              "Seed: the configuration's own (it seeds the testbench too). radius: spectral radius of A. "
+              "Sets: u input box, du input rate, x hard state box, soft x soft state box. Cycles: simulated. "
+              "Time: generation (its share of the batch), Verilator build and simulation.", "",
+              "| # | seed | nx | nu | N | ny | radius | sets | options | solves | result | cycles | time |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for o in s.outcomes:
+        m = o.summary
+        res = o.status if o.status != "refused_generator" else "refused (generator)"
+        sim = f"{o.cycles:,}" if o.cycles else ""
+        lines.append(f"| {o.index} | {o.seed} | {m['nx']} | {m['nu']} | {m['N']} | {m['ny']} | {m['radius']} | "
+                     f"{', '.join(m['sets'])} | {_options(o.config['design'])} | {o.solves} | {res} | {sim} | "
+                     f"{o.seconds:.0f} s |")
+    failed = [o for o in s.outcomes if o.failed]
+    lines += ["", "## Failures", ""]
+    if not failed:
+        lines.append("None.")
+    for o in failed:
+        lines += [f"- configuration {o.index} (seed {o.seed}, {o.module}): **{o.status}** after "
+                  f"{o.sim_ms:.1f} ms simulated (limit {o.timeout_ms} ms): {o.reason[:600]}",
+                  f"  - reproduce: `make soak CORE={s.kind} N={o.requested} CONFIG_SEED={o.seed}` "
+                  f"(spec and design keywords in {s.kind}.json; log {o.log})"]
+    refused = [o for o in s.outcomes if o.status.startswith("refused")]
+    if refused:
+        lines += ["", "## Refused configurations", ""]
+        lines += [f"- {o.index} (seed {o.seed}, {'generator' if o.status == 'refused_generator' else 'design flow'})"
+                  f": {o.reason}" for o in refused]
+    return "\n".join(lines) + "\n"
+
+
+def write(s, out: Path, finished: bool) -> None:
+    """<kind>.md and <kind>.json in `out` (written again after each configuration)."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    record = {"kind": s.kind, "command": _command(s), "seed": s.seed, "requested_solves": s.requested,
+              "solves_per_config": s.per_config, "finished": finished,
+              "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"), **revision(),
+              "totals": totals(s), "space": list(load(registry.get(s.kind).soak).space),
+              "configurations": [asdict(o) for o in s.outcomes]}
+    for name, text in ((f"{s.kind}.json", json.dumps(record, indent=1) + "\n"),
+                       (f"{s.kind}.md", markdown(s, finished))):
+        tmp = out / (name + ".tmp")
+        tmp.write_text(text)
+        tmp.replace(out / name)
