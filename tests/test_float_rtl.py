@@ -7,13 +7,14 @@ operands) through each unit. Every result and flag must equal the model's, on ex
 from __future__ import annotations
 
 import shutil
+from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
 
 from mpc_cores.flow import REPO, GeneratorError, run_generator
-from verif.float import rtl, suite
+from verif.float import corners, rtl, suite
 
 BUILD = REPO / "build" / "tests" / "float"
 
@@ -118,6 +119,40 @@ def test_latency_parameter(float_session, key):
     n, u = _check(float_session, key)
     assert n >= suite.N_LATENCY
     assert u.info["latency"] == key[2] and u.module.endswith(f"_l{key[2]}")
+
+
+@pytest.mark.parametrize("f", [suite.E8M17, suite.BINARY32], ids=lambda f: f.tag)
+def test_mul_corners_reach_every_case(f):
+    """The multiplier's directed pairs (verif/float/corners.py), among the vectors of every mul unit above, reach
+    each piece of its rounding path; the labels come from the exact product, not from the RTL. Every distance
+    of the right shift (0: normal result, 1 .. manW + 3 into the subnormal range) with two normal operands and
+    with a subnormal one; at each distance where they exist, exact ties rounded down and up and ties broken
+    only by product bits far below the guard bit; two subnormals; rounding up into the smallest normal; the
+    largest finite result and overflow (by a tie too when 2^(manW+2) - 1 factors into two significands)."""
+    m = f.manW
+    a, b, _, _ = suite.operands(f, "mul", suite.N_RANDOM, suite.seed_of(f, "mul"))
+    pairs = corners.mul_pairs(f)
+    assert set(pairs) <= set(zip(a.tolist(), b.tolist()))
+    seen = Counter()
+    for x, y in pairs:
+        lab = corners.mul_labels(f, x, y)
+        d = next(int(s[len("shift="):]) for s in lab if s.startswith("shift="))
+        seen.update(lab)
+        for cls in lab & {"sub*normal", "normal*normal"}:
+            seen.update((cls, k, d) for k in lab | {"any"})
+        if {"overflow", "tie"} <= lab:
+            seen["overflow_tie"] += 1
+    missing = []
+    for cls in ("sub*normal", "normal*normal"):
+        for d in range(m + 4):
+            wanted = ["any"] + (["tie", "far_sticky"] if d <= m + 1 else []) + (["tie_up"] if d <= m else [])
+            missing += [(cls, k, d) for k in wanted if not seen[(cls, k, d)]]
+        if not seen[(cls, "to_min_normal", 1)]:
+            missing.append((cls, "to_min_normal"))
+    missing += [k for k in ("sub*sub", "overflow", "to_max") if not seen[k]]
+    if corners.factor_pairs((1 << (m + 2)) - 1, m + 1) and not seen["overflow_tie"]:
+        missing.append("overflow_tie")
+    assert not missing, missing
 
 
 def test_generator_refusals(float_session):

@@ -19,9 +19,10 @@ OPS = ("add", "mul", "div", "sqrt", "cmp")
 BINARY32 = Format(8, 23)
 BINARY16 = Format(5, 10)
 REDUCED = Format(6, 17)
+E8M17 = Format(8, 17)  # the interior-point core's format
 TINY = Format(4, 3)   # 8 bits: exhaustive
 TINY2 = Format(2, 3)  # 6 bits, the narrowest exponent: exhaustive
-FORMATS = (BINARY32, BINARY16, REDUCED, TINY, TINY2)
+FORMATS = (BINARY32, BINARY16, REDUCED, E8M17, TINY, TINY2)
 N_RANDOM = 100_000
 N_LATENCY = 5_000
 

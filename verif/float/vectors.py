@@ -8,6 +8,7 @@ import numpy as np
 
 from mpc_cores.float import model
 from mpc_cores.float.model import Format
+from verif.float import corners
 
 NUMPY_TYPES = {(8, 23): (np.float32, np.uint32), (5, 10): (np.float16, np.uint16)}
 
@@ -131,10 +132,13 @@ def random_operands(f: Format, op: str, n: int, seed: int) -> tuple[np.ndarray, 
 
 
 def edge_operands(f: Format, op: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every pair of edge values with both op bits, then the tie pairs (both orders, both op bits)."""
+    """Every pair of edge values with both op bits, then the tie pairs (both orders, both op bits); for
+    multiply also the directed corners of verif/float/corners.py (both orders, the second negative)."""
     ev = edge_values(f)
     pairs = [(x, y) for x in ev for y in ev]
     pairs += [p for x, y in tie_pairs(f) for p in ((x, y), (y, x))]
+    if op == "mul":
+        pairs += [p for x, y in corners.mul_pairs(f) for p in ((x, y), (y | f.sign_bit, x))]
     if op == "sqrt":
         pairs = [(x, 0) for x in ev] + [(enc(f, r * r, 2 * j), 0) for r in range(1, 16) for j in (-4, 0, 3)]
         pairs += [(x, 0) for x, _ in tie_pairs(f)]

@@ -5,7 +5,9 @@ import chisel3.util._
 
 /** a + b, or a - b when `sub` is high, rounded to nearest even, in `latency` cycles (fixed, one operation per
   * cycle). Steps: 0 classify and order by magnitude, 1 align the smaller operand (guard, round and sticky bits),
-  * 2 add or subtract, then RoundPack (normalise, round, pack).
+  * 2 add or subtract (one adder: a - b = a + ~b + 1), then RoundPack (normalise, round, pack). A tiny sum is
+  * exact, so RoundPack's normalisation stops at the smallest normal exponent and needs no right shift
+  * (tinyExact).
   * An exact zero sum is +0, except (-0) + (-0) = -0 (IEEE 754 6.3, round to nearest).
   */
 class FAdd(val fmt: FloatFormat, val latency: Int) extends Module {
@@ -24,48 +26,53 @@ class FAdd(val fmt: FloatFormat, val latency: Int) extends Module {
   private val extW = fmt.sigW + 3 // significand, guard, round, sticky
   private val sumW = extW + 1
 
+  /** The larger operand, as far as the sum needs it: sign, significand, biased exponent (1 for subnormals). */
+  class Big extends Bundle {
+    val sign = Bool()
+    val sig  = UInt(fmt.sigW.W)
+    val expF = UInt(fmt.expW.W)
+  }
+
   // ---- step 0: classify, effective sign of b, order by magnitude (the bit patterns order the magnitudes)
   val s0 = Wire(new Bundle {
-    val big     = new Unpacked(fmt)
-    val small   = new Unpacked(fmt)
-    val diff    = UInt(fmt.expIntW.W)
-    val effSub  = Bool()
-    val isNaN   = Bool()
-    val isInf   = Bool()
-    val invalid = Bool()
+    val big      = new Big
+    val smallSig = UInt(fmt.sigW.W)
+    val diff     = UInt(fmt.expW.W)
+    val effSub   = Bool()
+    val isNaN    = Bool()
+    val isInf    = Bool()
+    val invalid  = Bool()
   })
   private val ua = Unpack(fmt, a)
-  private val ub = {
-    val u = Unpack(fmt, b)
-    val w = Wire(new Unpacked(fmt))
-    w      := u
-    w.sign := u.sign ^ sub
-    w
-  }
+  private val ub = Unpack(fmt, b)
+  private val signB = ub.sign ^ sub
+  private def expF(u: UInt) = { val e = u(fmt.width - 2, m); Mux(e === 0.U, 1.U, e) }
   private val swap    = b(fmt.width - 2, 0) > a(fmt.width - 2, 0)
-  private val infDiff = ua.isInf && ub.isInf && ua.sign =/= ub.sign
-  s0.big     := Mux(swap, ub, ua)
-  s0.small   := Mux(swap, ua, ub)
-  s0.diff    := (Mux(swap, ub.exp, ua.exp) - Mux(swap, ua.exp, ub.exp)).asUInt
-  s0.effSub  := ua.sign =/= ub.sign
-  s0.isNaN   := ua.isNaN || ub.isNaN || infDiff
-  s0.isInf   := ua.isInf || ub.isInf
-  s0.invalid := ua.isSNaN || ub.isSNaN || infDiff
+  private val infDiff = ua.isInf && ub.isInf && ua.sign =/= signB
+  s0.big.sign := Mux(swap, signB, ua.sign)
+  s0.big.sig  := Mux(swap, ub.sig, ua.sig)
+  s0.big.expF := Mux(swap, expF(b), expF(a))
+  s0.smallSig := Mux(swap, ua.sig, ub.sig)
+  s0.diff     := Mux(swap, expF(b) - expF(a), expF(a) - expF(b))
+  s0.effSub   := ua.sign =/= signB
+  s0.isNaN    := ua.isNaN || ub.isNaN || infDiff
+  s0.isInf    := ua.isInf || ub.isInf
+  s0.invalid  := ua.isSNaN || ub.isSNaN || infDiff
   val r0 = stages.cut(0, s0)
 
   // ---- step 1: align the smaller significand; the bits shifted out are ORed into the sticky LSB
   val s1 = Wire(new Bundle {
-    val big     = new Unpacked(fmt)
+    val big     = new Big
     val aligned = UInt(extW.W)
     val effSub  = Bool()
     val isNaN   = Bool()
     val isInf   = Bool()
     val invalid = Bool()
   })
-  private val dCap = Mux(r0.diff > extW.U, extW.U, r0.diff(log2Ceil(extW + 1) - 1, 0))
-  private val wide = Cat(r0.small.sig, 0.U(3.W), 0.U(extW.W)) >> dCap
+  private val dCap = Mux(r0.diff > extW.U, extW.U, r0.diff(math.min(log2Ceil(extW + 1), fmt.expW) - 1, 0))
+  private val (sh, dropped) = Shift.rightSticky(Cat(r0.smallSig, 0.U(3.W)), dCap)
   s1.big     := r0.big
-  s1.aligned := wide(2 * extW - 1, extW + 1) ## (wide(extW, 0).orR)
+  s1.aligned := sh(extW - 1, 1) ## (sh(0) || dropped)
   s1.effSub  := r0.effSub
   s1.isNaN   := r0.isNaN
   s1.isInf   := r0.isInf
@@ -74,10 +81,11 @@ class FAdd(val fmt: FloatFormat, val latency: Int) extends Module {
 
   // ---- step 2: add or subtract (|big| >= |small|, so the difference is >= 0 and the sign is big's)
   private val bigExt = Cat(r1.big.sig, 0.U(3.W))
-  private val sum    = Mux(r1.effSub, bigExt -& r1.aligned, bigExt +& r1.aligned)(sumW - 1, 0)
+  private val addend = Mux(r1.effSub, ~r1.aligned.pad(sumW), r1.aligned.pad(sumW)) // one adder: a - b = a + ~b + 1
+  private val sum    = (bigExt.pad(sumW) + addend + r1.effSub.asUInt)(sumW - 1, 0)
   val s2 = Wire(new RawFloat(fmt, sumW))
   s2.sign      := Mux(r1.effSub && sum === 0.U, false.B, r1.big.sign)
-  s2.exp       := r1.big.exp + 1.S // MSB of sum is one place above the hidden bit
+  s2.exp       := r1.big.expF.zext - (fmt.bias - 1).S // MSB of sum: one place above the hidden bit
   s2.sig       := sum
   s2.sticky    := false.B // already in the LSB of sum
   s2.isNaN     := r1.isNaN
@@ -87,7 +95,7 @@ class FAdd(val fmt: FloatFormat, val latency: Int) extends Module {
   s2.divByZero := false.B
   val r2 = stages.cut(2, s2)
 
-  val rp = Module(new RoundPack(fmt, sumW, stages.from(3)))
+  val rp = Module(new RoundPack(fmt, sumW, stages.from(3), tinyExact = true))
   rp.in     := r2
   out       := rp.out
   flags     := rp.flags

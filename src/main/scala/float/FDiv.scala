@@ -81,7 +81,7 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
   raw.invalid   := rec.raw.invalid
   raw.divByZero := rec.raw.divByZero
 
-  val rp = Module(new RoundPack(fmt, qW, stages.from(2 + qW)))
+  val rp = Module(new RoundPack(fmt, qW, stages.from(2 + qW), maxLz = 1)) // quotient in (1/2, 2)
   rp.in     := raw
   out       := rp.out
   flags     := rp.flags

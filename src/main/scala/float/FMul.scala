@@ -1,11 +1,21 @@
 package float
 
 import chisel3._
+import chisel3.util._
 
-/** a * b rounded to nearest even, in `latency` cycles. Steps: 0 classify and add exponents, 1 and 2 the
-  * significand product (operands registered before the multiplier when there are enough registers), then
-  * RoundPack. The full 2(manW+1)-bit product is exact, so subnormal operands need no pre-normalisation:
-  * RoundPack's leading-zero shift does it.
+/** a * b rounded to nearest even, in `latency` cycles, with its own rounding path (not RoundPack).
+  *
+  * Steps: 0 classify, normalise the subnormal operand; 1 exponent (a register after it lands on the multiplier's
+  * inputs); 2 the significand product, cut to its top manW + 3 bits and a sticky bit; 3 the 1-bit
+  * normalisation and the shift into the subnormal range, both as one right shift that drops its bits into the
+  * sticky bit; 4 round to nearest even; 5 exponent field with the rounding carry, overflow; 6 specials and flags.
+  *
+  * Why it is exact: one normaliser suffices. If exactly one operand is subnormal, it is normalised (its leading
+  * one moved to the hidden bit), and the product of two [1, 2) significands lies in [1, 4): its MSB or the bit
+  * below is set. If both are subnormal, only one is normalised and the product may have more leading zeros, but
+  * it is then below 2^(2 (1 - bias)), so tiny: its bits are taken at fixed weights (the subnormal ulp) whatever
+  * their leading zeros, and the hidden-bit position is never assumed. The bits dropped below the kept
+  * significand and the guard bit only matter through their OR.
   */
 class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
   val in_valid  = IO(Input(Bool()))
@@ -18,52 +28,164 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
   override def desiredName = s"FMul_${fmt.tag}_l$latency"
 
   val stages = Stages(latency, FMul.steps)
-  private val prodW = 2 * fmt.sigW
+  private val m      = fmt.manW
+  private val w      = fmt.sigW
+  private val winW   = m + 3                 // product bits kept past step 2: significand, guard, one below
+  private val shW    = log2Ceil(winW + 1)    // right shifts 0 .. winW (winW clears the window)
+  private val fieldW = fmt.expW + 2          // exponent field before the overflow test, with its carry
+  // signed width of the product's biased exponent: from 3 - bias - manW (two subnormals) to 2^(expW+1) - bias
+  private val pW     = math.max(fmt.expW + 2, log2Ceil(fmt.bias + m + 1) + 1)
 
-  // ---- step 0: classify, specials, exponent of the product's MSB
+  /** What decides the result besides the significand. */
+  class Special extends Bundle {
+    val sign    = Bool()
+    val isNaN   = Bool()
+    val isInf   = Bool()
+    val isZero  = Bool()
+    val invalid = Bool()
+  }
+
+  /** The exponent as the right shift of step 3 needs it. `beP` is the biased exponent of the product's MSB
+    * weight (2^(2 manW + 1) of the significand product); the leading one is there or one below (`top`).
+    * tiny = beP + top <= 1. shift = tiny ? 2 - beP : top (capped at winW); field - 1 = beP - 2 + top if not tiny.
+    */
+  class Expo extends Bundle {
+    val low    = Bool()          // beP <= 0: tiny whatever top
+    val edge   = Bool()          // beP == 1: tiny if top is clear
+    val shTiny = UInt(shW.W)     // min(2 - beP, winW)
+    val base   = UInt(fieldW.W)  // beP - 2 (mod 2^fieldW)
+  }
+
+  // ---- step 0: classify, normalise the subnormal operand (a if subnormal, else b), exponent fields
   val s0 = Wire(new Bundle {
-    val sigA = UInt(fmt.sigW.W)
-    val sigB = UInt(fmt.sigW.W)
-    val raw  = new RawFloat(fmt, 1) // everything but the significand
+    val x    = UInt(w.W)
+    val y    = UInt(w.W)
+    val lz   = UInt(log2Ceil(w).W)
+    val eSum = SInt(pW.W) // beP + lz
+    val spc  = new Special
   })
-  private val ua = Unpack(fmt, a)
-  private val ub = Unpack(fmt, b)
+  private val ua   = Unpack(fmt, a)
+  private val ub   = Unpack(fmt, b)
+  private val aSub = !ua.sig(m)
+  private val (xn, lz) = Shift.normalise(Mux(aSub, ua.sig, ub.sig))
+  private def expField(u: UInt) = { val e = u(fmt.width - 2, m); Mux(e === 0.U, 1.U, e) } // subnormal: 1
   private val zeroTimesInf = (ua.isZero && ub.isInf) || (ua.isInf && ub.isZero)
-  s0.sigA          := ua.sig
-  s0.sigB          := ub.sig
-  s0.raw.sign      := ua.sign ^ ub.sign
-  s0.raw.exp       := ua.exp + ub.exp + 1.S // the product of two [1, 2) significands is in [1, 4)
-  s0.raw.sig       := 0.U
-  s0.raw.sticky    := false.B
-  s0.raw.isNaN     := ua.isNaN || ub.isNaN || zeroTimesInf
-  s0.raw.isInf     := ua.isInf || ub.isInf
-  s0.raw.isZero    := ua.isZero || ub.isZero
-  s0.raw.invalid   := ua.isSNaN || ub.isSNaN || zeroTimesInf
-  s0.raw.divByZero := false.B
+  s0.x           := xn
+  s0.y           := Mux(aSub, ub.sig, ua.sig)
+  s0.lz          := lz
+  s0.eSum        := ((expField(a) +& expField(b)).zext.pad(pW) - (fmt.bias - 1).S)(pW - 1, 0).asSInt
+  s0.spc.sign    := ua.sign ^ ub.sign
+  s0.spc.isNaN   := ua.isNaN || ub.isNaN || zeroTimesInf
+  s0.spc.isInf   := ua.isInf || ub.isInf
+  s0.spc.isZero  := ua.isZero || ub.isZero
+  s0.spc.invalid := ua.isSNaN || ub.isSNaN || zeroTimesInf
   val r0 = stages.cut(0, s0)
 
-  // ---- steps 1 and 2: the product (a register after step 1 lands on the multiplier's inputs' side)
-  val r1 = stages.cut(1, r0)
-  val s2 = Wire(new RawFloat(fmt, prodW))
-  s2.sign      := r1.raw.sign
-  s2.exp       := r1.raw.exp
-  s2.sig       := r1.sigA * r1.sigB
-  s2.sticky    := false.B
-  s2.isNaN     := r1.raw.isNaN
-  s2.isInf     := r1.raw.isInf
-  s2.isZero    := r1.raw.isZero
-  s2.invalid   := r1.raw.invalid
-  s2.divByZero := false.B
+  // ---- step 1: the exponent as the right shift needs it (a register after this step lands on the
+  // multiplier's inputs)
+  val s1 = Wire(new Bundle {
+    val x   = UInt(w.W)
+    val y   = UInt(w.W)
+    val e   = new Expo
+    val spc = new Special
+  })
+  private val beP = Wire(SInt(pW.W))
+  beP := (r0.eSum - r0.lz.zext)(pW - 1, 0).asSInt
+  s1.x        := r0.x
+  s1.y        := r0.y
+  s1.e.low    := beP <= 0.S
+  s1.e.edge   := beP === 1.S
+  s1.e.shTiny := Mux(beP <= (2 - winW).S, winW.U, (2.S - beP).asUInt(shW - 1, 0))
+  s1.e.base   := (beP - 2.S).asUInt(fieldW - 1, 0)
+  s1.spc      := r0.spc
+  val r1 = stages.cut(1, s1)
+
+  // ---- step 2: the product, cut to its top winW bits and the OR of the rest
+  val s2 = Wire(new Bundle {
+    val win    = UInt(winW.W)
+    val sticky = Bool()
+    val e      = new Expo
+    val spc    = new Special
+  })
+  private val prod = r1.x * r1.y // 2 w bits
+  s2.win    := prod(2 * w - 1, 2 * w - winW)
+  s2.sticky := (if (2 * w > winW) prod(2 * w - winW - 1, 0).orR else false.B)
+  s2.e      := r1.e
+  s2.spc    := r1.spc
   val r2 = stages.cut(2, s2)
 
-  val rp = Module(new RoundPack(fmt, prodW, stages.from(3)))
-  rp.in     := r2
-  out       := rp.out
-  flags     := rp.flags
+  // ---- step 3: one right shift normalises by one bit or moves into the subnormal range
+  val s3 = Wire(new Bundle {
+    val kept   = UInt(w.W)
+    val guard  = Bool()
+    val sticky = Bool()
+    val tiny   = Bool()
+    val fieldM = UInt(fieldW.W) // exponent field - 1 of a normal result, 0 for a tiny one
+    val spc    = new Special
+  })
+  private val top   = r2.win(winW - 1)
+  private val tiny  = r2.e.low || (r2.e.edge && !top)
+  private val shift = Mux(r2.e.low, r2.e.shTiny, (r2.e.edge || top).asUInt)
+  private val (sh, dropped) = Shift.rightSticky(r2.win, shift)
+  s3.kept   := sh(w, 1)
+  s3.guard  := sh(0)
+  s3.sticky := dropped || r2.sticky
+  s3.tiny   := tiny
+  s3.fieldM := Mux(tiny, 0.U, r2.e.base + top)
+  s3.spc    := r2.spc
+  val r3 = stages.cut(3, s3)
+
+  // ---- step 4: round to nearest, ties to even
+  val s4 = Wire(new Bundle {
+    val rounded = UInt((w + 1).W)
+    val inexact = Bool()
+    val tiny    = Bool()
+    val fieldM  = UInt(fieldW.W)
+    val spc     = new Special
+  })
+  s4.rounded := r3.kept +& (r3.guard && (r3.sticky || r3.kept(0)))
+  s4.inexact := r3.guard || r3.sticky
+  s4.tiny    := r3.tiny
+  s4.fieldM  := r3.fieldM
+  s4.spc     := r3.spc
+  val r4 = stages.cut(4, s4)
+
+  // ---- step 5: exponent field (a carry out of the significand adds one), overflow to infinity
+  val s5 = Wire(new Bundle {
+    val mag      = UInt((fmt.width - 1).W)
+    val overflow = Bool()
+    val inexact  = Bool()
+    val tiny     = Bool()
+    val spc      = new Special
+  })
+  private val field = r4.fieldM + r4.rounded(w, m)
+  s5.overflow := field >= fmt.maxExpField.U
+  s5.mag      := Cat(field(fmt.expW - 1, 0), r4.rounded(m - 1, 0))
+  s5.inexact  := r4.inexact
+  s5.tiny     := r4.tiny
+  s5.spc      := r4.spc
+  val r5 = stages.cut(5, s5)
+
+  // ---- step 6: specials, sign and flags
+  private val spc     = r5.spc
+  private val special = spc.isNaN || spc.isInf || spc.isZero
+  private val infMag  = (BigInt(fmt.maxExpField) << m).U((fmt.width - 1).W)
+  private val mag = Mux(spc.isNaN, fmt.qNaN.U((fmt.width - 1).W),
+    Mux(spc.isInf || (!spc.isZero && r5.overflow), infMag, Mux(spc.isZero, 0.U, r5.mag)))
+  private val o = Wire(UInt(fmt.width.W))
+  o := Cat(spc.sign && !spc.isNaN, mag)
+  private val f = Wire(new FloatFlags)
+  f.invalid   := spc.invalid
+  f.divByZero := false.B
+  f.overflow  := !special && r5.overflow
+  f.underflow := !special && r5.tiny && r5.inexact
+  f.inexact   := !special && (r5.inexact || r5.overflow)
+  out       := stages.cut(6, o)
+  flags     := stages.cut(6, f)
   out_valid := Stages.delayValid(in_valid, latency)
 }
 
 object FMul {
-  val steps = 3 + RoundPack.steps
+  val steps = 7
   def defaultLatency(fmt: FloatFormat): Int = 3
 }

@@ -82,7 +82,7 @@ class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
   raw.invalid   := rec.raw.invalid
   raw.divByZero := false.B
 
-  val rp = Module(new RoundPack(fmt, n, stages.from(2 + n)))
+  val rp = Module(new RoundPack(fmt, n, stages.from(2 + n), maxLz = 0)) // root MSB set
   rp.in     := raw
   out       := rp.out
   flags     := rp.flags

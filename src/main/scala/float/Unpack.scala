@@ -43,7 +43,7 @@ object Unpack {
     * root become normalised (hidden bit set), with an exponent below the format's minimum.
     */
   def normalise(sig: UInt, exp: SInt): (UInt, SInt) = {
-    val lz = PriorityEncoder(Reverse(sig))
-    ((sig << lz)(sig.getWidth - 1, 0), exp - lz.zext)
+    val (n, lz) = Shift.normalise(sig)
+    (n, exp - lz.zext)
   }
 }

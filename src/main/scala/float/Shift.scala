@@ -1,0 +1,55 @@
+package float
+
+import chisel3._
+import chisel3.util._
+
+/** Shifters built one level per bit of the shift amount (a move by 2^k per level), each doing a second job on
+  * the way: the left normaliser finds the leading-zero count itself, the right shifter gathers the bits it
+  * drops into a sticky bit. Both cost about one LUT4 per bit per level, without a separate priority encoder
+  * or a double-width shifter for the sticky bit.
+  */
+object Shift {
+  /** (x << n, n) with n the number of leading zeros of a nonzero x, at most `cap` if given. From the widest
+    * level down, the value moves up by 2^k when its top 2^k bits are zero (after the wider levels fewer than
+    * 2^(k+1) leading zeros remain); `levels` = log2Ceil(maxLz + 1) levels serve an x known to have at most maxLz
+    * leading zeros. With a cap, a level also needs bit k of the cap unless the cap has stopped binding: while
+    * it binds, the moves made so far are exactly its bits above k; it stops binding at a level whose cap bit is
+    * set but whose top bits are not all zero (fewer than 2^k leading zeros remain), or when it is >= 2^levels.
+    * x = 0 (without a cap) gives 0 and an all-ones count.
+    */
+  def normalise(x: UInt, levels: Int, cap: Option[UInt]): (UInt, UInt) = {
+    val w = x.getWidth
+    require(levels >= 0 && (1 << levels) < 2 * w, s"Shift.normalise: $levels levels for $w bits")
+    var v    = x
+    var free = cap.map(c => if (c.getWidth > levels) c >> levels =/= 0.U else false.B).getOrElse(true.B)
+    val bits = for (k <- levels - 1 to 0 by -1) yield {
+      val n    = 1 << k // < w
+      val zero = v(w - 1, w - n) === 0.U
+      val move = cap.map(c => zero && (free || (if (k < c.getWidth) c(k) else false.B))).getOrElse(zero)
+      cap.foreach(c => free = free || ((if (k < c.getWidth) c(k) else false.B) && !zero))
+      v = Mux(move, Cat(v(w - n - 1, 0), 0.U(n.W)), v)
+      move
+    }
+    (v, if (bits.isEmpty) 0.U(1.W) else Cat(bits))
+  }
+
+  /** normalise(x, every level, no cap). */
+  def normalise(x: UInt): (UInt, UInt) = normalise(x, log2Ceil(x.getWidth), None)
+
+  /** (x >> s, sticky): sticky is the OR of every bit shifted out. Any s is accepted; a level of 2^k >= width
+    * clears the value (the caller may cap s to save those levels).
+    */
+  def rightSticky(x: UInt, s: UInt): (UInt, Bool) = {
+    val w  = x.getWidth
+    var v  = x
+    var st = false.B
+    for (k <- 0 until s.getWidth) {
+      val n = 1 << k
+      val (dropped, moved) =
+        if (n >= w) (v.orR, 0.U(w.W)) else (v(n - 1, 0).orR, Cat(0.U(n.W), v(w - 1, n)))
+      st = st || (s(k) && dropped)
+      v = Mux(s(k), moved, v)
+    }
+    (v, st)
+  }
+}
