@@ -88,9 +88,11 @@ class MinresTB(AxiDriver):
         await self.src.send(AxiStreamFrame(tdata=self.frame(pid, diag, b, d, z0)))
 
     def answer(self, pid: int, r, res=None) -> list[int]:
-        """The output frame of problem `pid` with the model's result r (and ||r_0|| res in the warm form): the id
-        with bit 31 the flag, then the words (not compared when flagged)."""
-        return [pid & 0x7FFFFFFF | int(r.flag) << 31] + r.words + (self.model.to_words([res]) if self.warm else [])
+        """The output frame of problem `pid` with the model's result r (and ||r_0|| res in the warm form, in the
+        model's arithmetic: a float32 value, or a raw word in other formats): the id with bit 31 the flag, then the
+        words (not compared when flagged)."""
+        res_words = self.model.ops.words(np.atleast_1d(res)) if self.warm else []
+        return [pid & 0x7FFFFFFF | int(r.flag) << 31] + r.words + res_words
 
     async def recv(self) -> tuple[int, bool, list[int]]:
         f = await self.sink.recv()
