@@ -12,12 +12,17 @@ P       ?=
 B       ?=
 OUT     ?=
 TOL     ?=
+# FPGA family of the multipliers (fgm, admm): generic, ecp5 or xilinx7; pipeline latencies l_A, l_M
+TARGET  ?=
+LAT_ADD ?=
+LAT_MUL ?=
 PYTEST_ARGS ?=
 # parallel test workers (pytest-xdist, one per core); a test file runs on one worker (its module fixtures
 # regenerate cores in place)
 JOBS        ?= auto
 
-GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT))
+GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT)) \
+           $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL))
 
 .PHONY: setup verilog design test test-slow demo clean
 

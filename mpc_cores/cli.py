@@ -23,7 +23,7 @@ from mpc_cores.errors import DesignError, GeneratorError, SpecError
 from mpc_cores.flow import REPO
 from mpc_cores.schema import check_override, check_size
 
-OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format")
+OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format", "target")
 
 
 def refuse(msg: str) -> None:
@@ -173,6 +173,7 @@ def main(argv=None) -> None:
         s.add_argument("--rounding", help="truncate or nearest")
         s.add_argument("--iterations")
         s.add_argument("--format", help="float format (MINRES, ipm): binary32, binary16 or e<E>m<M>, e.g. e8m17")
+        s.add_argument("--target", help="FPGA family of the multipliers (fgm, admm): generic, ecp5 or xilinx7")
         s.add_argument("--out")
         if name == "design":
             s.add_argument("--tol", help="target ||z_fixed - z*||_2 over the state box")

@@ -70,5 +70,6 @@ def tree_sum(terms: np.ndarray, width: int) -> tuple[np.ndarray, bool]:
 def run_time_fields(d, stream_width: int) -> dict:
     """The core.json entries every fixed-point design has: stream width, pipeline latencies, rounding, and the
     reset values of the run-time settings (IMAX, CTRL.WARM_START, CTRL.OUT_ALL)."""
-    return {"stream_width": stream_width, "lat_add": d.lat_add, "lat_mul": d.lat_mul, "rounding": d.rounding,
+    return {"stream_width": stream_width, "lat_add": d.lat_add, "lat_mul": d.lat_mul, "target": d.target,
+            "rounding": d.rounding,
             "iterations": d.iterations, "warm_start": d.warm_start, "output_all": d.output_all}

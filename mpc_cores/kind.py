@@ -55,7 +55,7 @@ class CoreKind:
     bench: str = ""                # benchmark section module
     soak: str = ""                 # "module:attribute", the SoakSpace of `make soak`
     spec_section: tuple[str, ...] = ()
-    overrides: tuple[str, ...] = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations")
+    overrides: tuple[str, ...] = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "target")
     controllers_fn: str | None = None  # "module:function(design) -> (optimal, golden, holdable)" for the demo
     tol_fn: str | None = None      # "module:function(kind, spec_path, tol, overrides, out)": `make design TOL=...`
     cycle_test: str = "cycle_contract"  # the testbench's cocotb test that measures the cycle contract

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 from mpc_cores.errors import SpecError
 from mpc_cores.fixed import ROUNDING_MODES
+from mpc_cores.target import TARGETS
 
 PART, PART_MULTS, PART_BLOCKS, BLOCK_WORDS = "LFE5U-85F", 156, 208, 1024
 PARTS = 16
@@ -183,6 +184,7 @@ SOLVER = {
     "rounding": Choice(ROUNDING_MODES),
     "warm_start": Bool(),
     "output_all": Bool(),
+    "target": Choice(TARGETS),
     # fgm
     "c": Num(1, strict=False, why=" (Assumption 1 of 002)"),
     "int_bits": IntBits(),

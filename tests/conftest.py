@@ -64,11 +64,16 @@ CASES = {
                               dict(P=3, frac_bits=12, rounding="nearest"), 25),
     "masses_p40_b14_l23": (lambda: load_spec(REPO / "examples/masses.yaml"),
                            dict(P=40, frac_bits=14, lat_add=2, lat_mul=3), 15),
-    "afm_p2_b16": (lambda: load_spec(REPO / "examples/afm_like.yaml"), dict(P=2, frac_bits=16), 25),
+    # ECP5 target: every product on MULT18X18D models (their three registers, then the partial products summed)
+    "afm_p2_b16_ecp5": (lambda: load_spec(REPO / "examples/afm_like.yaml"),
+                        dict(P=2, frac_bits=16, target="ecp5", lat_mul=4), 25),
     "rand_n4_p4_b10": (lambda: random_problem("r4", 3, 1, 4, 1, 1), dict(P=4, frac_bits=10), 40),
-    "rand_n7_p2_b14_nearest": (lambda: random_problem("r7", 4, 1, 7, 2, 2),
-                               dict(P=2, frac_bits=14, rounding="nearest"), 40),
-    "rand_n4_nw9_p1_b12": (lambda: random_problem("r4w", 7, 2, 2, 2, 3), dict(P=1, frac_bits=12), 40),
+    # 7-series target: 25 x 18 partial products between the DSP48E1's register stages
+    "rand_n7_p2_b14_nearest_x7": (lambda: random_problem("r7", 4, 1, 7, 2, 2),
+                                  dict(P=2, frac_bits=14, rounding="nearest", target="xilinx7", lat_mul=4), 40),
+    # ECP5 target, one MULT18X18D per product (l_M = 3, the target's minimum, taken when lat_mul is not given)
+    "rand_n4_nw9_p1_b12_ecp5": (lambda: random_problem("r4w", 7, 2, 2, 2, 3), dict(P=1, frac_bits=12, target="ecp5"),
+                                40),
     "rand_n24_p5_b12_l00": (lambda: random_problem("r24", 4, 2, 12, 1, 4),
                             dict(P=5, frac_bits=12, lat_add=0, lat_mul=0), 30),
 }
@@ -106,9 +111,11 @@ ADMM_CASES = {
     # n_A = 19, P = 3 (a soft pair can straddle two units' fill), truncation, no pipeline registers
     "rand_soft_n19_p3_l00_trunc": (lambda: random_problem("ra19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
                                    dict(P=3, frac_bits=16, rounding="truncate", lat_add=0, lat_mul=0), 40),
-    # n_A = 26, two soft states, P = 2, deeper pipeline
-    "rand_soft_n26_p2_l23": (lambda: random_problem("ra26", 3, 1, 3, 2, 6, input_rate=RATE, soft_states=SOFT2),
-                             dict(P=2, frac_bits=16, lat_add=2, lat_mul=3), 30),
+    # n_A = 26, two soft states, P = 2, deeper pipeline, ECP5 target (partial products and the rounding offset
+    # summed in the fourth multiplier stage)
+    "rand_soft_n26_p2_l24_ecp5": (lambda: random_problem("ra26", 3, 1, 3, 2, 6, input_rate=RATE,
+                                                         soft_states=SOFT2),
+                                  dict(P=2, frac_bits=16, lat_add=2, lat_mul=4, target="ecp5"), 30),
     # no soft states (box projection only), P = 5 does not divide n_A = 19
     "rand_rate_n19_p5": (lambda: random_problem("rr19", 3, 1, 4, 1, 7, input_rate=RATE),
                          dict(P=5, frac_bits=15), 40),

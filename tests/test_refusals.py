@@ -186,8 +186,17 @@ def test_missing_spec_file(tmp_path):
     (("--rounding", "up"), "--rounding: expected one of truncate, nearest, got 'up'"),
     (("--tol", "-1"), "--tol: expected a positive number, got -1"),
     (("--tol", "nan"), "--tol: expected a positive number, got nan"),
-    (("--format", "e8m17"), "CORE=fgm takes the overrides P, frac_bits, lat_add, lat_mul, rounding, iterations: "
-                            "got format"),
+    (("--format", "e8m17"), "CORE=fgm takes the overrides P, frac_bits, lat_add, lat_mul, rounding, iterations, "
+                            "target: got format"),
+    (("--target", "stratix"), "--target: expected one of generic, ecp5, xilinx7, got 'stratix'"),
+    (("--target", "ecp5"), "target ecp5 needs lat_mul >= 4 (the DSP's registers, and a stage summing partial "
+                           "products; widest product 17 x 19 bits): got lat_mul=1 (set lat_mul: 4 in the spec's "
+                           "solver section, LAT_MUL=4, or leave it out)"),
+    (("--core", "admm", "--problem", "examples/masses_rate_soft.yaml", "--target", "xilinx7", "--lat-mul", "2"),
+     "target xilinx7 needs lat_mul >= 4 (the DSP's registers, and a stage summing partial products; widest product "
+     "20 x 29 bits): got lat_mul=2 (set lat_mul: 4 in the spec's solver section, LAT_MUL=4, or leave it out)"),
+    (("--core", "ipm", "--target", "ecp5"), "CORE=ipm takes the overrides P, iterations, newton, lat_add, lat_mul, "
+                                            "format: got target"),
     (("--core", "minres", "--P", "65"), "--P: expected an integer in [0, 64] (0: eq. (15) of 001), got 65"),
     (("--core", "minres", "--format", "e9m23"), "--format: format must fit the 32-bit stream word (1 + E + M <= 32): "
                                                 "got e9m23, 33 bits"),
@@ -196,6 +205,7 @@ def test_missing_spec_file(tmp_path):
                                                  "register), got 70000"),
     (("--bogus", "1"), "unrecognized arguments: --bogus 1"),
 ], ids=["B64", "B_text", "P_text", "P0", "P_frac", "lat_mul", "imax", "rounding", "tol", "tol_nan", "format_fgm",
+        "target_name", "target_lat_mul", "target_x7_lat_mul", "target_ipm",
         "minres_P", "minres_format", "ipm_P", "ipm_imr", "unknown_option"])
 def test_overrides(args, expected):
     assert refusal("design", *args) == "error: " + expected

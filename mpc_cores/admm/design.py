@@ -32,7 +32,8 @@ import scipy.linalg
 
 from mpc_cores.admm.model import ESTIMATED, AdmmFixed, wide_widths
 from mpc_cores.admm.problem import BOX, AdmmQP, build_admm_qp
-from mpc_cores.design_base import FixedPointDesign, check_run_options, run_options, solver_opt
+from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix, run_options,
+                                   solver_opt, target_option)
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError
 from mpc_cores.fixed import bits_for, quantize
 from mpc_cores.problem import MpcProblem
@@ -93,7 +94,12 @@ class AdmmDesign(FixedPointDesign):
 
     @property
     def module_name(self) -> str:
-        return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}"
+        return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{module_suffix(self.target)}"
+
+    def products(self) -> list[tuple[int, int]]:
+        """(a, b) bit widths of the multipliers (AdmmCore): the row dot products, coefficient x operand."""
+        w = self.widths
+        return [(w["coef"], max(w["v"], w["w"]))]
 
     # ---- cycle contract and resources of 002
     @property
@@ -167,6 +173,7 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     b, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all = run_options(
         problem, overrides, frac_bits=18, rounding="nearest", iterations=40)
     safety = float(opt("safety", SAFETY_DEFAULT))
+    target = target_option(problem, overrides)
     try:
         qp = build_admm_qp(problem)
     except ValueError as e:
@@ -218,10 +225,11 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     whi = quantize(qp.whi, b, "ceil")
 
     d = AdmmDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
-                   iterations=iterations, warm_start=warm_start, rho_log2=k, shift=shift, M11f=M11f, Gf=Gf,
+                   iterations=iterations, warm_start=warm_start, target=target, rho_log2=k, shift=shift, M11f=M11f, Gf=Gf,
                    M11=M11, G=G, kind=qp.kind.copy(), lo=lo, hi=hi, soft_c=soft_c, soft_r=soft_r, wlo=wlo, whi=whi,
                    safety=safety, output_all=output_all, assumption2=a2)
     _size_words(d, int(opt("sizing_solves", 48)), int(opt("sizing_seed", 0)))
+    apply_target(d, lat_mul, d.products())
     return d
 
 

@@ -5,7 +5,7 @@ KIND = CoreKind(
     name="admm",
     title="ADMM with input-rate and soft state constraints (Algorithm 2 of 002), fixed point",
     model_fn="mpc_cores.admm.model:AdmmFixed",
-    spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all",
+    spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all", "target",
                   "safety", "rho", "soft_scale", "du_scale", "sizing_seed", "sizing_solves"),
     controllers_fn="mpc_cores.admm.kind:controllers",
 )

@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mpc_cores.design_base import FixedPointDesign, check_run_options, run_options, solver_opt
+from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix, run_options,
+                                   solver_opt, target_option)
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError  # noqa: F401  (DesignError: part of this API)
 from mpc_cores.fixed import bits_for, quantize
 from mpc_cores.problem import MpcProblem, condense
@@ -84,7 +85,13 @@ class FgmDesign(FixedPointDesign):
 
     @property
     def module_name(self) -> str:
-        return f"FgmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}"
+        return f"FgmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{module_suffix(self.target)}"
+
+    def products(self) -> list[tuple[int, int]]:
+        """(a, b) bit widths of the multipliers (FgmCore): the row dot products, coefficient x operand (w in the
+        first pass, y after), and the y update's beta^ and (1 + beta^) x z."""
+        w = self.widths
+        return [(w["coef"], max(w["x"], w["y"])), (w["beta"], w["z"])]
 
     def config(self) -> dict:
         """The JSON the Chisel generator reads (fgm.FgmParams.fromJson)."""
@@ -101,7 +108,8 @@ class FgmDesign(FixedPointDesign):
 
 def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     """Build the FGM core description. Keyword overrides take precedence over the spec's `solver:` section:
-    frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all, c, int_bits, stream_width, tol."""
+    frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all, target, c, int_bits, stream_width,
+    tol."""
     opt = lambda k, d: solver_opt(problem, overrides, k, d)  # noqa: E731
     b, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all = run_options(
         problem, overrides, frac_bits=16, rounding="truncate", iterations=15)
@@ -109,6 +117,7 @@ def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     if extra:
         raise DesignError(f"the FGM core solves input-constrained MPC only (box on u): the spec also has "
                           f"{', '.join(extra)}; use the ADMM formulation for those")
+    target = target_option(problem, overrides)
     qp = condense(problem)
     n, nw = qp.n, qp.nw
 
@@ -157,10 +166,11 @@ def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     xhi = quantize(wmax, b, "ceil")
 
     d = FgmDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
-                  iterations=iterations, warm_start=warm_start, output_all=output_all, c=c, lam_max=lam_max,
+                  iterations=iterations, warm_start=warm_start, target=target, output_all=output_all, c=c, lam_max=lam_max,
                   A=A, F=F, lo=lo, hi=hi, xlo=xlo, xhi=xhi, beta=beta, one_plus_beta=one + beta,
                   tol=None if opt("tol", None) is None else float(opt("tol", None)))
     _size_words(d, opt("int_bits", None), opt("stream_width", None))
+    apply_target(d, lat_mul, d.products())
     return d
 
 

@@ -5,7 +5,7 @@ KIND = CoreKind(
     name="fgm",
     title="fast gradient method, input-constrained MPC (Algorithm 1 of 002), fixed point",
     model_fn="mpc_cores.fgm.model:FgmFixed",
-    spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all",
+    spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all", "target",
                   "c", "int_bits", "stream_width", "tol"),
     controllers_fn="mpc_cores.fgm.kind:controllers",
     tol_fn="mpc_cores.fgm.certify:write_certified_spec",

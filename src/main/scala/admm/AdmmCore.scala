@@ -107,7 +107,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   }
   val laneA = Wire(Vec(P, new Lane)) // the row in the slot
   val laneB = Wire(Vec(P, new Lane)) // the soft state before a slack row
-  val dp = Module(new DotProductTree(DotProductParams(m, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding)))
+  val dp = Module(new DotProductTree(DotProductParams(m, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding, p.target)))
 
   for (u <- 0 until P) {
     val tree = if (u == 0) dp else Module(new DotProductTree(dp.p))

@@ -1,6 +1,7 @@
 package admm
 
 import chisel3.util.log2Ceil
+import dsp.Target
 import fixed.{FixedOps, Rounding}
 
 /** Everything the ADMM generator needs (Algorithm 2 of 002, mpc_cores/admm/design.py writes it): sizes, word widths,
@@ -24,6 +25,7 @@ case class AdmmParams(
     latAdd: Int,
     latMul: Int,
     rounding: Rounding,
+    target: Target,
     widths: Map[String, Int],
     imaxDefault: Int,
     warmDefault: Boolean,
@@ -119,7 +121,8 @@ case class AdmmParams(
   def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * cyclesPerIteration
   val multipliers: Int = P * m
 
-  val moduleName: String = s"AdmmCore_${name}_n${n}_p${P}_b${fracBits}"
+  val moduleName: String =
+    s"AdmmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (target == Target.Generic) "" else s"_${target.name}")
 
   // ---- register map: data regions addressed by component index
   val cBits: Int = log2Ceil(m)
@@ -199,6 +202,7 @@ object AdmmParams {
       latAdd = j("lat_add").num.toInt,
       latMul = j("lat_mul").num.toInt,
       rounding = Rounding(j("rounding").str),
+      target = Target(j.obj.get("target").map(_.str).getOrElse("generic")),
       widths = j("widths").obj.map { case (k, v) => k -> v.num.toInt }.toMap,
       imaxDefault = j("iterations").num.toInt,
       warmDefault = j("warm_start").bool,

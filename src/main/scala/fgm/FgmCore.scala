@@ -104,7 +104,7 @@ class FgmCore(val p: FgmParams) extends Module {
   val wPad = VecInit((0 until m).map(j => if (j < nw) wReg(j).pad(p.opW) else 0.S(p.opW.W)))
   val ovfNow = Wire(Vec(P, Bool()))
 
-  val dp = Module(new DotProductTree(DotProductParams(m, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding)))
+  val dp = Module(new DotProductTree(DotProductParams(m, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding, p.target)))
   val unitY = Wire(Vec(P, SInt(p.yW.W)))
   val unitZ = Wire(Vec(P, SInt(p.zW.W)))
   val unitCold = Wire(Vec(P, SInt(p.zW.W)))
@@ -148,8 +148,8 @@ class FgmCore(val p: FgmParams) extends Module {
     when(load || rotZ) {
       for (i <- 0 until K) zFifo(u)(i) := Mux(rotZ, if (i < K - 1) zSrc(i + 1) else z, zSrc(i))
     }
-    val ra        = FixedOps.mulRoundPipelined(opbQ, z, p.latMul, b, p.rounding)
-    val rb        = FixedOps.mulRoundPipelined(betaQ, zOld, p.latMul, b, p.rounding)
+    val ra        = FixedOps.mulRoundPipelined(opbQ, z, p.latMul, b, p.rounding, p.target)
+    val rb        = FixedOps.mulRoundPipelined(betaQ, zOld, p.latMul, b, p.rounding, p.target)
     val (y, ofY)  = FixedOps.satSub(ra, rb, p.yW)
     unitY(u) := ShiftRegister(y, p.latAdd)
     unitZ(u) := ShiftRegister(z, p.latMul + p.latAdd)

@@ -1,6 +1,7 @@
 package fgm
 
 import chisel3.util.log2Ceil
+import dsp.Target
 import fixed.{FixedOps, Rounding}
 
 /** Everything the FGM generator needs: sizes, word widths (from the overflow bounds, Prop. 1 of 002, computed by
@@ -24,6 +25,7 @@ case class FgmParams(
     latAdd: Int,
     latMul: Int,
     rounding: Rounding,
+    target: Target,
     coefW: Int,
     xW: Int,
     yW: Int,
@@ -92,7 +94,8 @@ case class FgmParams(
   def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * cyclesPerIteration
   val multipliers: Int = P * m + 2 * P
 
-  val moduleName: String = s"FgmCore_${name}_n${n}_p${P}_b${fracBits}"
+  val moduleName: String =
+    s"FgmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (target == Target.Generic) "" else s"_${target.name}")
 
   // ---- register map (word addresses; byte address = 4 * word) ----
   val pBits: Int = log2Ceil(P)
@@ -134,6 +137,7 @@ object FgmParams {
       latAdd = j("lat_add").num.toInt,
       latMul = j("lat_mul").num.toInt,
       rounding = Rounding(j("rounding").str),
+      target = Target(j.obj.get("target").map(_.str).getOrElse("generic")),
       coefW = w("coef").num.toInt,
       xW = w("x").num.toInt,
       yW = w("y").num.toInt,

@@ -2,6 +2,7 @@ package fixed
 
 import chisel3._
 import chisel3.util.{Cat, ShiftRegister}
+import dsp.{Ecp5Mult18, Target}
 
 /** Named fixed-point operations on SInt. Every narrowing saturates and reports it: nothing wraps. */
 object FixedOps {
@@ -36,48 +37,82 @@ object FixedOps {
   /** DSP multiplier inputs: 18 x 18 signed (ECP5 MULT18X18D; DSP48E1 takes 25 x 18). */
   val DspWidth = 18
 
-  /** The limbs of x for DSP multipliers: 17-bit unsigned limbs from the bottom, zero-extended to 18 signed bits,
-    * and a signed top limb of at most 18 bits; x = sum_i limb_i 2^(17 i). */
-  private def limbs(x: SInt): Seq[SInt] = {
+  /** The limbs of x for `dspW`-bit signed multiplier inputs: (dspW - 1)-bit unsigned limbs from the bottom,
+    * zero-extended to dspW signed bits, and a signed top limb of at most dspW bits; x = sum_i limb_i 2^((dspW-1) i).
+    */
+  private def limbs(x: SInt, dspW: Int): Seq[SInt] = {
     val w = x.getWidth
-    if (w <= DspWidth) Seq(x)
+    if (w <= dspW) Seq(x)
     else {
-      val k = DspWidth - 1
-      val n = (w - 2) / k + 1 // low limbs of k bits, then a signed top limb of 1..18 bits
+      val k = dspW - 1
+      val n = Target.limbCount(w, dspW) // low limbs of k bits, then a signed top limb of 1..dspW bits
       (0 until n - 1).map(i => Cat(0.U(1.W), x.asUInt(k * i + k - 1, k * i)).asSInt) :+
         x.asUInt(w - 1, k * (n - 1)).asSInt
     }
   }
 
-  /** a * b (+ addend) after `lat` register stages (the value is exact; only the timing differs with lat).
-    * lat 0, 1: the product, then lat registers. lat 2: the operands are registered first, so that the multiplier
-    * sits between registers. lat >= 3: operands wider than the DSP inputs are split into limbs, each partial
-    * product (one DSP each) is registered, and the next stage sums them with the addend; so no carry chain
-    * follows a DSP in the same cycle.
+  private def reg[T <: Data](x: T): T = { val r = Reg(chiselTypeOf(x)); r := x; r }
+
+  /** One signed product of limbs (at most 18 x 18 bits) on an ECP5 MULT18X18D, three cycles later. */
+  private def ecp5Product(a: SInt, b: SInt): SInt = {
+    val m = Module(new Ecp5Mult18)
+    m.io.clk := Module.clock
+    m.io.a   := a.pad(18)
+    m.io.b   := b.pad(18)
+    m.io.p(a.getWidth + b.getWidth - 1, 0).asSInt
+  }
+
+  /** a * b (+ addend) after `lat` register stages (the value is exact; only the structure differs with lat and the
+    * target, so every target gives the same words at the same cycle).
+    *
+    * generic and xilinx7: lat 0, 1: the product, then lat registers. lat 2: the operands are registered first, so
+    * that the multiplier sits between registers. lat >= 3: operands wider than the DSP inputs (18 x 18; xilinx7
+    * 25 x 18, the wider operand on the 25-bit port) are split into limbs, each partial product (one DSP each) is
+    * registered, and the next stage sums them with the addend; so no carry chain follows a DSP in the same cycle
+    * (xilinx7: the operand, product and sum registers are the DSP48E1's AREG/BREG, MREG and PREG).
+    *
+    * ecp5 (lat >= target.minLatency): each partial product on a MULT18X18D with its three registers (its input
+    * registers take the operands); one product without addend is the DSP's output, otherwise a fourth stage sums
+    * the partial products and the addend.
     */
-  def mulPipelined(a: SInt, b: SInt, lat: Int, addend: BigInt = 0): SInt = {
-    def reg[T <: Data](x: T): T = { val r = Reg(chiselTypeOf(x)); r := x; r }
+  def mulPipelined(a: SInt, b: SInt, lat: Int, addend: BigInt = 0, target: Target = Target.Generic): SInt = {
     val prodW = a.getWidth + b.getWidth
-    if (lat >= 3) {
-      val (ra, rb) = (reg(a), reg(b))
-      val k        = DspWidth - 1
-      val parts = for ((la, i) <- limbs(ra).zipWithIndex; (lb, j) <- limbs(rb).zipWithIndex)
-        yield (reg(la * lb), k * (i + j))
+    // ecp5: the addend is summed in the fourth stage, with the partial products if there are several
+    val need = target.minLatency(a.getWidth, b.getWidth).max(if (target == Target.Ecp5 && addend != 0) 4 else 0)
+    require(lat >= need && (need == 0 || lat >= 3),
+      s"the ${target.name} multiplier of ${a.getWidth} x ${b.getWidth} bits needs lat_mul >= $need: got $lat")
+    def summed(parts: Seq[(SInt, Int)]): SInt = {
       val terms = parts.map { case (pp, sh) => (pp << sh).asSInt } :+ addend.S((addend.bitLength + 1).W)
-      val sum   = terms.reduce(_ +& _)
-      ShiftRegister(reg(sum(prodW, 0).asSInt), lat - 3)
+      terms.reduce(_ +& _)(prodW, 0).asSInt
+    }
+    if (target == Target.Ecp5) {
+      val k = DspWidth - 1
+      val parts = for ((la, i) <- limbs(a, DspWidth).zipWithIndex; (lb, j) <- limbs(b, DspWidth).zipWithIndex)
+        yield (ecp5Product(la, lb), k * (i + j))
+      if (parts.length == 1 && addend == 0) ShiftRegister(parts.head._1, lat - 3)
+      else ShiftRegister(reg(summed(parts)), lat - 4)
+    } else if (lat >= 3) {
+      // the operand that fits the wider port goes there (xilinx7: A is 25 bits)
+      val (x, y) = if (b.getWidth > a.getWidth && b.getWidth <= target.dspA) (b, a) else (a, b)
+      val (rx, ry) = (reg(x), reg(y))
+      val parts = for ((lx, i) <- limbs(rx, target.dspA).zipWithIndex; (ly, j) <- limbs(ry, target.dspB).zipWithIndex)
+        yield (reg(lx * ly), (target.dspA - 1) * i + (target.dspB - 1) * j)
+      ShiftRegister(reg(summed(parts)), lat - 3)
     } else {
       val p = if (lat == 2) reg(a) * reg(b) else a * b
       ShiftRegister(if (addend == 0) p else p +& addend.S, if (lat == 2) 1 else lat)
     }
   }
 
-  /** (a * b) / 2^shift rounded (shiftRound) after `lat` register stages; from lat = 3 on, the rounding offset is
-    * added with the partial products, so only wiring follows the last register. */
-  def mulRoundPipelined(a: SInt, b: SInt, lat: Int, shift: Int, mode: Rounding): SInt =
-    if (lat >= 3 && shift > 0 && mode == Rounding.Nearest)
-      mulPipelined(a, b, lat, BigInt(1) << (shift - 1)) >> shift
-    else shiftRound(mulPipelined(a, b, lat), shift, mode)
+  /** (a * b) / 2^shift rounded (shiftRound) after `lat` register stages; where the structure has a stage that sums
+    * partial products (lat >= 3, ecp5 lat >= 4), the rounding offset is added there, so only wiring follows the
+    * last register. */
+  def mulRoundPipelined(a: SInt, b: SInt, lat: Int, shift: Int, mode: Rounding,
+                        target: Target = Target.Generic): SInt = {
+    val fold = lat >= (if (target == Target.Ecp5) 4 else 3) && shift > 0 && mode == Rounding.Nearest
+    if (fold) mulPipelined(a, b, lat, BigInt(1) << (shift - 1), target) >> shift
+    else shiftRound(mulPipelined(a, b, lat, 0, target), shift, mode)
+  }
 
   /** a + b saturated to `width` bits. */
   def satAdd(a: SInt, b: SInt, width: Int): (SInt, Bool) = saturate(a +& b, width)

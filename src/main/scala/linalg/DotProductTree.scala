@@ -2,6 +2,7 @@ package linalg
 
 import chisel3._
 import chisel3.util._
+import dsp.Target
 import fixed.{FixedOps, Rounding}
 
 /** Parameters of a fixed-point dot product w^T v of length m (Fig. 2a of 002).
@@ -13,6 +14,7 @@ import fixed.{FixedOps, Rounding}
   * @param fracBits fraction bits dropped after each product (both operands carry fracBits)
   * @param latMul   pipeline registers after each multiplier (l_M)
   * @param latAdd   pipeline registers after each adder level (l_A)
+  * @param target   the FPGA family the multipliers are built for (dsp.Target)
   */
 case class DotProductParams(
     m: Int,
@@ -22,7 +24,8 @@ case class DotProductParams(
     fracBits: Int,
     latMul: Int,
     latAdd: Int,
-    rounding: Rounding) {
+    rounding: Rounding,
+    target: Target = Target.Generic) {
   require(m >= 1, s"DotProductTree: m must be >= 1, got m=$m")
   require(latMul >= 0 && latAdd >= 0, s"DotProductTree: latencies must be >= 0, got lM=$latMul lA=$latAdd")
   require(sumW >= 2, s"DotProductTree: sumW must be >= 2, got $sumW")
@@ -39,7 +42,8 @@ case class DotProductParams(
   */
 class DotProductTree(val p: DotProductParams) extends Module {
   override def desiredName = s"DotProductTree_m${p.m}_c${p.coefW}_o${p.opW}_s${p.sumW}_b${p.fracBits}_" +
-    s"lm${p.latMul}_la${p.latAdd}_${p.rounding.name}"
+    s"lm${p.latMul}_la${p.latAdd}_${p.rounding.name}" +
+    (if (p.target == Target.Generic) "" else s"_${p.target.name}")
 
   val io = IO(new Bundle {
     /** operands valid this cycle */
@@ -57,7 +61,7 @@ class DotProductTree(val p: DotProductParams) extends Module {
 
   // Multipliers (l_M stages, FixedOps.mulRoundPipelined: the product rounded back to fracBits), then narrowed.
   val level0 = (0 until p.m).map { j =>
-    val prod    = FixedOps.mulRoundPipelined(io.coef(j), io.op(j), p.latMul, p.fracBits, p.rounding)
+    val prod    = FixedOps.mulRoundPipelined(io.coef(j), io.op(j), p.latMul, p.fracBits, p.rounding, p.target)
     val (v, of) = FixedOps.saturate(prod, p.sumW)
     (v, of)
   }

@@ -1,0 +1,60 @@
+"""The FPGA family a fixed-point core's multipliers are built for: `solver: target:` in the spec, `TARGET=` for make
+(mirrors dsp.Target in src/main/scala/dsp/Target.scala).
+
+- generic: portable RTL; the synthesis tool maps each product (bare MULT18X18D / DSP48E1 between fabric registers).
+- ecp5: every product on MULT18X18D primitives with their input, pipeline and output registers on; wider products
+  are split into 18 x 18 partial products summed in a registered fourth stage.
+- xilinx7: registers around 25 x 18 partial products that Yosys synth_xilinx packs into the DSP48E1's AREG/BREG,
+  MREG and PREG.
+
+A target changes the RTL's structure only: the words and the cycle counts are those of the design's l_M, which must
+cover the target's DSP pipeline (`min_lat_mul`). Without an explicit lat_mul the design takes that minimum.
+"""
+from __future__ import annotations
+
+from mpc_cores.errors import DesignError
+
+TARGETS = ("generic", "ecp5", "xilinx7")
+# signed input widths (A, B) of one hard multiplier
+DSP_PORTS = {"generic": (18, 18), "ecp5": (18, 18), "xilinx7": (25, 18)}
+DEFAULT_LAT_MUL = 1    # generic, as the latencies of 002
+
+
+def limb_count(w: int, dsp_w: int) -> int:
+    return 1 if w <= dsp_w else (w - 2) // (dsp_w - 1) + 1
+
+
+def parts(target: str, a_w: int, b_w: int) -> int:
+    """DSPs of an a_w x b_w signed product (the wider operand on the A port if it fits there)."""
+    pa, pb = DSP_PORTS[target]
+    x, y = (b_w, a_w) if b_w > a_w and b_w <= pa else (a_w, b_w)
+    return limb_count(x, pa) * limb_count(y, pb)
+
+
+def min_lat_mul(target: str, products: list[tuple[int, int]]) -> int:
+    """The fewest multiplier stages the target's DSP pipeline needs over the core's products: generic 0; ecp5 and
+    xilinx7 3 (the DSP's registers), 4 where a product has partial products to sum."""
+    if target == "generic":
+        return 0
+    return max(4 if parts(target, a, b) > 1 else 3 for a, b in products)
+
+
+def check_target(target: str) -> str:
+    if target not in TARGETS:
+        raise DesignError(f"target must be one of {', '.join(TARGETS)}: got {target!r}")
+    return target
+
+
+def resolve_lat_mul(target: str, explicit: int | None, products: list[tuple[int, int]]) -> int:
+    """l_M of a design: the explicit value if it covers the target's DSP pipeline (else a refusal naming both),
+    or the target's minimum (generic: DEFAULT_LAT_MUL)."""
+    need = min_lat_mul(target, products)
+    if explicit is None:
+        return max(DEFAULT_LAT_MUL, need)
+    if explicit < need:
+        worst = max(products, key=lambda p: parts(target, *p))
+        raise DesignError(f"target {target} needs lat_mul >= {need} (the DSP's registers"
+                          f"{', and a stage summing partial products' if need > 3 else ''}; widest product "
+                          f"{worst[0]} x {worst[1]} bits): got lat_mul={explicit} (set lat_mul: {need} in the "
+                          f"spec's solver section, LAT_MUL={need}, or leave it out)")
+    return explicit
