@@ -1,29 +1,26 @@
-"""Software baselines of the QP solver cores on this CPU: OSQP (C library, Python API; default and tuned embedded
-settings), the fast gradient method (Algorithm 1 of 002) and ADMM (Algorithm 2 of 002) in float64 numpy, all
-warm-started over one closed loop, with the loop, the reference solutions and the timing (median per-solve wall
-time over replays, half before and half after the hardware jobs). The MINRES baselines are
-mpc_bench.baselines_minres."""
+"""Software baselines of the QP solver cores on this CPU: the fast gradient method (Algorithm 1 of 002) and ADMM
+(Algorithm 2 of 002) in float64 numpy, and the QP solvers of mpc_bench.qp_solvers (OSQP, DAQP, PIQP, ProxQP,
+Clarabel, quadprog), all on the same QPs of one closed loop, with the loop, the reference solutions and the timing
+(per-solve wall time and each solver's own time over replays, half before and half after the hardware jobs, the
+process pinned to one CPU), and the report cells that set the solvers' times against a core. The MINRES baselines
+are mpc_bench.baselines_minres."""
 from __future__ import annotations
 
+import contextlib
 import gc
 import math
 import os
+import re
 import time
 from dataclasses import dataclass
 
 import numpy as np
 from tqdm import tqdm
 
-# OSQP settings. "default": the library's (1.x: eps 1e-3, no polishing, warm start on, termination checked
-# every 25 iterations, adaptive rho). "tuned": embedded settings for this warm-started loop; with a warm start
-# the solver converges in a few iterations, so checking termination every 5 saves most of the default's 25;
-# a fixed rho avoids refactorisations, and 0.3 was the fastest of 0.03, 0.1, 0.3 and 1 on this loop.
-OSQP_DEFAULT: dict = {}
-OSQP_TUNED = dict(eps_abs=1e-3, eps_rel=1e-3, polishing=False, warm_starting=True, check_termination=5,
-                  adaptive_rho=False, rho=0.3)
-# The same for the soft-constrained QP of masses_rate_soft: rho = 1 had the lowest median time of 0.1, 0.3, 1
-# and 3 (0.3 as fast at the median, but 510 iterations at worst against 140).
-OSQP_TUNED_ADMM = dict(OSQP_TUNED, rho=1.0)
+from mpc_bench.qp_solvers import (  # noqa: F401  (OSQP_DEFAULT, OSQP_TUNED: mpc_bench.ipm takes them from here)
+    OSQP_DEFAULT, OSQP_TUNED, SOLVERS, Osqp, box_qp, soft_qp, solver_makers,
+)
+from mpc_bench.report import _f, _table
 
 
 class NumpyFgm:
@@ -124,67 +121,12 @@ class NumpyAdmm:
         return z
 
 
-class OsqpWarm:
-    """OSQP set up once for the loop; each solve updates q = Phi w and starts from the previous solution."""
+class OsqpWarm(Osqp):
+    """OSQP on the condensed box QP (mpc_cores.problem.condense) of a loop, set up once; each solve updates
+    q = Phi w and starts from the previous solution."""
 
     def __init__(self, qp, name: str, settings: dict):
-        import osqp
-        import scipy.sparse as sp
-
-        self.name = name
-        self.Phi = qp.Phi
-        self.solver = osqp.OSQP()
-        self.solver.setup(P=sp.triu(sp.csc_matrix(qp.H), format="csc"), q=np.zeros(qp.n),
-                          A=sp.identity(qp.n, format="csc"), l=np.array(qp.lb, dtype=float),
-                          u=np.array(qp.ub, dtype=float), verbose=False, **settings)
-        self.settings = _osqp_settings(self.solver)
-        self.iters: list[int] = []
-
-    def solve(self, w: np.ndarray) -> np.ndarray:
-        self.solver.update(q=self.Phi @ w)
-        res = self.solver.solve(raise_error=False)
-        self.iters.append(res.info.iter)
-        return res.x
-
-
-def _osqp_settings(solver) -> str:
-    st = solver.settings
-    return ", ".join(f"{k} = {getattr(st, k)}" for k in (
-        "eps_abs", "eps_rel", "polishing", "warm_starting", "check_termination", "adaptive_rho", "rho"))
-
-
-class OsqpSoftWarm:
-    """OSQP on the soft-constrained sparse QP (8) of 002 (the data of mpc_cores.admm.problem: F z = b(w), the boxes,
-    three rows per soft pair), set up once; each solve updates q = h(w) and the equality bounds b(w), and starts
-    from the previous solution."""
-
-    def __init__(self, qp, name: str, settings: dict):
-        import osqp
-        import scipy.sparse as sp
-
-        from mpc_cores.admm.problem import _osqp_data
-
-        self.name, self.qp = name, qp
-        A, self.l, self.u = _osqp_data(qp, np.zeros(qp.nw), hard=False)
-        self.neq = qp.F.shape[0]
-        # only the equality rows (first) depend on w
-        _, l1, u1 = _osqp_data(qp, np.ones(qp.nw), hard=False)
-        assert np.array_equal(l1[self.neq:], self.l[self.neq:]) and np.array_equal(u1[self.neq:], self.u[self.neq:])
-        self.hw, self.h0, self.bw = np.asarray(qp.h_w), np.asarray(qp.h0), np.asarray(qp.b_w)
-        self.solver = osqp.OSQP()
-        self.solver.setup(P=sp.triu(sp.csc_matrix(qp.H), format="csc"), q=np.array(self.h0), A=A, l=self.l,
-                          u=self.u, verbose=False, **settings)
-        self.settings = _osqp_settings(self.solver)
-        self.iters: list[int] = []
-
-    def solve(self, w: np.ndarray) -> np.ndarray:
-        b = self.bw @ w
-        self.l[: self.neq] = b
-        self.u[: self.neq] = b
-        self.solver.update(q=self.hw @ w + self.h0, l=self.l, u=self.u)
-        res = self.solver.solve(raise_error=False)
-        self.iters.append(res.info.iter)
-        return res.x
+        super().__init__(box_qp(qp), name, settings)
 
 
 @dataclass
@@ -195,11 +137,30 @@ class SwResult:
     u_err: float                 # max over the loop of |u0 - u0*|_inf
     iters: list | None = None
     u_err_median: float | None = None    # median over the loop of |u0 - u0*|_inf
+    own_us: np.ndarray | None = None     # (repeats, steps): the solver's own timer, None when it has none
+    timer: str | None = None             # what that timer covers
 
     @property
     def median_us(self) -> float:
         """The smallest per-replay median: other processes on the machine only ever add time."""
         return float(np.median(self.times_us, axis=1).min())
+
+    @property
+    def p99_us(self) -> float:
+        """The 99th percentile over every solve of every replay."""
+        return float(np.percentile(self.times_us, 99))
+
+    @property
+    def own_median_us(self) -> float | None:
+        return float(np.median(self.own_us, axis=1).min()) if self.own_us is not None else None
+
+    @property
+    def own_p99_us(self) -> float | None:
+        return float(np.percentile(self.own_us, 99)) if self.own_us is not None else None
+
+    @property
+    def own_max_us(self) -> float | None:
+        return float(self.own_us.max()) if self.own_us is not None else None
 
 
 @dataclass
@@ -245,13 +206,19 @@ def admm_closed_loop_qps(problem, d, steps: int, hold: int, seed: int = 0) -> np
     return W
 
 
+# The reference of every loop: OSQP at eps 1e-9.
+REFERENCE = dict(eps_abs=1e-9, eps_rel=1e-9, polishing=False, max_iter=200_000)
+
+
 def _optimal_u0(problem, qp, W: np.ndarray) -> np.ndarray:
-    s = OsqpWarm(qp, "reference", dict(eps_abs=1e-9, eps_rel=1e-9, polishing=False, max_iter=200_000))
-    return np.array([s.solve(w)[: problem.nu] for w in W])
+    s = OsqpWarm(qp, "reference", REFERENCE)
+    return np.array([s.solve(w)[0][: problem.nu] for w in W])
 
 
 def _time_solver(make, W: np.ndarray, nu: int, u_opt: np.ndarray, repeats: int, bar=None) -> SwResult:
-    times, err, solver = np.zeros((repeats, len(W))), np.zeros(len(W)), None
+    """Replays of the loop into fresh solvers: wall time per solve (time.perf_counter around solve(w)), the solver's
+    own time when solve returns (z, own seconds or a function giving them), the error of u0 against u_opt."""
+    times, own, err, solver = np.zeros((repeats, len(W))), np.full((repeats, len(W)), np.nan), np.zeros(len(W)), None
     for r in range(repeats):
         solver = make()
         gc.collect()
@@ -261,13 +228,17 @@ def _time_solver(make, W: np.ndarray, nu: int, u_opt: np.ndarray, repeats: int, 
                 t0 = time.perf_counter()
                 z = solver.solve(w)
                 times[r, k] = time.perf_counter() - t0
+                if isinstance(z, tuple):
+                    z, t_own = z
+                    t_own = t_own() if callable(t_own) else t_own      # read after the wall clock stopped
+                    own[r, k] = np.nan if t_own is None else t_own
                 err[k] = max(err[k], float(np.abs(z[:nu] - u_opt[k]).max()))
         finally:
             gc.enable()
         if bar is not None:
             bar.update()
     return SwResult(solver.name, solver.settings, times * 1e6, float(err.max()), getattr(solver, "iters", None),
-                    float(np.median(err)))
+                    float(np.median(err)), None if np.isnan(own).any() else own * 1e6, getattr(solver, "timer", None))
 
 
 def merge_software(a: dict | None, b: dict | None) -> dict | None:
@@ -275,11 +246,23 @@ def merge_software(a: dict | None, b: dict | None) -> dict | None:
     if a is None or b is None:
         return a or b
     out = dict(a, repeats=a["repeats"] + b["repeats"], load=[a["load"], b["load"]])
+    if a.get("cpu") != b.get("cpu"):
+        out["cpu"] = f"{a.get('cpu')} and {b.get('cpu')}"
     out["solvers"] = [SwResult(x.name, x.settings, np.vstack([x.times_us, y.times_us]), max(x.u_err, y.u_err),
                                (x.iters or []) + (y.iters or []) or None,
                                max(x.u_err_median or 0.0, y.u_err_median or 0.0) if x.u_err_median is not None
-                               else None) for x, y in zip(a["solvers"], b["solvers"])]
+                               else None,
+                               np.vstack([x.own_us, y.own_us]) if x.own_us is not None and y.own_us is not None
+                               else None, x.timer) for x, y in zip(a["solvers"], b["solvers"])]
     return out
+
+
+def _makers(problem: str, lqp, numpy_maker) -> tuple[list, list[str]]:
+    """The solvers of `problem` in mpc_bench.qp_solvers.SOLVERS with the numpy method after the OSQP rows (the
+    order of the report's tables and plots before the other solvers came)."""
+    makers, missing = solver_makers(problem, lqp)
+    k = sum(c is Osqp for _, c, _ in SOLVERS[problem])
+    return makers[:k] + [numpy_maker] + makers[k:], missing
 
 
 def prepare_fgm_software(problem, designs: dict, steps: int, hold: int) -> SwCase:
@@ -299,25 +282,25 @@ def prepare_fgm_software(problem, designs: dict, steps: int, hold: int) -> SwCas
         err = [float(np.abs(m.solve(quantize(w, db.b)).z[:nu] / (1 << db.b) - u_opt[k]).max())
                for k, w in enumerate(W)]
         core_err[b] = (max(err), float(np.median(err)))
-    makers = [lambda: OsqpWarm(qp, "OSQP default", OSQP_DEFAULT), lambda: OsqpWarm(qp, "OSQP tuned", OSQP_TUNED),
-              lambda: NumpyFgm(qp, nu, d.c, d.lam_max, d.iterations)]
+    makers, missing = _makers("box", box_qp(qp), lambda: NumpyFgm(qp, nu, d.c, d.lam_max, d.iterations))
     return SwCase("fgm", W, u_opt, nu, makers, {
-        "core_err": core_err, "steps": steps, "hold": hold, "imax": d.iterations,
+        "core_err": core_err, "steps": steps, "hold": hold, "imax": d.iterations, "missing": missing,
         "u_box": (float(np.min(problem.umin)), float(np.max(problem.umax)))})
 
 
 def prepare_admm_software(problem, designs: dict, steps: int, hold: int) -> SwCase:
-    """The masses_rate_soft loop for the ADMM solvers (OSQP on the soft QP, numpy ADMM), the error of the core's
-    golden model (per b) on it, and the check that numpy ADMM is AdmmFloat's iteration."""
+    """The masses_rate_soft loop for the ADMM solvers (the solvers of the soft QP, numpy ADMM), the error of the
+    core's golden model (per b) on it, and the check that numpy ADMM is AdmmFloat's iteration."""
     from mpc_cores.admm.model import AdmmFixed, AdmmFloat
     from mpc_cores.fixed import quantize
 
     d = designs[max(designs)]
     qp = d.qp
     W = admm_closed_loop_qps(problem, d, steps, hold)
-    ref = OsqpSoftWarm(qp, "reference", dict(eps_abs=1e-9, eps_rel=1e-9, polishing=False, max_iter=200_000))
+    lqp = soft_qp(qp)
+    ref = Osqp(lqp, "reference", REFERENCE)
     nu = problem.nu
-    u_opt = np.array([ref.solve(w)[:nu] for w in W])
+    u_opt = np.array([ref.solve(w)[0][:nu] for w in W])
     core_err = {}
     for b, db in sorted(designs.items()):
         m = AdmmFixed(db)
@@ -326,13 +309,12 @@ def prepare_admm_software(problem, designs: dict, steps: int, hold: int) -> SwCa
         core_err[b] = (max(err), float(np.median(err)), int(np.argmax(err)))
     a, f = NumpyAdmm(d), AdmmFloat(d)
     same = max(float(np.abs(a.solve(w) - f.solve(w)[0]).max()) for w in W[: min(len(W), 20)])
-    makers = [lambda: OsqpSoftWarm(qp, "OSQP default", OSQP_DEFAULT),
-              lambda: OsqpSoftWarm(qp, "OSQP tuned", OSQP_TUNED_ADMM), lambda: NumpyAdmm(d)]
+    makers, missing = _makers("soft", lqp, lambda: NumpyAdmm(d))
     lo = float(np.min(problem.input_rate.dumin))
     hi = float(np.max(problem.input_rate.dumax))
     return SwCase("admm", W, u_opt, nu, makers, {
         "core_err": core_err, "steps": steps, "hold": hold, "imax": d.iterations, "u_box": (lo, hi),
-        "ref_iters": (float(np.median(ref.iters)), max(ref.iters)), "numpy_vs_admmfloat": same,
+        "missing": missing, "ref_iters": (float(np.median(ref.iters)), max(ref.iters)), "numpy_vs_admmfloat": same,
         "active": _admm_active(problem, W)})
 
 
@@ -349,14 +331,117 @@ def _admm_active(problem, W: np.ndarray) -> dict:
     return {"soft": float(soft.mean()), "box": float(box[:-1].mean()), "rate": float(rate[:-1].mean())}
 
 
+@contextlib.contextmanager
+def pinned():
+    """Every thread of the process on one CPU, the highest-numbered it may run on, while the block runs (yields that
+    CPU, None where the system has no affinity calls); the former affinities after."""
+    if not hasattr(os, "sched_setaffinity"):
+        yield None
+        return
+    tids = [int(t) for t in os.listdir("/proc/self/task")] if os.path.isdir("/proc/self/task") else [0]
+    before = {}
+    for t in tids:
+        with contextlib.suppress(OSError):
+            before[t] = os.sched_getaffinity(t)
+    cpu = max(os.sched_getaffinity(0))
+    for t in before:
+        with contextlib.suppress(OSError):
+            os.sched_setaffinity(t, {cpu})
+    try:
+        yield cpu
+    finally:
+        for t, cpus in before.items():
+            with contextlib.suppress(OSError):
+                os.sched_setaffinity(t, cpus)
+
+
 def time_software(case: SwCase, repeats: int, log) -> dict:
-    """Per-solve wall time of each solver of the case over its loop, `repeats` replays each (a progress bar on
-    stderr counts the replays)."""
-    with tqdm(total=len(case.makers) * repeats, desc=f"{case.kind.upper()} software timing", unit="replay",
-              disable=None) as bar:
+    """Per-solve wall time (and own time) of each solver of the case over its loop, `repeats` replays each, the
+    process pinned to one CPU (a progress bar on stderr counts the replays)."""
+    with pinned() as cpu, tqdm(total=len(case.makers) * repeats, desc=f"{case.kind.upper()} software timing",
+                                unit="replay", disable=None) as bar:
         res = [_time_solver(mk, case.W, case.nu, case.u_opt, repeats, bar) for mk in case.makers]
     for r in res:
         it = f", iterations median {np.median(r.iters):.0f} max {max(r.iters)}" if r.iters else ""
+        own = f", own timer median {r.own_median_us:.1f} us" if r.own_us is not None else ""
         log(f"{case.kind.upper()} {r.name}: median {r.median_us:.1f} us per solve ({r.times_us.shape[1]} solves, "
-            f"best of {r.times_us.shape[0]} replays){it}")
-    return {"solvers": res, "repeats": repeats, "load": os.getloadavg()[0] if hasattr(os, "getloadavg") else None}
+            f"best of {r.times_us.shape[0]} replays){own}{it}")
+    return {"solvers": res, "repeats": repeats, "cpu": cpu,
+            "load": os.getloadavg()[0] if hasattr(os, "getloadavg") else None}
+
+
+# ----------------------------------------------------------------------------------------- report cells
+# The solvers' times against a core, for the FGM and ADMM sections (records and tables).
+
+def slug(name: str) -> str:
+    """'DAQP hot start' -> 'daqp_hot_start' (the CSV keys of a solver)."""
+    return re.sub(r"[^a-z0-9]+", "_", name.lower()).strip("_")
+
+
+def core_ratios(lat_us: float | None, sw: dict | None) -> dict:
+    """The record fields of one core against every solver of `sw`: the core latency the ratios use and the core's
+    solves per second (one QP in flight: 1 / latency), and per solver its median and p99 wall time per solve, their
+    ratios to the core's latency and the throughput ratio, core solves/s over the solver's solves/s at its median
+    (solver over core: above 1 the core is ahead)."""
+    rate = 1e6 / lat_us if lat_us else None
+    out = {"core_latency_us": lat_us, "core_solves_per_s": rate}
+    for r in (sw or {}).get("solvers", []):
+        k = slug(r.name)
+        med, p99 = r.median_us, r.p99_us
+        out.update({f"{k}_median_us": med, f"{k}_p99_us": p99,
+                    f"{k}_median_over_core": med / lat_us if lat_us else None,
+                    f"{k}_p99_over_core": p99 / lat_us if lat_us else None,
+                    f"{k}_throughput_ratio": rate / (1e6 / med) if rate and med else None})
+    if sw and sw.get("solvers"):
+        best = min(sw["solvers"], key=lambda s: s.median_us)
+        out.update(fastest_solver=best.name, fastest_median_over_core=out[f"{slug(best.name)}_median_over_core"],
+                   fastest_p99_over_core=out[f"{slug(best.name)}_p99_over_core"])
+    return out
+
+
+def fastest_cell(r: dict) -> str:
+    """The summary cell of a core: the solver with the lowest median wall time, its median and p99 over the core's
+    latency."""
+    if not r.get("fastest_solver"):
+        return "-"
+    return (f"{r['fastest_solver']} {_f(r.get('fastest_median_over_core'), '{:.1f}x')}, "
+            f"{_f(r.get('fastest_p99_over_core'), '{:.1f}x')}")
+
+
+def timer_table(sw: dict) -> list[str]:
+    """Per solver: median, p99 and max time per solve by its own timer (n/a without one) and by wall time, and the
+    error reached over the loop."""
+    body = []
+    for r in sw["solvers"]:
+        own = [_f(v, "{:.1f}", "n/a") for v in (r.own_median_us, r.own_p99_us, r.own_max_us)]
+        body.append([r.name, *own, f"{r.median_us:.1f}", f"{r.p99_us:.1f}", f"{r.times_us.max():.1f}",
+                     f"{r.u_err:.2e}", r.timer or "n/a"])
+    return _table(["solver", "own median us", "own p99 us", "own max us", "wall median us", "wall p99 us",
+                   "wall max us", "error max", "own timer covers"], body)
+
+
+def ratio_table(recs: list[dict], sw: dict, lat_label: str) -> list[str]:
+    """Per core and solver: the core's latency and solves/s (core_ratios), the solver's median and p99 wall time, and
+    the ratios."""
+    body = []
+    for r in recs:
+        for s in sw["solvers"]:
+            k = slug(s.name)
+            body.append([str(r["P"]), str(r["b"]), _f(r.get("core_latency_us"), "{:.2f}"),
+                         _f(r.get("core_solves_per_s"), "{:.0f}"), s.name, f"{s.median_us:.1f}", f"{s.p99_us:.1f}",
+                         _f(r.get(f"{k}_median_over_core"), "{:.1f}x"), _f(r.get(f"{k}_p99_over_core"), "{:.1f}x"),
+                         _f(r.get(f"{k}_throughput_ratio"), "{:.1f}x")])
+    return _table(["P", "b", f"core us ({lat_label})", "core solves/s", "solver", "median us", "p99 us",
+                   "median / core", "p99 / core", "core solves/s / solver's"], body)
+
+
+def software_notes(sw: dict) -> list[str]:
+    """What the timer and ratio tables rest on: the pinning, the timers, the ratios, the solvers not installed."""
+    miss = sw.get("missing") or []
+    return [f"Every replay ran with the process pinned to CPU {sw.get('cpu', '?')} (os.sched_setaffinity on each of "
+            "its threads) and the solvers single-threaded (thread options set to 1 where they have one). Own: the "
+            "solver's own timer (what it covers in the last column); wall: time.perf_counter around the call, "
+            "including the update of q(w) (and b(w)) and the Python call. Median: the smallest of the replays' "
+            "medians; p99 and max over all solves of all replays. Error: max over the loop of |u0 - u0*| against "
+            "the reference solutions."
+            + (f" Not installed, not run: {', '.join(miss)}." if miss else ""), ""]

