@@ -10,9 +10,11 @@
                P = 1, 2 with constraints/admm_core.lpf;
   latency      our cycles at 400 / 230 MHz beside Table III(b) of 002, and at the small core's ECP5 Fmax (an
                estimate: no ECP5 holds the masses core);
-  software     over one closed loop of masses_rate_soft: OSQP on the soft-constrained sparse QP (8) (default and
-               tuned) and Algorithm 2 in float64 numpy on the unquantised data (the iteration of
-               mpc_cores.admm.model.AdmmFloat), same Imax and warm start;
+  software     over one closed loop of masses_rate_soft (problem B, the soft-constrained sparse QP (8)): OSQP
+               (default and tuned), PIQP (sparse) and Clarabel (mpc_bench.qp_solvers), and Algorithm 2 in float64
+               numpy on the unquantised data (the iteration of mpc_cores.admm.model.AdmmFloat), same Imax and warm
+               start; single-threaded on one pinned CPU, wall and own-timer times per solve against the core's
+               latency and throughput;
   MAC use      n_A^2 (M11 v) over multipliers x L_A.
 
 Formulas, records and report lines: mpc_bench.admm_report. Writes admm.csv, admm_latency_vs_P.png,
@@ -191,7 +193,9 @@ class Section(qp.QpSection):
                 f"small cores' latencies, {_est_lat_text(big)}) at "
                 f"{_f(est, '{:.0f}')} MHz, the ECP5 Fmax of the small ADMM problem below (an estimate, the masses "
                 "core fits no ECP5). x / core: median software time per solve on this CPU over the core's latency, "
-                "at the estimate / at 400 MHz. MAC use: n_A^2 / (multipliers x L_A).", ""]
+                "at the estimate / at 400 MHz; fastest solver: the software solver with the lowest median, its "
+                "median and p99 over the core's latency at the estimate (all solvers: ADMM section, Software on this "
+                "CPU). MAC use: n_A^2 / (multipliers x L_A).", ""]
 
     def fmax_rows(self) -> list[dict]:
         return [r for r in self.rows if r["role"] == "fmax"]

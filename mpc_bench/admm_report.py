@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from mpc_bench.baselines import NumpyAdmm
+from mpc_bench.baselines import NumpyAdmm, core_ratios, fastest_cell, ratio_table, software_notes, timer_table
 from mpc_bench.parsers import ecp5_fit
 from mpc_bench.qp import (
     F_S6_MHZ, F_V6_MHZ, Core, _core_latency, _fmax_section, _load_text, _memories, _resource_cells,
@@ -126,6 +126,7 @@ def admm_rows(cores: list[Core], sw: dict | None, est_fmax: float | None) -> lis
             r[f"{key}_us"] = us
             r[f"{key}_over_core"] = ratio(us, lat_est)
             r[f"{key}_over_core_v6"] = ratio(us, lat_v6)
+        r.update(core_ratios(lat_est, sw if sweep else None))
         out.append(r)
     return out
 
@@ -142,7 +143,7 @@ def admm_summary_table(recs: list[dict]) -> list[str]:
     hdr = ["P", "b", "L_A meas (eq. 24)", f"cycles/solve (Imax = {recs[0]['imax']})", "mult. ours (Table I)",
            "MULT18X18D / DSP48E1", "LUT4 / LUT", "FF ECP5 / xc7", "fits LFE5U-85F", "V6 us ours (paper)",
            "S6 us ours (paper)", f"us at {_f(est, '{:.0f}')} MHz (est.)", "OSQP def. / core", "OSQP tuned / core",
-           "numpy / core", "MAC use"]
+           "numpy / core", "fastest solver / core est. (median, p99)", "MAC use"]
     body = []
     for r in recs:
         body.append([
@@ -157,7 +158,7 @@ def admm_summary_table(recs: list[dict]) -> list[str]:
             f"{_x(r['osqp_default_over_core'])} / {_x(r['osqp_default_over_core_v6'])}",
             f"{_x(r['osqp_tuned_over_core'])} / {_x(r['osqp_tuned_over_core_v6'])}",
             f"{_x(r['numpy_admm_over_core'])} / {_x(r['numpy_admm_over_core_v6'])}",
-            _f(100 * r["mac_utilisation"], "{:.0f} %"),
+            fastest_cell(r), _f(100 * r["mac_utilisation"], "{:.0f} %"),
         ])
     return _table(hdr, body)
 
@@ -260,7 +261,8 @@ def admm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[s
               f"One closed loop of {r0['problem']} ({sw['steps']} steps, references anywhere in 80 % of their box "
               f"changing every {sw['hold']} steps, x0 = 0, u_prev = 0, driven by the float ADMM with "
               "u = clip(u_prev + du0, umin, umax)), replayed "
-              f"{sw['repeats']} time(s) into each solver, each warm-started from its own previous solution. "
+              f"{sw['repeats']} time(s) into each solver (OSQP and numpy ADMM warm-started from their own previous "
+              "solution). "
               f"Limits binding on the plant: soft position limits exceeded at {100 * act.get('soft', 0):.0f} % of "
               f"the steps, an input at its box at {100 * act.get('box', 0):.0f} %, an input change at the rate "
               f"limit at {100 * act.get('rate', 0):.0f} %. OSQP solves the soft-constrained sparse QP (8) of 002 "
@@ -286,6 +288,22 @@ def admm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[s
         L += _table(["P", "b", "core us est. (ECP5)", "core us at 400 MHz", "OSQP default / core est.",
                      "OSQP tuned / core est.", "numpy ADMM / core est.", "OSQP default / core at 400 MHz",
                      "OSQP tuned / core at 400 MHz", "numpy ADMM / core at 400 MHz"], body)
+        L += ["", "#### Per-solve time by timer, and against the core", "",
+              f"The QP of every step (problem B): the soft-constrained sparse QP (8) of 002 as OSQP gets it above "
+              f"(n_A = {r0['n']} variables). PIQP (sparse backend) gets the equality rows as A z = b(w), the rows "
+              "that bound one variable (the boxes, delta >= 0) as variable bounds and the two slanted rows per "
+              "soft pair as two-sided rows; Clarabel the equality rows as a zero cone and every finite bound as one "
+              "nonnegative-cone row. Both are interior-point methods and start cold; OSQP starts from its previous "
+              "solution.", ""]
+        L += timer_table(sw)
+        L += [""] + software_notes(sw)
+        L += ratio_table(br, sw, "est. ECP5")
+        L += ["", "Core us: the masses core's cycles at the small cores' latencies over their ECP5 Fmax (the "
+              "estimate above); core solves/s: 1 / that latency (one QP in flight; the next input frame is buffered "
+              "during the solve, the output beats after it are not counted). median / core and p99 / core: the "
+              "solver's wall time over the core's latency; the last column: the core's solves per second over the "
+              "solver's at its median (for a core with one QP in flight the same number as median / core). Above 1 "
+              "the core is ahead.", ""]
     if br:
         L += ["", "### MAC utilisation", ""]
         body = [[str(r["P"]), str(r["b"]), str(admm_useful_macs(r["n"])), str(r["multipliers"]),

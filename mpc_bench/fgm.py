@@ -8,9 +8,11 @@ over P and frac_bits b:
   Fmax         nextpnr-ecp5 on the LFE5U-85F (speed 8, CABGA381) with constraints/fgm_core.lpf, and the
                critical path it reports; also on cores pipelined for Fmax (l_M = 3);
   latency      cycles / Fmax, beside Table III(a) of 002 (Virtex-6 at 400 MHz, Spartan-6 at 230 MHz);
-  software     on this CPU over one closed loop of masses: OSQP (C library, Python API) with default and with
-               tuned embedded settings, and FGM in float64 numpy with the same Imax, all warm-started on the
-               same QPs; median per-solve wall time and its ratio to the core's latency;
+  software     on this CPU over one closed loop of masses (problem A, the condensed box QP): OSQP with default and
+               with tuned embedded settings, DAQP (hot start), PIQP (dense), ProxQP (dense, warm start), Clarabel
+               and quadprog (mpc_bench.qp_solvers), and FGM in float64 numpy with the same Imax, on the same QPs,
+               single-threaded on one pinned CPU; median, p99 and max time per solve by wall clock and by each
+               solver's own timer, and their ratios to the core's latency and throughput;
   MAC use      useful multiply-accumulates per iteration (n^2 for (I - H_n) y, 2n for the y update) over
                multipliers x cycles per iteration.
 
@@ -21,7 +23,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from mpc_bench.baselines import NumpyFgm, prepare_fgm_software
+from mpc_bench.baselines import (
+    NumpyFgm, core_ratios, fastest_cell, prepare_fgm_software, ratio_table, software_notes, timer_table,
+)
 from mpc_bench.plots import by_b, latency_plot, resources_plot
 from mpc_bench.qp import (
     F_S6_MHZ, F_V6_MHZ, REFERENCE_CLOCKS, Core, QpSection, _core_latency, _fmax_section, _memories,
@@ -114,6 +118,7 @@ def fgm_rows(cores: list[Core], sw: dict | None) -> list[dict]:
         for name, key in SW_KEYS:
             r[f"{key}_us"] = med.get(name)
             r[f"{key}_over_core"] = ratio(med.get(name), lat)
+        r.update(core_ratios(lat, sw))
         out.append(r)
     return out
 
@@ -121,7 +126,8 @@ def fgm_rows(cores: list[Core], sw: dict | None) -> list[dict]:
 def fgm_summary_table(recs: list[dict]) -> list[str]:
     hdr = ["P", "b", "L_F meas (eq. 23)", "cycles/solve", "mult. ours (Table I)", "MULT18X18D / DSP48E1",
            "LUT4 / LUT", "FF ECP5 / xc7", "Fmax ECP5 MHz", "latency us ECP5", "V6 us ours (paper)",
-           "S6 us ours (paper)", "OSQP def. / core", "OSQP tuned / core", "numpy / core", "MAC use"]
+           "S6 us ours (paper)", "OSQP def. / core", "OSQP tuned / core", "numpy / core",
+           "fastest solver / core (median, p99)", "MAC use"]
     body = []
     for r in recs:
         body.append([
@@ -134,7 +140,7 @@ def fgm_summary_table(recs: list[dict]) -> list[str]:
             f"{_f(r['latency_us_v6_ours'])} ({_f(r['latency_us_v6_paper'])})",
             f"{_f(r['latency_us_s6_ours'])} ({_f(r['latency_us_s6_paper'])})",
             _x(r["osqp_default_over_core"]), _x(r["osqp_tuned_over_core"]), _x(r["numpy_fgm_over_core"]),
-            _f(100 * r["mac_utilisation"], "{:.0f} %"),
+            fastest_cell(r), _f(100 * r["mac_utilisation"], "{:.0f} %"),
         ])
     return _table(hdr, body)
 
@@ -191,8 +197,9 @@ def fgm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[st
         L += ["", "### Software on this CPU", "",
               f"One closed loop of masses ({sw['steps']} steps, references changing every {sw['hold']} steps, "
               f"x0 = 0, driven by the float FGM), replayed {sw['repeats']} time(s) into each solver: the same QPs "
-              "for all, each warm-started from its own previous solution. Median: the smallest of the replays' "
-              "median times per solve (other processes only add time); p90 and max over all solves. "
+              "for all, each started as said below (OSQP and numpy from their own previous solution). Median: the "
+              "smallest of the replays' median times per solve (other processes only add time); p90 and max over "
+              "all solves. "
               "Wall time per solve with time.perf_counter, including q = Phi w and the Python call; half the "
               "replays before the synthesis jobs start and half after they end" + _load_text(sw)
               + f". Error: max and median over the loop of |u0 - u0*|, u0* from OSQP at eps 1e-9 (inputs in "
@@ -208,6 +215,21 @@ def fgm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[st
                  _f(ratio(r["numpy_fgm_us"], r["latency_us_v6_ours"]), "{:.0f}x")] for r in recs]
         L += _table(["P", "b", "core us (ECP5)", "OSQP default / core", "OSQP tuned / core", "numpy FGM / core",
                      "OSQP tuned / core at 400 MHz", "numpy / core at 400 MHz"], body)
+        L += ["", "#### Per-solve time by timer, and against the core", "",
+              "The QP of every step (problem A): min 1/2 z'H z + (Phi w)'z over the input box, n = "
+              f"{recs[0]['n'] if recs else '-'} variables, H dense. DAQP, PIQP and ProxQP get the box as variable "
+              "bounds, OSQP as n identity rows, Clarabel and quadprog as 2n inequality rows. DAQP is hot-started: its "
+              "workspace keeps the previous solve's working set (the active bounds and their factors) and starts "
+              "from it; ProxQP and OSQP start from the previous solution; PIQP and Clarabel (interior point) start "
+              "cold; quadprog keeps nothing between calls but gets R^-1 (H = R'R) once.", ""]
+        L += timer_table(sw)
+        L += [""] + software_notes(sw)
+        L += ratio_table(recs, sw, "ECP5")
+        L += ["", "Core us: cycles per solve / Fmax on the ECP5; core solves/s: 1 / that latency (one QP in flight; "
+              "the next input frame is buffered during the solve, the nu output beats after it are not counted). "
+              "median / core and p99 / core: the solver's wall time over the core's latency; the last column: "
+              "the core's solves per second over the solver's at its median (for a core with one QP in flight the "
+              "same number as median / core). Above 1 the core is ahead.", ""]
     L += ["", "### MAC utilisation", ""]
     body = [[str(r["P"]), str(r["b"]), str(useful_macs(r["n"])), str(r["multipliers"]),
              _f(r["cycles_per_iteration_measured"], "{}"),
@@ -305,8 +327,10 @@ class Section(QpSection):
                 "L_F meas: cycles per iteration measured in Verilator (eq. (23) of 002 in brackets). mult. ours: "
                 "`multipliers` of core.json, P (max(n, nw) + 2); Table I of 002: P (N n_u + 2). latency: measured "
                 "cycles per solve / Fmax. V6/S6: our measured cycles at 400/230 MHz, Table III(a) of 002 in "
-                "brackets. x / core: median software time per solve on this CPU over the core's latency on the ECP5. "
-                "MAC use: (n^2 + 2n) / (multipliers x L_F).", ""]
+                "brackets. x / core: median software time per solve on this CPU over the core's latency on the ECP5; "
+                "fastest solver: the software solver with the lowest median, its median and p99 over the core's "
+                "latency (all solvers: FGM section, Software on this CPU). MAC use: (n^2 + 2n) / (multipliers x L_F).",
+                ""]
 
     def fmax_rows(self) -> list[dict]:
         return [r for r in self.rows if r["role"] == "fmax"]

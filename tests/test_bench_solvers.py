@@ -4,10 +4,12 @@ sbt, no Verilator, no Yosys. A solver whose package is missing (they come with r
 `make bench` installs) is skipped."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
-from mpc_bench import baselines
+from mpc_bench import baselines, bench, fgm
 from mpc_bench import qp_solvers as qs
 from mpc_cores.flow import REPO
 
@@ -153,6 +155,37 @@ def test_core_ratios_and_tables():
     notes = " ".join(baselines.software_notes(sw))
     assert "pinned to CPU 1" in notes and "Not installed, not run: ProxQP dense" in notes
     assert baselines.core_ratios(None, sw)["daqp_hot_start_median_over_core"] is None
+
+
+def _fgm_core():
+    c = fgm.Core("fgm", "masses", 1, 16, None, SimpleNamespace(lat_add=1, lat_mul=1, multipliers=42), 15)
+    c.core = {"n": 40, "nw": 12, "nx": 8, "iterations": 15, "lat_add": 1, "lat_mul": 1, "cycles_per_iteration": 52,
+              "cycles_eq23": 52, "cycles_per_solve": 823, "solve_overhead_cycles": 43, "multipliers": 42,
+              "module": "FgmCore_x"}
+    c.measured = {"cycles_per_iteration": 52, "cycles_per_solve": 823, "iterations": 15}
+    c.pnr = {"fmax_mhz": 100.0, "target_mhz": 200.0}
+    return c
+
+
+def test_fgm_report_has_the_solver_columns():
+    names = ["OSQP default", "OSQP tuned", "numpy FGM float64", "DAQP hot start", "PIQP dense", "ProxQP dense",
+             "Clarabel", "quadprog"]
+    sw = dict(_sw(names), core_err={16: (0.04, 2e-3)}, steps=3, hold=30, imax=15, u_box=(-0.5, 0.5))
+    cores = [_fgm_core()]
+    recs = fgm.fgm_rows(cores, sw)
+    assert recs[0]["core_latency_us"] == pytest.approx(8.23) and recs[0]["quadprog_p99_over_core"] > 0
+    summary = "\n".join(fgm.fgm_summary_table(recs))
+    assert "fastest solver / core (median, p99)" in summary and "OSQP default 1.3x" in summary
+    info = {"machine": {"cpu": "cpu", "cores": 2, "logical": 2, "system": "Linux", "python": "3"}, "date": "d",
+            "quick": True, "Ps": (1,), "bs": (16,), "xilinx": False, "jobs": 1, "errors": [], "runtime_s": 60.0,
+            "revision": "abc"}
+    md = bench.report_md(cores, recs, [], {"fgm": sw}, info)
+    assert "#### Per-solve time by timer, and against the core" in md
+    for col in ("own median us", "own p99 us", "wall p99 us", "median / core", "p99 / core", "core solves/s"):
+        assert col in md
+    for nm in names:
+        assert f"| {nm} |" in md
+    assert "QP solvers: osqp" in md and "pinned to CPU 1" in md
 
 
 def test_a_missing_package_leaves_its_solver_out(box, monkeypatch):
