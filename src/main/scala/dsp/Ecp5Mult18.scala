@@ -7,6 +7,10 @@ import chisel3.util.HasBlackBoxInline
   * cycles after a and b. Synthesis (Yosys defines SYNTHESIS) sees the primitive; simulation (Verilator) sees a
   * cycle-exact model with the same three registers. The registers use CLK0, CE0 (tied high) and RST0 (tied low,
   * synchronous reset mode); GSR is off, so they hold data, like the fabric pipeline registers they replace.
+  *
+  * The wrapper keeps its hierarchy in Yosys: flattened, the primitive's parameterised cell lands in a module that
+  * Yosys's final `hierarchy` pass re-elaborates from its source, undoing the flattening (and the wrapper it then
+  * refers to is gone). Kept, only the wrapper is re-elaborated, which yields the same primitive; nextpnr flattens.
   */
 class Ecp5Mult18 extends BlackBox with HasBlackBoxInline {
   val io = IO(new Bundle {
@@ -36,6 +40,7 @@ object Ecp5Mult18 {
 
   val verilog: String =
     s"""// ECP5 MULT18X18D with input, pipeline and output registers: p = a * b (signed) three cycles later.
+       |(* keep_hierarchy *)
        |module $module (
        |  input               clk,
        |  input  signed [17:0] a,

@@ -73,7 +73,7 @@ object FixedOps {
     *
     * ecp5 (lat >= target.minLatency): each partial product on a MULT18X18D with its three registers (its input
     * registers take the operands); one product without addend is the DSP's output, otherwise a fourth stage sums
-    * the partial products and the addend.
+    * the partial products and the addend. A stage more than that registers the operands in fabric first.
     */
   def mulPipelined(a: SInt, b: SInt, lat: Int, addend: BigInt = 0, target: Target = Target.Generic): SInt = {
     val prodW = a.getWidth + b.getWidth
@@ -86,11 +86,16 @@ object FixedOps {
       terms.reduce(_ +& _)(prodW, 0).asSInt
     }
     if (target == Target.Ecp5) {
-      val k = DspWidth - 1
-      val parts = for ((la, i) <- limbs(a, DspWidth).zipWithIndex; (lb, j) <- limbs(b, DspWidth).zipWithIndex)
+      // A stage beyond the DSP's needs registers the operands in fabric first: the DSP's input registers then
+      // take a register's output over the routing to the DSP column, with no logic before it.
+      val front    = lat > need
+      val (fa, fb) = if (front) (reg(a), reg(b)) else (a, b)
+      val k        = DspWidth - 1
+      val parts = for ((la, i) <- limbs(fa, DspWidth).zipWithIndex; (lb, j) <- limbs(fb, DspWidth).zipWithIndex)
         yield (ecp5Product(la, lb), k * (i + j))
-      if (parts.length == 1 && addend == 0) ShiftRegister(parts.head._1, lat - 3)
-      else ShiftRegister(reg(summed(parts)), lat - 4)
+      val rest = lat - (if (front) 1 else 0)
+      if (parts.length == 1 && addend == 0) ShiftRegister(parts.head._1, rest - 3)
+      else ShiftRegister(reg(summed(parts)), rest - 4)
     } else if (lat >= 3) {
       // the operand that fits the wider port goes there (xilinx7: A is 25 bits)
       val (x, y) = if (b.getWidth > a.getWidth && b.getWidth <= target.dspA) (b, a) else (a, b)

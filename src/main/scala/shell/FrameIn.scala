@@ -45,13 +45,18 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   boxRam.io.wdata := Fill(2, io.boxData.asUInt)
 
   val buf  = Reg(Vec(words, SInt(wordW.W)))
-  val cnt  = RegInit(0.U(log2Ceil(words + 1).W))
-  val full = RegInit(false.B)
-  io.s_axis.tready := !full && !(io.hold && cnt === 0.U)
+  val cntW = log2Ceil(words + 1)
+  val cnt  = RegInit(0.U(cntW.W))
+  // cnt's successor and its comparisons, kept in registers: the handshake and the box read address are a gate
+  // or two from registers, not an incrementer and comparators
+  val cntNext = RegInit((if (words == 1) 0 else 1).U(cntW.W))
+  val last    = RegInit((words == 1).B) // cnt === words - 1
+  val atZero  = RegInit(true.B)         // cnt === 0
+  val full    = RegInit(false.B)
+  io.s_axis.tready := !full && !(io.hold && atZero)
   val fire = io.s_axis.fire
-  val last = cnt === (words - 1).U
   // The box of the next word is read a cycle ahead.
-  boxRam.io.raddr := Mux(fire, Mux(last, 0.U, cnt + 1.U), cnt)
+  boxRam.io.raddr := Mux(fire, cntNext, cnt)
   val lo = boxRam.io.rdata(wordW - 1, 0).asSInt
   val hi = boxRam.io.rdata(2 * wordW - 1, wordW).asSInt
   val (v, clamped) = FixedOps.clamp(io.s_axis.tdata.asSInt, lo, hi)
@@ -59,12 +64,15 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   io.tlastErr := fire && (io.s_axis.tlast =/= last)
   when(fire) {
     buf(cnt) := v(wordW - 1, 0).asSInt
-    cnt      := Mux(last, 0.U, cnt + 1.U)
+    cnt      := cntNext
+    cntNext  := Mux(cntNext === (words - 1).U, 0.U, cntNext + 1.U)
+    last     := cntNext === (words - 1).U
+    atZero   := last
     when(last) { full := true.B }
   }
   when(io.take) { full := false.B }
   bus.Protocol.noOverflow("input frame", fire, !full)
   io.full    := full
   io.frame   := buf
-  io.partial := cnt =/= 0.U
+  io.partial := !atZero
 }

@@ -60,35 +60,49 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val state  = RegInit(sIdle)
   val pass0  = RegInit(false.B)
   val cnt    = RegInit(0.U(log2Ceil(math.max(firstLen, L) + 1).W))
-  val iter   = RegInit(0.U(16.W))
-  val imaxL  = RegInit(1.U(16.W))
+  // iterations after the current one (Imax - 1 - iteration), and whether the current one is the first
+  val left   = RegInit(0.U(16.W))
+  val iter0  = RegInit(true.B)
   val outCnt = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val outEnd = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val busyCyc = RegInit(0.U(32.W))
+  val wrap0    = RegInit((firstLen == 1).B) // cnt === firstLen - 1
+  val wrap     = RegInit((L == 1).B)        // cnt === L - 1
+  val lastIter = RegInit(true.B)            // left === 0
 
-  // Next values of the state and the counters. The comparisons the tokens need are made on them and registered,
-  // and so is the next token itself: the row memories are addressed straight from registers.
+  // Next values of the state and the counters. The comparisons the tokens need are made for the next cycle and
+  // registered, and so is the next token itself: the row memories are addressed straight from registers. They
+  // are taken per case of the counters' update (cleared, incremented, held), each a comparison of a register with
+  // a constant, so that no adder or subtracter lies between the state and the token registers.
   val stateNext = WireDefault(state)
   val pass0Next = WireDefault(pass0)
-  val cntNext   = WireDefault(cnt)
-  val iterNext  = WireDefault(iter)
-  val imaxNext  = WireDefault(imaxL)
+  val leftNext  = WireDefault(left)
   state := stateNext
   pass0 := pass0Next
-  cnt   := cntNext
-  iter  := iterNext
-  imaxL := imaxNext
-  val cntIncN   = cntNext +& 1.U
-  val wrap0N    = cntNext === (firstLen - 1).U
-  val wrapN     = cntNext === (L - 1).U
-  val issueN    = cntIncN < K.U
-  val lastIterN = iterNext === imaxNext - 1.U
-  val iter0N    = iterNext === 0.U
-  val wrap0    = RegNext(wrap0N, (firstLen == 1).B)
-  val wrap     = RegNext(wrapN, (L == 1).B)
-  val lastIter = RegNext(lastIterN, true.B)
+  left  := leftNext
 
-  val start = state === sIdle && io.frameReady
+  val start  = state === sIdle && io.frameReady
+  val run    = state === sRun
+  val wrapIt = run && Mux(pass0, wrap0, wrap)   // the pass ends: the counter restarts
+  val cntClr = start || wrapIt
+  val cntInc = run && !wrapIt
+  val cntNext = Mux(cntClr, 0.U, Mux(cntInc, cnt + 1.U, cnt))
+  cnt := cntNext
+  def eqNext(c: Int): Bool = // cntNext === c
+    Mux(cntClr, (c == 0).B, Mux(cntInc, if (c >= 1) cnt === (c - 1).U else false.B, cnt === c.U))
+  val wrap0N  = eqNext(firstLen - 1)
+  val wrapN   = eqNext(L - 1)
+  val cntIncN = Mux(cntClr, 1.U, Mux(cntInc, cnt +& 2.U, cnt +& 1.U)) // cntNext + 1
+  val issueN  = Mux(cntClr, (K > 1).B, Mux(cntInc, if (K >= 3) cnt < (K - 2).U else false.B, cnt < (K - 1).U))
+  // an iteration ends (not the first pass): one iteration fewer left
+  val iterEnd = run && !pass0 && wrap
+  val lastIterN = Mux(start, io.imax === 1.U, Mux(iterEnd, left === 1.U, lastIter))
+  val iter0N    = Mux(start, true.B, Mux(iterEnd, false.B, iter0))
+  wrap0    := wrap0N
+  wrap     := wrapN
+  lastIter := lastIterN
+  iter0    := iter0N
+
 
   /** The token issued in the cycle after one in state `st` (pass0 `p0`, comparisons of its counters `w0` ... `i0`).
     * Idle: the first row of the first pass, not valid (the cycle of `start` makes it valid). */
@@ -125,9 +139,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
       when(io.frameReady) {
         stateNext := sRun
         pass0Next := true.B
-        cntNext := 0.U
-        iterNext := 0.U
-        imaxNext := io.imax
+        leftNext := io.imax - 1.U
         outEnd  := io.outLast
         busyCyc := 0.U
       }
@@ -135,19 +147,13 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     is(sRun) {
       busyCyc := busyCyc + 1.U
       when(pass0) {
-        when(wrap0) {
-          pass0Next := false.B
-          cntNext := 0.U
-        }.otherwise { cntNext := cnt + 1.U }
-      }.otherwise {
-        when(wrap) {
-          cntNext := 0.U
-          iterNext := iter + 1.U
-          when(lastIter) {
-            stateNext := sOut
-            outCnt := 0.U
-          }
-        }.otherwise { cntNext := cnt + 1.U }
+        when(wrap0) { pass0Next := false.B }
+      }.elsewhen(wrap) {
+        leftNext := left - 1.U
+        when(lastIter) {
+          stateNext := sOut
+          outCnt := 0.U
+        }
       }
     }
     is(sOut) {
