@@ -298,8 +298,10 @@ class IpmCore(val p: IpmParams) extends Module {
   val outMu  = Reg(UInt(W.W))
   private val oLen   = Mux(outAll, (p.outWordsAll - 3).U, (p.outWords - 3).U) // Stage 1's words of the answer
   private val oPass  = outCnt >= 1.U && outCnt <= oLen
-  private val oRes   = outCnt === oLen + 1.U
-  private val oStat  = outCnt === oLen + 2.U
+  // +&: oLen is as wide as its largest literal, and oLen + 2 may need a bit more (an answer of 14 or 15 Stage 1
+  // words ended after its first word)
+  private val oRes   = outCnt === oLen +& 1.U
+  private val oStat  = outCnt === oLen +& 2.U
   private val conv   = atMost(outMu, muTol(W - 1, 0)) && atMost(resC(curC), resTol(W - 1, 0))
   private val bad    = outBad || badC(curC)
   private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)
