@@ -48,10 +48,11 @@ MASSES_SOFT = REPO / "examples/masses_rate_soft.yaml"
 FULL_P, FULL_B = (1, 2, 4, 8), (18,)
 QUICK_P, QUICK_B = (1,), (18,)
 SMALL_FULL_P, SMALL_QUICK_P = (1, 2), (1,)
-# Pipeline latencies of the small cores placed and routed for Fmax (role "fmax"): l_M = 3 registers the operands
-# before the hard multipliers and the partial products of words wider than 18 bits; l_A = 2 gives the soft
-# projection its four one-carry-chain steps. The sweeps keep the spec's l_A = l_M = 1 (eq. (24), Table III(b)).
-FMAX_LAT = dict(lat_add=2, lat_mul=3)
+# Pipeline latencies of the small cores placed and routed for Fmax (role "fmax"): TARGET=ecp5 with l_M = 5, the
+# operands registered in fabric, the MULT18X18D's three registers and a stage summing the partial products of
+# words wider than 18 bits (docs/dsp.md); l_A = 2 gives the soft projection its four one-carry-chain steps. The
+# sweeps keep the spec's l_A = l_M = 1 (eq. (24), Table III(b)).
+FMAX_LAT = dict(lat_add=2, lat_mul=5, target="ecp5")
 
 # The small ADMM problem place and route can hold (the masses core cannot): a random stable plant (2 states,
 # 1 input, horizon 3, 1 tracked output) with input-rate limits and one soft state; n_A = 19, so that P = 2 needs
@@ -140,13 +141,13 @@ class Section(qp.QpSection):
                                        synth=not self.quick))
         if self.small_Ps:
             small = small_admm_problem()
-            la, lm = FMAX_LAT["lat_add"], FMAX_LAT["lat_mul"]
-            d = cached_design(designs, f"admm_{small.name}_la{la}_lm{lm}",
-                              ("admm", json.dumps(SMALL_ADMM, sort_keys=True), la, lm),
+            la, lm, tg = FMAX_LAT["lat_add"], FMAX_LAT["lat_mul"], FMAX_LAT["target"]
+            d = cached_design(designs, f"admm_{small.name}_la{la}_lm{lm}_{tg}",
+                              ("admm", json.dumps(SMALL_ADMM, sort_keys=True), la, lm, tg),
                               lambda: design_admm(small, **FMAX_LAT))
             for P in self.small_Ps:
                 self.cores.append(Core("admm", small.name, P, d.b,
-                                       out / "cores" / f"{small.name}_p{P}_b{d.b}_la{la}_lm{lm}",
+                                       out / "cores" / f"{small.name}_p{P}_b{d.b}_la{la}_lm{lm}_{tg}",
                                        dataclasses.replace(d, P=P, iterations=ADMM_SIM_IMAX), d.iterations,
                                        role="fmax"))
         self.log(f"ADMM designs in {time.perf_counter() - t:.0f} s")
@@ -201,7 +202,8 @@ class Section(qp.QpSection):
         return [r for r in self.rows if r["role"] == "fmax"]
 
     def fmax_note(self) -> str:
-        return f"ADMM, on a small problem the device holds: l_A = {FMAX_LAT['lat_add']}, l_M = {FMAX_LAT['lat_mul']}"
+        return (f"ADMM, on a small problem the device holds: l_A = {FMAX_LAT['lat_add']}, l_M = {FMAX_LAT['lat_mul']}, "
+                f"TARGET={FMAX_LAT['target']}")
 
     def section_md(self) -> list[str]:
         return admm_section(self.cores, self.rows, self.sw) if self.rows else []

@@ -6,7 +6,7 @@ over P and frac_bits b:
   resources    Yosys synth_ecp5 (MULT18X18D, LUT4, FF, DP16KD) and synth_xilinx -family xc7 (DSP48E1, LUT, FF,
                RAMB), beside the multipliers of Table I of 002, P (N n_u + 2);
   Fmax         nextpnr-ecp5 on the LFE5U-85F (speed 8, CABGA381) with constraints/fgm_core.lpf, and the
-               critical path it reports; also on cores pipelined for Fmax (l_M = 3);
+               critical path it reports; also on cores pipelined for Fmax (TARGET=ecp5, b = 15, l_M = 4);
   latency      cycles / Fmax, beside Table III(a) of 002 (Virtex-6 at 400 MHz, Spartan-6 at 230 MHz);
   software     on this CPU over one closed loop of masses (problem A, the condensed box QP): OSQP with default and
                with tuned embedded settings, DAQP (hot start), PIQP (dense), ProxQP (dense, warm start), Clarabel
@@ -39,11 +39,13 @@ from mpc_cores.flow import REPO
 MASSES = REPO / "examples/masses.yaml"
 FULL_P, FULL_B = (1, 2, 4, 8), (12, 16)
 QUICK_P, QUICK_B = (1,), (16,)
-# Pipeline latencies of the cores placed and routed for Fmax (role "fmax"): l_M = 3 registers the operands before
-# the hard multipliers and the partial products of words wider than 18 bits. The sweeps keep the spec's
+# The cores placed and routed for Fmax (role "fmax"): TARGET=ecp5, every product on a MULT18X18D with its input,
+# pipeline and output registers, and l_M = 4, one stage more that registers the operands in fabric before the DSP
+# (docs/dsp.md). b = 15 keeps every operand of masses at 18 bits (the state words take 19 at b = 16), so a product
+# is one MULT18X18D: P = 3 (126 of the 85F's 156) is the largest P that fits. The sweeps keep the spec's
 # l_A = l_M = 1, the latencies of eq. (23) and Table III(a) of 002.
-FMAX_LAT = dict(lat_add=1, lat_mul=3)
-FMAX_FULL_P, FMAX_QUICK_P, FMAX_B = (1, 2), (1,), 16
+FMAX_LAT = dict(lat_add=1, lat_mul=4, target="ecp5")
+FMAX_FULL_P, FMAX_QUICK_P, FMAX_B = (1, 3), (1,), 15
 
 # Table III(a) of 002 (FGM, masses, Imax = 15): P -> (multipliers, Virtex-6 T_s at 400 MHz in us,
 # Spartan-6 T_s at 230 MHz in us).
@@ -182,8 +184,9 @@ def fgm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[st
     L += _fmax_section(cores, recs, "fgm_core.lpf")
     if fast:
         lat = FMAX_LAT
-        L += ["", f"Pipelined for Fmax: l_A = {lat['lat_add']}, l_M = {lat['lat_mul']} (operands registered before the "
-              "MULT18X18D and the partial products of words wider than 18 bits), the rest as above:", ""]
+        L += ["", f"Pipelined for Fmax: TARGET={lat['target']}, b = {FMAX_B}, l_A = {lat['lat_add']}, "
+              f"l_M = {lat['lat_mul']} (operands registered in fabric, then the MULT18X18D's input, pipeline and "
+              "output registers; docs/dsp.md), the rest as above:", ""]
         L += _fmax_section(*map(list, zip(*fast)), "fgm_core.lpf")
     L += ["", "### Latency against Table III(a) of 002", ""]
     body = [[str(r["P"]), str(r["b"]), _f(r["cycles_per_solve_measured"], "{}"), _f(r["fmax_mhz"], "{:.1f}"),
@@ -253,8 +256,8 @@ class Section(QpSection):
     def add_arguments(ap) -> None:
         ap.add_argument("--P", default=None, help="FGM: comma-separated P values (default 1,2,4,8; QUICK 1)")
         ap.add_argument("--b", default=None, help="FGM: comma-separated frac_bits (default 12,16; QUICK 16)")
-        ap.add_argument("--fgm-fmax-P", default=None, help="FGM masses pipelined for Fmax (b = 16, l_A = 1, "
-                                                           "l_M = 3): P values (default 1,2; QUICK 1)")
+        ap.add_argument("--fgm-fmax-P", default=None, help="FGM masses pipelined for Fmax (TARGET=ecp5, b = 15, "
+                                                           "l_A = 1, l_M = 4): P values (default 1,3; QUICK 1)")
         ap.add_argument("--steps", type=int, default=None, help="closed-loop steps for the FGM software timing")
 
     def configure(self, a) -> None:
@@ -285,16 +288,17 @@ class Section(QpSection):
                     continue
                 self.designs[b] = d
                 self.cores.append(Core("fgm", "masses", P, b, out / "cores" / f"masses_p{P}_b{b}", d, d.iterations))
-        la, lm = FMAX_LAT["lat_add"], FMAX_LAT["lat_mul"]
+        la, lm, tg = FMAX_LAT["lat_add"], FMAX_LAT["lat_mul"], FMAX_LAT["target"]
         for P in self.fmax_Ps:
             try:
-                d = cached_design(designs, f"fgm_masses_p{P}_b{FMAX_B}_la{la}_lm{lm}",
-                                  ("fgm", spec, P, FMAX_B, la, lm),
+                d = cached_design(designs, f"fgm_masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}",
+                                  ("fgm", spec, P, FMAX_B, la, lm, tg),
                                   lambda P=P: design_fgm(problem, P=P, frac_bits=FMAX_B, **FMAX_LAT))
             except DesignError as e:
                 self.error(f"FGM P={P} l_A={la} l_M={lm}: design refused: {e}")
                 continue
-            self.cores.append(Core("fgm", "masses", P, FMAX_B, out / "cores" / f"masses_p{P}_b{FMAX_B}_la{la}_lm{lm}",
+            self.cores.append(Core("fgm", "masses", P, FMAX_B,
+                                   out / "cores" / f"masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}",
                                    d, d.iterations, role="fmax"))
 
     def software_case(self):
@@ -336,7 +340,7 @@ class Section(QpSection):
         return [r for r in self.rows if r["role"] == "fmax"]
 
     def fmax_note(self) -> str:
-        return f"FGM: l_M = {FMAX_LAT['lat_mul']}"
+        return f"FGM: l_M = {FMAX_LAT['lat_mul']}, TARGET={FMAX_LAT['target']}"
 
     def section_md(self) -> list[str]:
         return fgm_section(self.cores, self.rows, self.sw) if self.rows else []

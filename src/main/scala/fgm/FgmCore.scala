@@ -94,6 +94,10 @@ class FgmCore(val p: FgmParams) extends Module {
   val tokZ    = tokAt(p.stageZ)
   val tokBnd  = tokAt(p.stageT - 2)
   val tokYsub = tokAt(p.stageZ + p.latMul)
+  // The z FIFOs' controls, each the registered condition on the token a stage earlier: they fan out to every
+  // register of the FIFOs, so they come straight from flip-flops (tok1 is tok0 registered; stageZ >= 1)
+  val loadZ = RegNext(tok0.valid && tok0.first && tok0.k === 0.U, false.B) // tok1: the first iteration's row 0
+  val rotZs = { val t = tokAt(p.stageZ - 1); RegNext(t.valid && !t.pass0, false.B) } // tokZ: an iteration row
 
   for (u <- 0 until P) {
     matRam(u).io.raddr := Cat(tokN.pass0, tokN.k) // second block at K2 = 2^ceil(log2 K): no adder
@@ -138,13 +142,13 @@ class FgmCore(val p: FgmParams) extends Module {
     val z = proj.io.out
     // y+ = (1 + beta) z+ - beta z, z the previous iterate of the same row: the head of the z FIFO, which the
     // first iteration loads from the z0 registers (rows u, u+P, ...) as it reads it.
-    val load = tok1.valid && tok1.first && tok1.k === 0.U
+    val load = loadZ
     val zSrc = VecInit((0 until K).map { i =>
       val r = i * P + u
       Mux(load, if (r < n) zReg(r) else 0.S(p.zW.W), zFifo(u)(i))
     })
     val zOld = zSrc(0)
-    val rotZ = tokZ.valid && !tokZ.pass0
+    val rotZ = rotZs
     when(load || rotZ) {
       for (i <- 0 until K) zFifo(u)(i) := Mux(rotZ, if (i < K - 1) zSrc(i + 1) else z, zSrc(i))
     }
