@@ -58,3 +58,17 @@ def resolve_lat_mul(target: str, explicit: int | None, products: list[tuple[int,
                           f"{worst[0]} x {worst[1]} bits): got lat_mul={explicit} (set lat_mul: {need} in the "
                           f"spec's solver section, LAT_MUL={need}, or leave it out)")
     return explicit
+
+
+def report_line(target: str, lat_mul: int, products: list[tuple[int, int]], counts: list[int]) -> str:
+    """The design report's line on the target: the DSPs the products take (`counts`: how many of each product the
+    core has) and the multiplier stages against the target's minimum."""
+    if target == "generic":
+        return "  Target: generic (the synthesis tool maps the products)"
+    dsps = sum(c * parts(target, a, b) for (a, b), c in zip(products, counts))
+    cell = {"ecp5": "MULT18X18D", "xilinx7": "DSP48E1"}[target]
+    need = min_lat_mul(target, products)
+    extra = " (+1: operands registered in fabric before the DSP)" if target == "ecp5" and lat_mul > need else ""
+    return (f"  Target: {target}, {dsps} {cell} (products "
+            f"{', '.join(f'{a} x {b} bits: {parts(target, a, b)} each' for a, b in products)}); "
+            f"l_M = {lat_mul}, the DSP pipeline needs {need}{extra}")

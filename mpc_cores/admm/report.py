@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from mpc_cores.admm.design import AdmmDesign
 from mpc_cores.fixed import run_time_fields
+from mpc_cores.target import report_line
 
 _WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (x, u_prev, r) after saturation, and the word 1",
          "v": "operand v = rho z - nu", "y": "y = M11 v + G~ (w, 1)", "q": "q = y + nu / rho", "z": "iterate z",
@@ -62,6 +63,7 @@ def design_report(d: AdmmDesign, core: dict | None = None) -> str:
         f"ADMM core for '{d.name}': n_A = {d.n} = N (nu + nx~ + |S|) + nx~ + |S| = {d.N} ({d.nu} + {q.nx} + {q.ns}) "
         f"+ {q.nx} + {q.ns}, nw = {d.nw} (x, u_prev, r)",
         f"  P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}, {d.rounding} products, b = {b} fraction bits",
+        report_line(d.target, d.lat_mul, d.products(), [d.multipliers]),
         f"  rho = 2^{d.rho_log2}, shifts k_j in {sorted(set(int(k) for k in d.shift))} (soft pairs, du scaled)",
         f"  Assumption 2 (002) on the quantised M11: eig on Ker F in [{a2['kernel_min']:.4g}, {a2['kernel_max']:.6f}] "
         f"(inside (0, 1)), spectral radius {a2['spectral_radius']:.6f} (< 1)",

@@ -5,6 +5,7 @@ import numpy as np
 
 from mpc_cores.fgm.design import FgmDesign, roundoff_bound
 from mpc_cores.fixed import run_time_fields
+from mpc_cores.target import report_line
 
 
 def _fmt(intb: int, b: int, width: int) -> dict:
@@ -74,6 +75,7 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
     lines = [
         f"FGM core for '{d.name}': n = N*nu = {d.n} ({d.problem.N} x {d.nu}), nw = {d.nw} (x: {d.problem.nx}, r: {d.problem.ny})",
         f"  P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}, {d.rounding} products, b = {b} fraction bits",
+        report_line(d.target, d.lat_mul, d.products(), [d.P * d.m, 2 * d.P]),
         f"  Assumption 1 (002): c = {d.c:.6g}, lambda_max(H^_F) = {d.lam_max:.6g}, eig(H^_n) in [{d.mu:.4g}, "
         f"{np.linalg.eigvalsh(d.Hn_hat)[-1]:.6f}], beta^ = {d.beta / one:.6f} (>= bound, < 1)",
         "  Word widths (Prop. 1 of 002 on the quantised words; no overflow for any w in the box):",
