@@ -65,6 +65,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val iter0  = RegInit(true.B)
   val outCnt = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val outEnd = RegInit(0.U(log2Ceil(maxOut + 1).W))
+  val outAtEnd = RegInit(false.B) // outCnt === outEnd, kept in a register: the output handshake is a gate from it
   val busyCyc = RegInit(0.U(32.W))
   val wrap0    = RegInit((firstLen == 1).B) // cnt === firstLen - 1
   val wrap     = RegInit((L == 1).B)        // cnt === L - 1
@@ -153,19 +154,21 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
         when(lastIter) {
           stateNext := sOut
           outCnt := 0.U
+          outAtEnd := outEnd === 0.U
         }
       }
     }
     is(sOut) {
       when(io.outFire) {
         outCnt := outCnt + 1.U
-        when(outCnt === outEnd) { stateNext := sIdle }
+        outAtEnd := outCnt + 1.U === outEnd
+        when(outAtEnd) { stateNext := sIdle }
       }
     }
   }
   io.outValid  := state === sOut
   io.outIndex  := outCnt
-  io.outIsLast := outCnt === outEnd
-  io.done      := state === sOut && io.outFire && outCnt === outEnd
+  io.outIsLast := outAtEnd
+  io.done      := state === sOut && io.outFire && outAtEnd
   io.runCycles := busyCyc
 }
