@@ -101,7 +101,11 @@ class FgmCore(val p: FgmParams) extends Module {
 
   for (u <- 0 until P) {
     matRam(u).io.raddr := Cat(tokN.pass0, tokN.k) // second block at K2 = 2^ceil(log2 K): no adder
-    bndRam(u).io.raddr := Mux(tokN.valid && tokN.pass0, tokN.k, tokBnd.k)
+    // first pass: the next row's bounds (the cold start); else the row reaching the projection. Not gated by
+    // tokN.valid (forced in the cycle of the start, from the input handshake): while the first pass has rows
+    // to issue its token is valid, and in the other cycles of the first pass and in idle the read is unused
+    // (no iteration row is in flight)
+    bndRam(u).io.raddr := Mux(tokN.pass0, tokN.k, tokBnd.k)
   }
 
   val yPad = VecInit((0 until m).map(j => if (j < n) yReg(j).pad(p.opW) else 0.S(p.opW.W)))
