@@ -2,7 +2,7 @@
 soft and hard state boxes in any combination, P, frac_bits, pipeline latencies, roundings, rho."""
 from __future__ import annotations
 
-from mpc_cores.soak.space import Config, SoakSpace, pick, random_spec
+from mpc_cores.soak.space import Config, SoakSpace, pick, random_spec, target_latency
 
 
 def draw(rng) -> Config:
@@ -12,7 +12,7 @@ def draw(rng) -> Config:
     spec = random_spec(rng, nx, nu, N, ny=int(rng.integers(0, min(nx, nu) + 1)), rate=True,
                        soft=soft, hard=hard)
     return Config(spec, dict(P=pick(rng, [1, 2, 3, 4, 5, 6]), frac_bits=int(rng.integers(14, 21)),
-                             lat_add=int(rng.integers(0, 4)), lat_mul=int(rng.integers(0, 4)),
+                             lat_add=int(rng.integers(0, 4)), **target_latency(rng, int(rng.integers(0, 4))),
                              rounding=pick(rng, ["truncate", "nearest"]), iterations=int(rng.integers(10, 41)),
                              rho=pick(rng, [1.0, 2.0, 4.0]), warm_start=bool(rng.random() < 0.8),
                              output_all=bool(rng.random() < 0.3)))
@@ -32,8 +32,8 @@ SOAK = SoakSpace(
            "constraints: input box; input-rate limit (the ADMM form needs one) in [0.1, 0.5], weight in {0.01, "
            "0.05, 0.1}; 0 to 2 soft state boxes (50 %) with sigma1 in {4, 8, 16}, sigma2 in {1, 2}; hard boxes on 1 "
            "to the remaining states (40 %); box of accepted states; 0 to min(nx, nu) tracked states",
-           "design: P in [1, 6], frac_bits in [14, 20], lat_add and lat_mul in [0, 3], rounding truncate or "
-           "nearest, Imax in [10, 40], rho in {1, 2, 4}, warm start (80 %), full output (30 %)",
+           "design: P in [1, 6], frac_bits in [14, 20], lat_add in [0, 3], target generic (50 %, lat_mul in "
+           "[0, 3]), ecp5 or xilinx7 (lat_mul the target's minimum or in [4, 6]), rounding truncate or nearest, Imax in [10, 40], rho in {1, 2, 4}, warm start (80 %), full output (30 %)",
            "solves (verif/tb.py bitexact_random): random parameters, 5 % of words outside the box, random warm or "
            "cold start and Imax, random idle and backpressure on both streams"),
 )

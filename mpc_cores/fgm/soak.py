@@ -2,7 +2,7 @@
 n = N nu = 24 variables, every P from 1 to n, frac_bits, pipeline latencies, roundings, warm start and full output."""
 from __future__ import annotations
 
-from mpc_cores.soak.space import Config, SoakSpace, pick, random_spec
+from mpc_cores.soak.space import Config, SoakSpace, pick, random_spec, target_latency
 
 N_MAX = 24   # variables n = N nu: the simulated cycles per solve grow with n / P
 
@@ -14,7 +14,8 @@ def draw(rng) -> Config:
     spec = random_spec(rng, nx, nu, N, ny=int(rng.integers(0, min(nx, nu) + 1)))
     P = pick(rng, [1, 1, 2, 3, 4, 5, 8, n])
     return Config(spec, dict(P=min(P, n), frac_bits=int(rng.integers(8, 19)), lat_add=int(rng.integers(0, 4)),
-                             lat_mul=int(rng.integers(0, 4)), rounding=pick(rng, ["truncate", "nearest"]),
+                             **target_latency(rng, int(rng.integers(0, 4))),
+                             rounding=pick(rng, ["truncate", "nearest"]),
                              iterations=int(rng.integers(3, 31)), warm_start=bool(rng.random() < 0.8),
                              output_all=bool(rng.random() < 0.3)))
 
@@ -31,7 +32,8 @@ SOAK = SoakSpace(
     space=("model: nx in [1, 6], nu in [1, 3], N in [2, 10] with n = N nu <= 24; A random, spectral radius in "
            "[0.4, 0.98] or [1.02, 1.2] (even odds); B random; Q, R random diagonals",
            "constraints: input box (random per input), box of accepted states, 0 to min(nx, nu) tracked states",
-           "design: P in {1, 2, 3, 4, 5, 8, n} (at most n), frac_bits in [8, 18], lat_add and lat_mul in [0, 3], "
+           "design: P in {1, 2, 3, 4, 5, 8, n} (at most n), frac_bits in [8, 18], lat_add in [0, 3], target generic "
+           "(50 %, lat_mul in [0, 3]), ecp5 or xilinx7 (lat_mul the target's minimum or in [4, 6]), "
            "rounding truncate or nearest, Imax in [3, 30], warm start (80 %), full output (30 %)",
            "solves (verif/tb.py bitexact_random): random states, 5 % of words outside the box, random warm or cold "
            "start and Imax, random idle and backpressure on both streams"),

@@ -99,3 +99,12 @@ def pick(rng: np.random.Generator, values):
     """One of `values` (a Python value, not a numpy scalar: configurations go to JSON)."""
     v = values[int(rng.integers(len(values)))]
     return v.item() if isinstance(v, np.generic) else v
+
+
+def target_latency(rng, lat_mul: int) -> dict:
+    """The multipliers' target (generic half the time) and l_M: generic keeps the drawn `lat_mul`; ecp5 and xilinx7
+    take their minimum (None: the design resolves it) or 4 to 6 (on ecp5, a fabric operand register too)."""
+    t = pick(rng, ["generic", "generic", "ecp5", "xilinx7"])
+    if t == "generic":
+        return dict(target=t, lat_mul=lat_mul)
+    return dict(target=t, lat_mul=None if rng.random() < 0.5 else int(rng.integers(4, 7)))
