@@ -89,12 +89,16 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val cntInc = run && !wrapIt
   val cntNext = Mux(cntClr, 0.U, Mux(cntInc, cnt + 1.U, cnt))
   cnt := cntNext
-  def eqNext(c: Int): Bool = // cntNext === c
-    Mux(cntClr, (c == 0).B, Mux(cntInc, if (c >= 1) cnt === (c - 1).U else false.B, cnt === c.U))
-  val wrap0N  = eqNext(firstLen - 1)
-  val wrapN   = eqNext(L - 1)
-  val cntIncN = Mux(cntClr, 1.U, Mux(cntInc, cnt +& 2.U, cnt +& 1.U)) // cntNext + 1
-  val issueN  = Mux(cntClr, (K > 1).B, Mux(cntInc, if (K >= 3) cnt < (K - 2).U else false.B, cnt < (K - 1).U))
+  // the next counter's comparisons and successor, the counter cleared when `clr`
+  def eqAfter(clr: Bool, c: Int): Bool = // cntNext === c
+    Mux(clr, (c == 0).B, Mux(cntInc, if (c >= 1) cnt === (c - 1).U else false.B, cnt === c.U))
+  def incAfter(clr: Bool): UInt = Mux(clr, 1.U, Mux(cntInc, cnt +& 2.U, cnt +& 1.U)) // cntNext + 1
+  def issueAfter(clr: Bool): Bool = // cntNext + 1 < K
+    Mux(clr, (K > 1).B, Mux(cntInc, if (K >= 3) cnt < (K - 2).U else false.B, cnt < (K - 1).U))
+  val wrap0N  = eqAfter(cntClr, firstLen - 1)
+  val wrapN   = eqAfter(cntClr, L - 1)
+  val cntIncN = incAfter(cntClr)
+  val issueN  = issueAfter(cntClr)
   // an iteration ends (not the first pass): one iteration fewer left
   val iterEnd = run && !pass0 && wrap
   val lastIterN = Mux(start, io.imax === 1.U, Mux(iterEnd, left === 1.U, lastIter))
@@ -126,7 +130,15 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   }
   val idleTok = nextToken(sIdle, false.B, false.B, false.B, false.B, false.B, false.B, 0.U)
   val tokR = RegInit(idleTok)
-  tokR := nextToken(stateNext, pass0Next, wrap0N, wrapN, issueN, lastIterN, iter0N, cntIncN)
+  // The token after a start is a constant (the first pass's row 0, counters cleared); every other one is taken
+  // from the next state as if no start happened, so the start (the input frame's handshake) only selects between
+  // the two at the token register.
+  val startTok = nextToken(sRun, true.B, (firstLen == 1).B, (L == 1).B, (K > 1).B, false.B, true.B, 1.U)
+  val idle     = state === sIdle
+  val runTok = nextToken(Mux(idle, sIdle, stateNext), Mux(idle, pass0, pass0Next), eqAfter(wrapIt, firstLen - 1),
+    eqAfter(wrapIt, L - 1), issueAfter(wrapIt), Mux(iterEnd, left === 1.U, lastIter), Mux(iterEnd, false.B, iter0),
+    incAfter(wrapIt))
+  tokR := Mux(start, startTok, runTok)
   val tokN = WireDefault(tokR)
   when(start) { tokN.valid := true.B }
   io.tokN := tokN
