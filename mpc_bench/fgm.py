@@ -6,7 +6,7 @@ over P and frac_bits b:
   resources    Yosys synth_ecp5 (MULT18X18D, LUT4, FF, DP16KD) and synth_xilinx -family xc7 (DSP48E1, LUT, FF,
                RAMB), beside the multipliers of Table I of 002, P (N n_u + 2);
   Fmax         nextpnr-ecp5 on the LFE5U-85F (speed 8, CABGA381) with constraints/fgm_core.lpf, and the
-               critical path it reports; also on cores pipelined for Fmax (TARGET=ecp5, b = 15, l_M = 4);
+               critical path it reports; also on cores pipelined for Fmax (TARGET=ecp5, b = 15, l_M = 5);
   latency      cycles / Fmax, beside Table III(a) of 002 (Virtex-6 at 400 MHz, Spartan-6 at 230 MHz);
   software     on this CPU over one closed loop of masses (problem A, the condensed box QP): OSQP with default and
                with tuned embedded settings, DAQP (hot start), PIQP (dense), ProxQP (dense, warm start), Clarabel
@@ -40,11 +40,11 @@ MASSES = REPO / "examples/masses.yaml"
 FULL_P, FULL_B = (1, 2, 4, 8), (12, 16)
 QUICK_P, QUICK_B = (1,), (16,)
 # The cores placed and routed for Fmax (role "fmax"): TARGET=ecp5, every product on a MULT18X18D with its input,
-# pipeline and output registers, and l_M = 4, one stage more that registers the operands in fabric before the DSP
-# (docs/dsp.md). b = 15 keeps every operand of masses at 18 bits (the state words take 19 at b = 16), so a product
+# pipeline and output registers, and l_M = 5: one stage more registers the operands in fabric before the DSP and
+# one the DSP's output in fabric (docs/dsp.md, docs/benchmark.md). b = 15 keeps every operand of masses at 18 bits (the state words take 19 at b = 16), so a product
 # is one MULT18X18D: P = 3 (126 of the 85F's 156) is the largest P that fits. The sweeps keep the spec's
 # l_A = l_M = 1, the latencies of eq. (23) and Table III(a) of 002.
-FMAX_LAT = dict(lat_add=1, lat_mul=4, target="ecp5")
+FMAX_LAT = dict(lat_add=1, lat_mul=5, target="ecp5")
 FMAX_FULL_P, FMAX_QUICK_P, FMAX_B = (1, 3), (1,), 15
 
 # Table III(a) of 002 (FGM, masses, Imax = 15): P -> (multipliers, Virtex-6 T_s at 400 MHz in us,
@@ -257,7 +257,7 @@ class Section(QpSection):
         ap.add_argument("--P", default=None, help="FGM: comma-separated P values (default 1,2,4,8; QUICK 1)")
         ap.add_argument("--b", default=None, help="FGM: comma-separated frac_bits (default 12,16; QUICK 16)")
         ap.add_argument("--fgm-fmax-P", default=None, help="FGM masses pipelined for Fmax (TARGET=ecp5, b = 15, "
-                                                           "l_A = 1, l_M = 4): P values (default 1,3; QUICK 1)")
+                                                           "l_A = 1, l_M = 5): P values (default 1,3; QUICK 1)")
         ap.add_argument("--steps", type=int, default=None, help="closed-loop steps for the FGM software timing")
 
     def configure(self, a) -> None:
