@@ -56,6 +56,7 @@ async def stream_data_changed(dut):
     tready."""
     k = await _held_answer(dut, out_all=True)
     dut.seq.outCnt.value = k.tb.core["n"] - 1
+    dut.seq.outAtEnd.value = 1   # the last-word flag (tlast) is a register of its own
     await _survived(dut, "tdata changed")
 
 
