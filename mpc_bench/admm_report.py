@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from mpc_bench.baselines import NumpyAdmm, core_ratios, fastest_cell, ratio_table, software_notes, timer_table
+from mpc_bench.baselines import NumpyAdmm, core_ratios, fastest_cell, solver_section
 from mpc_bench.parsers import ecp5_fit
 from mpc_bench.qp import (
     F_S6_MHZ, F_V6_MHZ, Core, _core_latency, _fmax_section, _load_text, _memories, _resource_cells,
@@ -288,22 +288,17 @@ def admm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[s
         L += _table(["P", "b", "core us est. (ECP5)", "core us at 400 MHz", "OSQP default / core est.",
                      "OSQP tuned / core est.", "numpy ADMM / core est.", "OSQP default / core at 400 MHz",
                      "OSQP tuned / core at 400 MHz", "numpy ADMM / core at 400 MHz"], body)
-        L += ["", "#### Per-solve time by timer, and against the core", "",
-              f"The QP of every step (problem B): the soft-constrained sparse QP (8) of 002 as OSQP gets it above "
-              f"(n_A = {r0['n']} variables). PIQP (sparse backend) gets the equality rows as A z = b(w), the rows "
-              "that bound one variable (the boxes, delta >= 0) as variable bounds and the two slanted rows per "
-              "soft pair as two-sided rows; Clarabel the equality rows as a zero cone and every finite bound as one "
-              "nonnegative-cone row. Both are interior-point methods and start cold; OSQP starts from its previous "
-              "solution.", ""]
-        L += timer_table(sw)
-        L += [""] + software_notes(sw)
-        L += ratio_table(br, sw, "est. ECP5")
-        L += ["", "Core us: the masses core's cycles at the small cores' latencies over their ECP5 Fmax (the "
-              "estimate above); core solves/s: 1 / that latency (one QP in flight; the next input frame is buffered "
-              "during the solve, the output beats after it are not counted). median / core and p99 / core: the "
-              "solver's wall time over the core's latency; the last column: the core's solves per second over the "
-              "solver's at its median (for a core with one QP in flight the same number as median / core). Above 1 "
-              "the core is ahead.", ""]
+        L += solver_section(
+            br, sw, "est. ECP5",
+            f"The QP of every step (problem B): the soft-constrained sparse QP (8) of 002 as OSQP gets it above "
+            f"(n_A = {r0['n']} variables). PIQP (sparse backend) gets the equality rows as A z = b(w), the rows "
+            "that bound one variable (the boxes, delta >= 0) as variable bounds and the two slanted rows per "
+            "soft pair as two-sided rows; Clarabel the equality rows as a zero cone and every finite bound as one "
+            "nonnegative-cone row. Both are interior-point methods and start cold; OSQP starts from its previous "
+            "solution.",
+            "Core us: the masses core's cycles at the small cores' latencies over their ECP5 Fmax (the estimate "
+            "above); core solves/s: 1 / that latency (one QP in flight; the next input frame is buffered during "
+            "the solve, the output beats after it are not counted).")
     if br:
         L += ["", "### MAC utilisation", ""]
         body = [[str(r["P"]), str(r["b"]), str(admm_useful_macs(r["n"])), str(r["multipliers"]),

@@ -445,3 +445,16 @@ def software_notes(sw: dict) -> list[str]:
             "medians; p99 and max over all solves of all replays. Error: max over the loop of |u0 - u0*| against "
             "the reference solutions."
             + (f" Not installed, not run: {', '.join(miss)}." if miss else ""), ""]
+
+
+RATIO_NOTE = ("median / core and p99 / core: the solver's wall time over the core's latency; the last column: the "
+              "core's solves per second over the solver's at its median (for a core with one QP in flight the same "
+              "number as median / core). Above 1 the core is ahead.")
+
+
+def solver_section(recs: list[dict], sw: dict, lat_label: str, qp_text: str, core_text: str) -> list[str]:
+    """The software part of a QP section: what the solvers get (`qp_text`), the timer table, the notes, the ratio
+    table against the cores (core latency labelled `lat_label`, explained by `core_text`) and the ratios' meaning."""
+    return (["", "#### Per-solve time by timer, and against the core", "", qp_text, ""] + timer_table(sw)
+            + [""] + software_notes(sw) + ratio_table(recs, sw, lat_label)
+            + ["", f"{core_text} {RATIO_NOTE}", ""])

@@ -24,7 +24,7 @@ import math
 from pathlib import Path
 
 from mpc_bench.baselines import (
-    NumpyFgm, core_ratios, fastest_cell, prepare_fgm_software, ratio_table, software_notes, timer_table,
+    NumpyFgm, core_ratios, fastest_cell, prepare_fgm_software, solver_section,
 )
 from mpc_bench.plots import by_b, latency_plot, resources_plot
 from mpc_bench.qp import (
@@ -218,21 +218,16 @@ def fgm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[st
                  _f(ratio(r["numpy_fgm_us"], r["latency_us_v6_ours"]), "{:.0f}x")] for r in recs]
         L += _table(["P", "b", "core us (ECP5)", "OSQP default / core", "OSQP tuned / core", "numpy FGM / core",
                      "OSQP tuned / core at 400 MHz", "numpy / core at 400 MHz"], body)
-        L += ["", "#### Per-solve time by timer, and against the core", "",
-              "The QP of every step (problem A): min 1/2 z'H z + (Phi w)'z over the input box, n = "
-              f"{recs[0]['n'] if recs else '-'} variables, H dense. DAQP, PIQP and ProxQP get the box as variable "
-              "bounds, OSQP as n identity rows, Clarabel and quadprog as 2n inequality rows. DAQP is hot-started: its "
-              "workspace keeps the previous solve's working set (the active bounds and their factors) and starts "
-              "from it; ProxQP and OSQP start from the previous solution; PIQP and Clarabel (interior point) start "
-              "cold; quadprog keeps nothing between calls but gets R^-1 (H = R'R) once.", ""]
-        L += timer_table(sw)
-        L += [""] + software_notes(sw)
-        L += ratio_table(recs, sw, "ECP5")
-        L += ["", "Core us: cycles per solve / Fmax on the ECP5; core solves/s: 1 / that latency (one QP in flight; "
-              "the next input frame is buffered during the solve, the nu output beats after it are not counted). "
-              "median / core and p99 / core: the solver's wall time over the core's latency; the last column: "
-              "the core's solves per second over the solver's at its median (for a core with one QP in flight the "
-              "same number as median / core). Above 1 the core is ahead.", ""]
+        L += solver_section(
+            recs, sw, "ECP5",
+            "The QP of every step (problem A): min 1/2 z'H z + (Phi w)'z over the input box, n = "
+            f"{recs[0]['n'] if recs else '-'} variables, H dense. DAQP, PIQP and ProxQP get the box as variable "
+            "bounds, OSQP as n identity rows, Clarabel and quadprog as 2n inequality rows. DAQP is hot-started: its "
+            "workspace keeps the previous solve's working set (the active bounds and their factors) and starts "
+            "from it; ProxQP and OSQP start from the previous solution; PIQP and Clarabel (interior point) start "
+            "cold; quadprog keeps nothing between calls but gets R^-1 (H = R'R) once.",
+            "Core us: cycles per solve / Fmax on the ECP5; core solves/s: 1 / that latency (one QP in flight; the "
+            "next input frame is buffered during the solve, the nu output beats after it are not counted).")
     L += ["", "### MAC utilisation", ""]
     body = [[str(r["P"]), str(r["b"]), str(useful_macs(r["n"])), str(r["multipliers"]),
              _f(r["cycles_per_iteration_measured"], "{}"),
