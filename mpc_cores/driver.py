@@ -106,13 +106,18 @@ class TB(AxiDriver):
         self.sw = self.core["stream_width"]
         self.n, self.nu, self.nw = self.core["n"], self.core["nu"], self.core["nw"]
         self.model = golden_model(self.cfg)
+        # an interleaving core: one model per problem id (each its own warm start); models[0] is `model`
+        self.problems = int(self.core.get("problems", 1))
+        self.models = [self.model] + [golden_model(self.cfg) for _ in range(self.problems - 1)]
         # box of the accepted parameter words
         self.box = (self.model.xlo, self.model.xhi) if self.core["core"] == "fgm" else (self.model.wlo, self.model.whi)
         self.warm = self.core["warm_start"]
         self.out_all = self.core["output_all"]
         self.cycle = 0
+        self.reset_cycle = 0             # the monitor's cycle of the last clock edge with reset high
         self.in_done: list[int] = []     # cycles of the input tlast handshakes
         self.out_start: list[int] = []   # cycles where an output frame's first word is valid
+        self.out_done: list[int] = []    # cycles of the output tlast handshakes
         cocotb.start_soon(self._monitor())
 
     async def _monitor(self):
@@ -124,6 +129,7 @@ class TB(AxiDriver):
             self.cycle += 1
             if _hi(d.reset):
                 expect_first = True
+                self.reset_cycle = self.cycle
                 continue
             if _hi(d.s_axis_tvalid) and _hi(d.s_axis_tready) and _hi(d.s_axis_tlast):
                 self.in_done.append(self.cycle)
@@ -133,10 +139,16 @@ class TB(AxiDriver):
                     expect_first = False
                 if _hi(d.m_axis_tready) and _hi(d.m_axis_tlast):
                     expect_first = True
+                    self.out_done.append(self.cycle)
+
+    def since_reset(self, cycle: int) -> int:
+        """a monitor cycle as the core counts it: 0 is the first cycle after reset (mpc_cores.interleave)"""
+        return cycle - self.reset_cycle - 1
 
     async def reset(self):
         await super().reset()
-        self.model.reset()
+        for m in self.models:
+            m.reset()
         self.warm = self.core["warm_start"]
         self.out_all = self.core["output_all"]
 
@@ -165,16 +177,26 @@ class TB(AxiDriver):
         assert await self.write(self.rm["CTRL"], v) == AxiResp.OKAY
 
     # ---- streams
-    async def send(self, w):
-        await self.src.send(AxiStreamFrame(tdata=[self.to_word(v) for v in w]))
+    async def send(self, w, problem: int | None = None):
+        """a frame; `problem` is its id (tuser) on an interleaving core"""
+        f = AxiStreamFrame(tdata=[self.to_word(v) for v in w])
+        if problem is not None:
+            f.tuser = problem
+        await self.src.send(f)
 
     async def recv(self) -> list[int]:
-        f = await self.sink.recv()
-        return [self.from_word(x) for x in f.tdata]
+        return (await self.recv_tagged())[1]
 
-    def expect(self, w):
-        """Model result for the next solve, as the words the core sends."""
-        r = self.model.solve(w, imax=self.imax, warm=self.warm)
+    async def recv_tagged(self) -> tuple[int, list[int]]:
+        """(problem id, words) of the next answer; the id is 0 on a core that does not interleave"""
+        f = await self.sink.recv()
+        tag = f.tuser if f.tuser is not None else 0
+        assert isinstance(tag, int), f"an answer's tuser changed within the frame: {f.tuser}"
+        return tag, [self.from_word(x) for x in f.tdata]
+
+    def expect(self, w, problem: int = 0):
+        """Model result for the next solve (of problem `problem`), as the words the core sends."""
+        r = self.models[problem].solve(w, imax=self.imax, warm=self.warm)
         words = r.z if self.out_all else r.z[: self.nu]
         return [int(x) for x in words], r
 

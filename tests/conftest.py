@@ -76,6 +76,14 @@ CASES = {
                                 40),
     "rand_n24_p5_b12_l00": (lambda: random_problem("r24", 4, 2, 12, 1, 4),
                             dict(P=5, frac_bits=12, lat_add=0, lat_mul=0), 30),
+    # interleaving (K_p problems on the row units, tuser the problem id): K_p K < L (idle cycles end each round),
+    # K_p not a power of two (an id past the last saturates)
+    "rand_n4_p1_b12_k3": (lambda: random_problem("r4k", 3, 1, 4, 1, 8), dict(P=1, frac_bits=12, lat_mul=2, problems=3),
+                          20),
+    "rand_n6_p2_b12_k2": (lambda: random_problem("r6k", 3, 2, 3, 1, 9), dict(P=2, frac_bits=12, problems=2), 20),
+    # the masses core at P = 3 on the ECP5 target, K_p = 3: every turn busy (K_p K = 42 >= L = 34)
+    "masses_p3_b14_k3_ecp5": (lambda: load_spec(REPO / "examples/masses.yaml"),
+                              dict(P=3, frac_bits=14, target="ecp5", lat_mul=5, problems=3), 15),
 }
 
 

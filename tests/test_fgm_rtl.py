@@ -12,7 +12,7 @@ from conftest import CASES
 from mpc_cores.flow import GeneratorError, run_generator
 from mpc_cores.sim import run_cocotb
 
-SCENARIOS = 8  # cocotb tests in verif/fgm/tb.py (the shared ones of verif/tb.py and axil_rewrite)
+SCENARIOS = 9  # cocotb tests in verif/fgm/tb.py (the shared ones of verif/tb.py and axil_rewrite)
 
 
 
@@ -31,6 +31,10 @@ def test_rtl_matches_golden_model(cid, cores, request):
     cyc = next(r for r in rec if r["test"] == "cycle_contract")
     assert cyc["cycles_per_iteration"] == core["cycles_per_iteration"]
     assert next(r for r in rec if r["test"] == "bitexact_random")["cases"] == solves
+    il = next(r for r in rec if r["test"] == "interleaving")
+    assert il["problems"] == core["problems"] and il["mac_utilisation"] == pytest.approx(core["mac_utilisation"])
+    if core["problems"] > 1:
+        assert cyc["period_cycles"] == core["period_cycles"]
 
 
 def test_generator_refuses_invalid_configs(tmp_path, cores):

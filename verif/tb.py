@@ -55,6 +55,8 @@ async def cycle_contract(dut):
     within the paper's formula (eq. (23) or (24) of 002) and the CYCLES_PER_ITER register says it."""
     tb = TB(dut, seed=12)
     await tb.reset()
+    if tb.problems > 1:
+        return await cycle_contract_interleaved(tb)
     lat = {}
     for imax in (1, 3, tb.core["iterations"]):
         await tb.set_imax(imax)
@@ -77,6 +79,119 @@ async def cycle_contract(dut):
     measure({"test": "cycle_contract", "module": tb.core["module"], "n": tb.n, "P": tb.core["P"],
               "cycles_per_iteration": per_iter, "paper": paper,
               "cycles_per_solve": lat[tb.core["iterations"]], "iterations": tb.core["iterations"]})
+
+
+def _interleave(tb):
+    from mpc_cores.interleave import Interleave
+
+    return Interleave(tb.core["rows_per_turn"], tb.problems, tb.core["cycles_per_iteration"])
+
+
+async def saturated_period(tb, rounds: int = 4) -> int:
+    """Frames always waiting, in problem order, no backpressure, `rounds` per problem: every answer equals its
+    problem's model and carries its id, and from the second round on each problem's answers come exactly the
+    period of core.json's throughput apart. Returns that period (cycles per solve of each problem)."""
+    kp = tb.problems
+    count = rounds * kp
+    exps = []
+    for i in range(count):
+        w = tb.random_w()
+        exps.append(tb.expect(w, i % kp)[0])
+        await tb.send(w, i % kp if kp > 1 else None)
+    tb.out_start.clear()
+    for i in range(count):
+        tag, got = await tb.recv_tagged()
+        assert (tag, got) == (i % kp, exps[i]), f"answer {i}: RTL {tag}: {got} != model {i % kp}: {exps[i]}"
+    period = kp / tb.core["throughput_solves_per_cycle"]
+    gaps = [tb.out_start[i + kp] - tb.out_start[i] for i in range(kp, count - kp)]
+    assert gaps and all(g == round(period) for g in gaps), f"periods {gaps}, core.json says {period}"
+    return gaps[0]
+
+
+async def cycle_contract_interleaved(tb):
+    """An interleaving core: each problem's first pass runs in the first turn of its slot (mpc_cores.interleave)
+    after the frame is taken, and its first answer word comes Imax R + L + 2 cycles after that turn began; frames
+    sent at random phases of the round."""
+    from mpc_cores.interleave import TAKE_TO_TURN
+
+    il = _interleave(tb)
+    assert il.R == tb.core["period_cycles"]
+    from_turn = {}
+    for imax in (1, 3, tb.core["iterations"]):
+        await tb.set_imax(imax)
+        for j in range(tb.problems):
+            await ClockCycles(tb.dut.clock, tb.rng.randrange(il.R + 1))
+            tb.in_done.clear()
+            tb.out_start.clear()
+            tb.out_done.clear()
+            w = tb.random_w()
+            exp, _ = tb.expect(w, j)
+            await tb.send(w, j)
+            tag, got = await tb.recv_tagged()
+            assert (tag, got) == (j, exp), f"Imax={imax}, problem {j}: RTL {tag}: {got} != model {exp}"
+            t0 = il.turn_start(j, tb.since_reset(tb.in_done[0]) + TAKE_TO_TURN)
+            first = tb.since_reset(tb.out_start[0])
+            assert first - t0 == il.answer_from_turn(imax), \
+                f"Imax={imax}, problem {j}: answer {first - t0} cycles after its first turn, the model says " \
+                f"{il.answer_from_turn(imax)}"
+            lo, hi = il.latency_bounds(imax)
+            assert lo <= tb.out_start[0] - tb.in_done[0] <= hi
+            last, _ = await tb.read(tb.rm["LAST_CYCLES"])
+            assert last == tb.since_reset(tb.out_done[0]) - t0, f"LAST_CYCLES {last}"
+            from_turn[imax] = first - t0
+    period = (from_turn[3] - from_turn[1]) // 2
+    assert period == il.R
+    reg, _ = await tb.read(tb.rm["CYCLES_PER_ITER"])
+    assert reg == period
+    L = from_turn[1] - period - 2
+    # frames always waiting: each problem's solves come `solve_period` apart
+    solve_period = await saturated_period(tb, rounds=3)
+    measure({"test": "cycle_contract", "module": tb.core["module"], "n": tb.n, "P": tb.core["P"],
+             "problems": tb.problems, "period_cycles": period, "cycles_per_iteration": L,
+             "cycles_per_solve": from_turn[tb.imax] + TAKE_TO_TURN, "latency_max": from_turn[tb.imax] + TAKE_TO_TURN
+             + period - 1, "solve_period": solve_period, "iterations": tb.imax})
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def interleaving(dut):
+    """Frames always waiting, in problem order, no backpressure: every answer equals its problem's model and carries
+    its id, and each problem's answers come one period (core.json's throughput) apart, which gives the measured
+    MAC utilisation. Then random problem order, idle and backpressure: each problem's answers in its order."""
+    tb = TB(dut, seed=19)
+    await tb.reset()
+    kp = tb.problems
+    period = await saturated_period(tb)
+    util = kp * (tb.imax + 1) * tb.core["rows_per_turn"] / period
+    assert abs(util - tb.core["mac_utilisation"]) < 1e-12
+    # random problem order, idle and backpressure, warm start per problem
+    await tb.set_ctrl(warm=True)
+    tb.backpressure(True)
+    pending = {j: [] for j in range(kp)}
+    n = 6 * kp
+    for i in range(n):
+        j = tb.rng.randrange(kp)
+        w = tb.random_w(outside=0.1)
+        pending[j].append(tb.expect(w, j)[0])
+        await tb.send(w, j if kp > 1 else None)
+        if tb.rng.random() < 0.3:
+            await ClockCycles(dut.clock, tb.rng.randrange(2 * tb.core["period_cycles"]))
+    for i in range(n):
+        tag, got = await tb.recv_tagged()
+        assert pending[tag], f"answer {i}: an answer for problem {tag}, which has none outstanding"
+        exp = pending[tag].pop(0)
+        assert got == exp, f"answer {i} of problem {tag}: RTL {got} != model {exp}"
+    tb.backpressure(False)
+    await ClockCycles(dut.clock, 2 * tb.core["latency_cycles"]["max"])
+    assert tb.sink.empty(), "an extra answer appeared"
+    if kp & (kp - 1):     # an id past the last problem saturates to it and sets SAT
+        await tb.write(tb.rm["STATUS"], 1 << tb.rm.STATUS_BITS["SAT"])
+        w = tb.random_w()
+        exp = tb.expect(w, kp - 1)[0]
+        await tb.send(w, (1 << (kp - 1).bit_length()) - 1)
+        assert await tb.recv_tagged() == (kp - 1, exp)
+        assert (await tb.status())["SAT"]
+    measure({"test": "interleaving", "module": tb.core["module"], "problems": kp, "period": period,
+             "mac_utilisation": util})
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")

@@ -34,6 +34,7 @@ class FgmDesign(FixedPointDesign):
     beta: int                 # beta^ word
     one_plus_beta: int
     tol: float | None = None  # target solution error the design was certified for (make design TOL=...)
+    problems: int = 1         # K_p, problems interleaved on the row units (mpc_cores.interleave)
     widths: dict = field(default_factory=dict)
     bounds: dict = field(default_factory=dict)   # integer-word bounds per signal
     prop1: dict = field(default_factory=dict)    # Prop. 1 bounds in real units
@@ -73,7 +74,22 @@ class FgmDesign(FixedPointDesign):
         return self.K + self.lat_add * d + 2 * self.lat_mul + 3 * self.lat_add + 1
 
     def cycles_per_solve(self, imax: int | None = None) -> int:
-        return 3 + self.K + (self.iterations if imax is None else imax) * self.cycles_per_iteration
+        """one problem: from the last input word to the first output word; interleaving: the least of that"""
+        imax = self.iterations if imax is None else imax
+        if self.problems > 1:
+            return self.interleave.latency_bounds(imax)[0]
+        return 3 + self.K + imax * self.cycles_per_iteration
+
+    @property
+    def interleave(self):
+        from mpc_cores.interleave import Interleave
+
+        return Interleave(self.K, self.problems, self.cycles_per_iteration)
+
+    @property
+    def period_cycles(self) -> int:
+        """cycles between two iterations of one problem: L_F, or the round of K_p turns when interleaving"""
+        return self.interleave.R
 
     @property
     def multipliers(self) -> int:
@@ -85,7 +101,8 @@ class FgmDesign(FixedPointDesign):
 
     @property
     def module_name(self) -> str:
-        return f"FgmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{module_suffix(self.target)}"
+        kp = f"_k{self.problems}" if self.problems > 1 else ""
+        return f"FgmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{kp}{module_suffix(self.target)}"
 
     def products(self) -> list[tuple[int, int]]:
         """(a, b) bit widths of the multipliers (FgmCore): the row dot products, coefficient x operand (w in the
@@ -101,6 +118,7 @@ class FgmDesign(FixedPointDesign):
             "lo": self.lo.tolist(), "hi": self.hi.tolist(),
             "xlo": self.xlo.tolist(), "xhi": self.xhi.tolist(),
             "beta": int(self.beta), "one_plus_beta": int(self.one_plus_beta),
+            **({"problems": self.problems} if self.problems > 1 else {}),
         }
 
 
@@ -109,7 +127,7 @@ class FgmDesign(FixedPointDesign):
 def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     """Build the FGM core description. Keyword overrides take precedence over the spec's `solver:` section:
     frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all, target, c, int_bits, stream_width,
-    tol."""
+    tol, problems."""
     opt = lambda k, d: solver_opt(problem, overrides, k, d)  # noqa: E731
     b, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all = run_options(
         problem, overrides, frac_bits=16, rounding="truncate", iterations=15)
@@ -122,6 +140,9 @@ def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     n, nw = qp.n, qp.nw
 
     check_run_options(n, "n", b, P, lat_add, lat_mul, rounding, iterations)
+    problems = int(opt("problems", 1))
+    if not 1 <= problems <= 16:
+        raise DesignError(f"problems (K_p, problems interleaved on the row units) must be in [1, 16]: got {problems}")
 
     H = qp.H
     lam_min_H = float(np.linalg.eigvalsh(H)[0])
@@ -168,7 +189,7 @@ def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     d = FgmDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
                   iterations=iterations, warm_start=warm_start, target=target, output_all=output_all, c=c, lam_max=lam_max,
                   A=A, F=F, lo=lo, hi=hi, xlo=xlo, xhi=xhi, beta=beta, one_plus_beta=one + beta,
-                  tol=None if opt("tol", None) is None else float(opt("tol", None)))
+                  tol=None if opt("tol", None) is None else float(opt("tol", None)), problems=problems)
     _size_words(d, opt("int_bits", None), opt("stream_width", None))
     apply_target(d, lat_mul, d.products())
     return d

@@ -15,7 +15,8 @@ def _fmt(intb: int, b: int, width: int) -> dict:
 def core_json(d: FgmDesign, hw: dict) -> dict:
     """Metadata of a generated core: the Python design and the generator's hw.json, checked against each other."""
     for key, mine in (("cycles_per_iteration", d.cycles_per_iteration), ("multipliers", d.multipliers),
-                      ("cycles_per_solve", d.cycles_per_solve())):
+                      ("cycles_per_solve", d.cycles_per_solve()), ("period_cycles", d.period_cycles),
+                      ("problems", d.problems)):
         if hw[key] != mine:
             raise RuntimeError(f"generator and front end disagree on {key}: {hw[key]} vs {mine}")
     b = d.b
@@ -50,7 +51,9 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
         "cycles_eq23": hw["cycles_eq23"],
         "cycles_per_solve": hw["cycles_per_solve"],
         "solve_overhead_cycles": hw["solve_overhead_cycles"],
-        "cycles_per_solve_formula": f"{hw['solve_overhead_cycles']} + IMAX * {hw['cycles_per_iteration']}",
+        "cycles_per_solve_formula": f"{hw['solve_overhead_cycles']} + IMAX * {hw['period_cycles']}" + (
+            f" (+ 0 to {hw['period_cycles'] - 1} waiting for the problem's turn)" if d.problems > 1 else ""),
+        **interleave_fields(d),
         "tree_inputs": hw["tree_inputs"], "tree_depth": hw["tree_depth"],
         "multipliers": hw["multipliers"],
         "signals": signals,
@@ -66,6 +69,33 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
         "registers": hw["registers"],
         "regions": hw["regions"],
     }
+
+
+def interleave_fields(d) -> dict:
+    """core.json's interleaving entries (mpc_cores.interleave): K_p, the period of a problem's passes, the latency's
+    range and the throughput with frames always waiting in problem order."""
+    il, out = d.interleave, (d.n if d.output_all else d.nu)
+    lo, hi = il.latency_bounds(d.iterations) if d.problems > 1 else (d.cycles_per_solve(),) * 2
+    return {"problems": d.problems, "period_cycles": il.R, "rows_per_turn": d.K,
+            "latency_cycles": {"min": lo, "max": hi},
+            "throughput_solves_per_cycle": il.throughput(d.iterations, out, d.nw) if d.problems > 1
+            else 1 / (d.cycles_per_solve() + out - 1),
+            "mac_utilisation": il.mac_utilisation(d.iterations, out, d.nw) if d.problems > 1
+            else (d.iterations + 1) * d.K / (d.cycles_per_solve() + out - 1)}
+
+
+def interleave_line(d) -> str:
+    """the design report's line on interleaving"""
+    from mpc_cores.interleave import covering_problems
+
+    out = d.n if d.output_all else d.nu
+    cover = covering_problems(d.K, d.cycles_per_iteration, out, d.nw)
+    f = interleave_fields(d)
+    head = (f"  Problems: K_p = {d.problems}" + (f", a round of R = max(L_F, K_p K) = {f['period_cycles']} cycles per "
+            f"iteration of each" if d.problems > 1 else ""))
+    return (f"{head}; {f['throughput_solves_per_cycle']:.5f} solves per cycle with frames always waiting, MAC "
+            f"utilisation {100 * f['mac_utilisation']:.1f} %; every turn is busy from K_p = {cover}"
+            if cover > 1 else f"{head}; no K_p up to 16 keeps every turn busy")
 
 
 def design_report(d: FgmDesign, core: dict | None = None) -> str:
@@ -85,9 +115,13 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
             continue
         lines.append(f"    {k:<5} {w:>3} bits = Q{w - 1 - b}.{b}  |{k}| <= {d.bounds[k] / one:.6g}")
     lines.append(f"    stream words {d.widths['stream']} bits")
+    il = d.interleave
+    cyc = (f"{d.cycles_per_solve()} per solve at Imax = {d.iterations} (= {3 + d.K} + Imax * {d.cycles_per_iteration})"
+           if d.problems == 1 else "{} to {} per solve at Imax = {} (the wait for the problem's turn, then "
+           "3 + Imax R + L_F + 2)".format(*il.latency_bounds(d.iterations), d.iterations))
     lines += [
-        f"  Cycles: L_F = {d.cycles_per_iteration} per iteration (eq. (23): {d.cycles_eq23}); "
-        f"{d.cycles_per_solve()} per solve at Imax = {d.iterations} (= {3 + d.K} + Imax * {d.cycles_per_iteration})",
+        f"  Cycles: L_F = {d.cycles_per_iteration} per iteration (eq. (23): {d.cycles_eq23}); {cyc}",
+        interleave_line(d),
         f"  Round-off bound eq. (20) after {d.iterations} iterations: ||z_fixed - z_exact||_2 <= {eta[-1]:.3g}",
         f"  Multipliers: {d.multipliers} (P * max(n, nw) + 2P)",
     ]

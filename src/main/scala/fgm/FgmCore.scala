@@ -7,7 +7,7 @@ import fixed.FixedOps
 import linalg.{DotProductParams, DotProductTree}
 import mem.InitRam
 import proj.BoxProjection
-import shell.{Field, FrameIn, PassSequencer, RegMap, Region, Register, RowToken, SolverRegs}
+import shell.{Field, FrameIn, PassSequencer, RegMap, Region, Register, RowToken, SeqControl, SolverRegs, TurnSequencer}
 
 /** Fixed-point fast gradient method (Algorithm 1 of 002) for input-constrained MPC, after Fig. 1/2 of 002.
   *
@@ -23,32 +23,52 @@ import shell.{Field, FrameIn, PassSequencer, RegMap, Region, Register, RowToken,
 class FgmCore(val p: FgmParams) extends Module {
   override def desiredName = p.moduleName
 
-  /** w = (x, r), one signed word with frac_bits fraction bits per beat, tlast on the last */
-  val s_axis = IO(Flipped(new AxiStreamIO(p.streamW)))
-  /** u0 (nu words) or z (n words), same word format, tlast on the last */
-  val m_axis = IO(new AxiStreamIO(p.streamW))
+  import p.{K, Kp, P, m, n, nu, nw}
+  val b = p.fracBits
+  /** the problem id's width (tuser): interleaving cores only */
+  val sW = log2Ceil(Kp)
+
+  /** w = (x, r), one signed word with frac_bits fraction bits per beat, tlast on the last; tuser: problem id */
+  val s_axis = IO(Flipped(new AxiStreamIO(p.streamW, sW)))
+  /** u0 (nu words) or z (n words), same word format, tlast on the last; tuser: problem id */
+  val m_axis = IO(new AxiStreamIO(p.streamW, sW))
   /** configuration, status and the data memories */
   val s_axil = IO(Flipped(new AxiLiteIO(p.axiAddrW)))
-
-  import p.{K, P, m, n, nu, nw}
-  val b = p.fracBits
 
   // ------------------------------------------------------------------ registers, input frame, sequencer
   val regs = new SolverRegs(s_axil, FgmRegs.map(p))
   /** w = (x, r), saturated to the state box */
-  val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi)))
+  val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi), Kp))
   frameIn.io.s_axis <> s_axis
   frameIn.io.hold := regs.ctrlHold
   when(frameIn.io.sat) { regs.stSat := true.B }
   when(frameIn.io.tlastErr) { regs.stTlast := true.B }
-  val seq = Module(new PassSequencer(K, K + 1, p.cyclesPerIteration, copyAfterFirst = false, maxOut = n))
-  seq.io.frameReady := frameIn.io.full
-  seq.io.imax       := regs.imaxReg
-  seq.io.outLast    := Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)
-  seq.io.outFire    := m_axis.fire
-  frameIn.io.take   := seq.io.start
-  when(seq.io.done) { regs.solveDone(seq.io.runCycles) }
-  regs.busy := seq.io.running || seq.io.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
+  val outLast = Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)
+  /** per problem: the warm start is valid (interleaving; one problem uses the shared WARM_VALID) */
+  val warmOk = RegInit(VecInit(Seq.fill(Kp)(false.B)))
+  val ctl = if (Kp == 1) {
+    val seq = Module(new PassSequencer(K, K + 1, p.cyclesPerIteration, copyAfterFirst = false, maxOut = n))
+    seq.io.frameReady := frameIn.io.full
+    seq.io.imax       := regs.imaxReg
+    seq.io.outLast    := outLast
+    seq.io.outFire    := m_axis.fire
+    SeqControl(seq.io.tokN, seq.io.start, seq.io.copyNow, seq.io.running, seq.io.outValid, 0.U, seq.io.outIndex,
+      seq.io.outIsLast, seq.io.done, seq.io.runCycles, VecInit(Seq.fill(1)(false.B)))
+  } else {
+    val seq = Module(new TurnSequencer(K, Kp, p.cyclesPerIteration, maxOut = n))
+    seq.io.frameReady := frameIn.io.full
+    seq.io.frameSlot  := frameIn.io.id
+    seq.io.imax       := regs.imaxReg
+    seq.io.outLast    := outLast
+    seq.io.warm       := VecInit(warmOk.map(_ && regs.ctrlWarm))
+    seq.io.outFire    := m_axis.fire
+    when(seq.io.done) { warmOk(seq.io.outSlot) := true.B }
+    SeqControl(seq.io.tokN, seq.io.take, false.B, seq.io.running, seq.io.outValid, seq.io.outSlot, seq.io.outIndex,
+      seq.io.outIsLast, seq.io.done, seq.io.runCycles, seq.io.warmOf)
+  }
+  frameIn.io.take := ctl.take
+  when(ctl.done) { regs.solveDone(ctl.runCycles) }
+  regs.busy := ctl.running || ctl.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map { u =>
@@ -70,34 +90,42 @@ class FgmCore(val p: FgmParams) extends Module {
   val opbQ  = betaRam.io.rdata(2 * p.betaW - 1, p.betaW).asSInt
 
   // ------------------------------------------------------------------ solver state
+  // One problem: w and the operand y are registers; y moves from yNext when an iteration ends. Kp problems: per
+  // problem w, yNext (y+ of its last pass) and z; the operand registers wCur and yReg load a problem's w or yNext
+  // at the start of its turn (shell.TurnSequencer).
   val warmL = RegInit(false.B)
-  val wReg  = Reg(Vec(nw, SInt(p.xW.W)))
+  val wReg  = Seq.fill(Kp)(Reg(Vec(nw, SInt(p.xW.W))))
+  val wCur  = if (Kp == 1) wReg(0) else Reg(Vec(nw, SInt(p.xW.W)))
   val yReg  = Reg(Vec(n, SInt(p.yW.W)))
-  val yNext = Reg(Vec(n, SInt(p.yW.W)))
-  val zReg  = Reg(Vec(n, SInt(p.zW.W)))
-  // Per row unit, in the order the unit visits its rows: h = Phi_n w and the previous iterate z. Each is a
-  // rotating FIFO (Fig. 1 of 002), read at its head, so no row needs a K-way multiplexer.
-  val hFifo = Seq.fill(P)(Reg(Vec(K, SInt(p.sumW.W))))
-  val zFifo = Seq.fill(P)(Reg(Vec(K, SInt(p.zW.W))))
+  val yNext = Seq.fill(Kp)(Reg(Vec(n, SInt(p.yW.W))))
+  val zReg  = Seq.fill(Kp)(Reg(Vec(n, SInt(p.zW.W))))
+  // Per problem and row unit, in the order the unit visits its rows: h = Phi_n w and the previous iterate z. Each
+  // is a rotating FIFO (Fig. 1 of 002), read at its head, so no row needs a K-way multiplexer.
+  val hFifo = Seq.fill(Kp, P)(Reg(Vec(K, SInt(p.sumW.W))))
+  val zFifo = Seq.fill(Kp, P)(Reg(Vec(K, SInt(p.zW.W))))
 
   // Fetch: a token per matrix row follows the row down the pipeline. tokN is the token of the next cycle, from
   // the sequencer's next state: the row RAMs are addressed one cycle ahead and their outputs registered, so the
   // block RAM clock-to-output delay stays off the datapath without adding cycles.
-  type Token = RowToken
-  val tokN = seq.io.tokN
+  val tokN = ctl.tokN
   val tok0 = RegNext(tokN, 0.U.asTypeOf(tokN))
-  def tokAt(stage: Int): Token =
+  def tokAt(stage: Int): RowToken =
     if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(tokN), true.B)
+  /** the token is problem j's (always, for one problem) */
+  def mine(t: RowToken, j: Int): Bool = if (Kp == 1) true.B else t.slot === j.U
+  /** problem `slot`'s element of `xs` (the element itself for one problem) */
+  def ofSlot[T <: Data](xs: Seq[T], slot: UInt): T = if (Kp == 1) xs.head else VecInit(xs)(slot)
   val tok1    = tokAt(1)
   val tokSum  = tokAt(p.stageSum)
   val tokT    = tokAt(p.stageT)
   val tokZ    = tokAt(p.stageZ)
   val tokBnd  = tokAt(p.stageT - 2)
   val tokYsub = tokAt(p.stageZ + p.latMul)
-  // The z FIFOs' controls, each the registered condition on the token a stage earlier: they fan out to every
-  // register of the FIFOs, so they come straight from flip-flops (tok1 is tok0 registered; stageZ >= 1)
-  val loadZ = RegNext(tok0.valid && tok0.first && tok0.k === 0.U, false.B) // tok1: the first iteration's row 0
-  val rotZs = { val t = tokAt(p.stageZ - 1); RegNext(t.valid && !t.pass0, false.B) } // tokZ: an iteration row
+  // The FIFOs' controls, per problem, each the registered condition on the token a stage earlier: they fan out to
+  // every register of the FIFOs, so they come straight from flip-flops (tok1 is tok0 registered; stageZ >= 1)
+  val loadZ = (0 until Kp).map(j => RegNext(tok0.valid && tok0.first && tok0.k === 0.U && mine(tok0, j), false.B))
+  val rotZs = { val t = tokAt(p.stageZ - 1); (0 until Kp).map(j => RegNext(t.valid && !t.pass0 && mine(t, j), false.B)) }
+  val rotHs = { val t = tokAt(p.stageSum - 1); (0 until Kp).map(j => RegNext(t.valid && mine(t, j), false.B)) }
 
   for (u <- 0 until P) {
     matRam(u).io.raddr := Cat(tokN.pass0, tokN.k) // second block at K2 = 2^ceil(log2 K): no adder
@@ -109,7 +137,7 @@ class FgmCore(val p: FgmParams) extends Module {
   }
 
   val yPad = VecInit((0 until m).map(j => if (j < n) yReg(j).pad(p.opW) else 0.S(p.opW.W)))
-  val wPad = VecInit((0 until m).map(j => if (j < nw) wReg(j).pad(p.opW) else 0.S(p.opW.W)))
+  val wPad = VecInit((0 until m).map(j => if (j < nw) wCur(j).pad(p.opW) else 0.S(p.opW.W)))
   val ovfNow = Wire(Vec(P, Bool()))
 
   val dp = Module(new DotProductTree(DotProductParams(m, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding, p.target)))
@@ -123,10 +151,10 @@ class FgmCore(val p: FgmParams) extends Module {
     tree.io.op      := Mux(tok1.pass0, wPad, yPad)
 
     // First pass: h = Phi_n w enters the FIFO one row per cycle; each iteration row reads the head and rotates.
-    val hHead = hFifo(u)(0)
-    when(tokSum.valid) {
-      for (i <- 0 until K - 1) hFifo(u)(i) := hFifo(u)(i + 1)
-      hFifo(u)(K - 1) := Mux(tokSum.pass0, tree.io.sum, hHead)
+    val hHead = ofSlot((0 until Kp).map(j => hFifo(j)(u)(0)), tokSum.slot)
+    for (j <- 0 until Kp) when(rotHs(j)) {
+      for (i <- 0 until K - 1) hFifo(j)(u)(i) := hFifo(j)(u)(i + 1)
+      hFifo(j)(u)(K - 1) := Mux(tokSum.pass0, tree.io.sum, hFifo(j)(u)(0))
     }
 
     // Cold start z0 = proj(0), from this row's bounds during the first pass.
@@ -146,16 +174,17 @@ class FgmCore(val p: FgmParams) extends Module {
     val z = proj.io.out
     // y+ = (1 + beta) z+ - beta z, z the previous iterate of the same row: the head of the z FIFO, which the
     // first iteration loads from the z0 registers (rows u, u+P, ...) as it reads it.
-    val load = loadZ
-    val zSrc = VecInit((0 until K).map { i =>
-      val r = i * P + u
-      Mux(load, if (r < n) zReg(r) else 0.S(p.zW.W), zFifo(u)(i))
-    })
-    val zOld = zSrc(0)
-    val rotZ = rotZs
-    when(load || rotZ) {
-      for (i <- 0 until K) zFifo(u)(i) := Mux(rotZ, if (i < K - 1) zSrc(i + 1) else z, zSrc(i))
+    val zHeads = (0 until Kp).map { j =>
+      val zSrc = VecInit((0 until K).map { i =>
+        val r = i * P + u
+        Mux(loadZ(j), if (r < n) zReg(j)(r) else 0.S(p.zW.W), zFifo(j)(u)(i))
+      })
+      when(loadZ(j) || rotZs(j)) {
+        for (i <- 0 until K) zFifo(j)(u)(i) := Mux(rotZs(j), if (i < K - 1) zSrc(i + 1) else z, zSrc(i))
+      }
+      zSrc(0)
     }
+    val zOld      = ofSlot(zHeads, tokZ.slot)
     val ra        = FixedOps.mulRoundPipelined(opbQ, z, p.latMul, b, p.rounding, p.target)
     val rb        = FixedOps.mulRoundPipelined(betaQ, zOld, p.latMul, b, p.rounding, p.target)
     val (y, ofY)  = FixedOps.satSub(ra, rb, p.yW)
@@ -172,40 +201,67 @@ class FgmCore(val p: FgmParams) extends Module {
 
   // Register writes: z0 = y0 at the start (warm: the previous solution shifted by one stage, the last stage
   // repeated, Fig. 2b) or in the first pass (cold), y+/z+ at the end of each row's pipeline, the operand copy.
-  // Both decided a cycle ahead and registered: they fan out to every row register.
-  val copyNow  = seq.io.copyNow
-  val warmNow  = regs.ctrlWarm && regs.warmValid
-  val warmCopy = RegNext(seq.io.start && warmNow, false.B)
-  when(seq.io.start) {
-    wReg  := frameIn.io.frame
-    warmL := warmNow
-  }
-  val weCold = RowToken.enables(tok1, tok1.valid && tok1.pass0 && !warmL, K)
-  val tokY1  = tokAt(p.stageY - 1)
-  val weY    = RowToken.enables(tokY1, tokY1.valid && !tokY1.pass0, K)
-  for (r <- 0 until n) {
-    val u   = r % P
-    val k   = r / P
-    val src = if (r < n - nu) r + nu else r
-    when(warmCopy) {
-      yReg(r) := zReg(src).pad(p.yW)
-      zReg(r) := zReg(src)
-    }.elsewhen(weCold(k)) {
-      yReg(r) := unitCold(u).pad(p.yW)
-      zReg(r) := unitCold(u)
-    }.elsewhen(copyNow) {
-      yReg(r) := yNext(r)
+  // All decided a cycle ahead and registered: they fan out to every row register.
+  val tokY1 = tokAt(p.stageY - 1)
+  def shifted(r: Int): Int = if (r < n - nu) r + nu else r
+  if (Kp == 1) {
+    val warmNow  = regs.ctrlWarm && regs.warmValid
+    val warmCopy = RegNext(ctl.take && warmNow, false.B)
+    when(ctl.take) {
+      wReg(0) := frameIn.io.frame
+      warmL   := warmNow
     }
-    when(weY(k)) {
-      yNext(r) := unitY(u)
-      zReg(r)  := unitZ(u)
+    val weCold = RowToken.enables(tok1, tok1.valid && tok1.pass0 && !warmL, K)
+    val weY    = RowToken.enables(tokY1, tokY1.valid && !tokY1.pass0, K)
+    for (r <- 0 until n) {
+      val u = r % P
+      val k = r / P
+      when(warmCopy) {
+        yReg(r)    := zReg(0)(shifted(r)).pad(p.yW)
+        zReg(0)(r) := zReg(0)(shifted(r))
+      }.elsewhen(weCold(k)) {
+        yReg(r)    := unitCold(u).pad(p.yW)
+        zReg(0)(r) := unitCold(u)
+      }.elsewhen(ctl.copyNow) {
+        yReg(r) := yNext(0)(r)
+      }
+      when(weY(k)) {
+        yNext(0)(r) := unitY(u)
+        zReg(0)(r)  := unitZ(u)
+      }
+    }
+  } else {
+    for (j <- 0 until Kp) when(ctl.take && frameIn.io.id === j.U) { wReg(j) := frameIn.io.frame }
+    // the operands of a turn, loaded as its row 0 reaches tok0 (in use from tok1 on)
+    val turn0 = RegNext(tokN.valid && tokN.k === 0.U, false.B)
+    for (i <- 0 until nw) when(turn0 && tok0.pass0) { wCur(i) := ofSlot(wReg.map(_(i)), tok0.slot) }
+    for (r <- 0 until n) when(turn0 && !tok0.pass0) { yReg(r) := ofSlot(yNext.map(_(r)), tok0.slot) }
+    for (j <- 0 until Kp) {
+      val warmCopy = RegNext(turn0 && tok0.pass0 && mine(tok0, j) && ctl.warmOf(j), false.B)
+      val weCold   = RowToken.enables(tok1, tok1.valid && tok1.pass0 && mine(tok1, j) && !ctl.warmOf(j), K)
+      val weY      = RowToken.enables(tokY1, tokY1.valid && !tokY1.pass0 && mine(tokY1, j), K)
+      for (r <- 0 until n) {
+        val u = r % P
+        val k = r / P
+        when(warmCopy) {
+          yNext(j)(r) := zReg(j)(shifted(r)).pad(p.yW)
+          zReg(j)(r)  := zReg(j)(shifted(r))
+        }.elsewhen(weCold(k)) {
+          yNext(j)(r) := unitCold(u).pad(p.yW)
+          zReg(j)(r)  := unitCold(u)
+        }.elsewhen(weY(k)) {
+          yNext(j)(r) := unitY(u)
+          zReg(j)(r)  := unitZ(u)
+        }
+      }
     }
   }
 
   // ------------------------------------------------------------------ output: u0 or all of z
-  m_axis.tvalid := seq.io.outValid
-  m_axis.tdata  := zReg(seq.io.outIndex).pad(p.streamW).asUInt
-  m_axis.tlast  := seq.io.outIsLast
+  m_axis.tvalid := ctl.outValid
+  m_axis.tdata  := ofSlot(zReg.map(_(ctl.outIndex)), ctl.outSlot).pad(p.streamW).asUInt
+  m_axis.tlast  := ctl.outIsLast
+  m_axis.tuser.foreach(_ := ctl.outSlot)
   bus.Protocol.streamOut("m_axis", m_axis)
 
   // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
@@ -249,6 +305,7 @@ class FgmCore(val p: FgmParams) extends Module {
           }
         }
         regs.warmValid := false.B
+        warmOk.foreach(_ := false.B)
       }
     },
     (inRegion("MAT_A") || inRegion("MAT_F")) -> { () =>
@@ -287,7 +344,7 @@ object FgmRegs {
         Field.const("nu", 24, 8, p.nu, "inputs per stage")),
       ctrl = SolverRegs.ctrlFields(p.warmDefault, p.outAllDefault, "u0 (nu words)"),
       status = SolverRegs.statusFields(),
-      cyclesPerIteration = p.cyclesPerIteration, imaxDefault = p.imaxDefault)
+      cyclesPerIteration = p.periodCycles, imaxDefault = p.imaxDefault)
     val word = s"signed, ${p.fracBits} fraction bits, sign-extended to 32 bits"
     def fits(w: Int) = s"$word; must fit $w bits, else SLVERR"
     val beta = Seq(

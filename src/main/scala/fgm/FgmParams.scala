@@ -12,6 +12,7 @@ import fixed.{FixedOps, Rounding}
   * @param nu     inputs per stage (the warm start shifts by nu)
   * @param nw     parameter words per solve: state x then reference r
   * @param P      parallelism: row units working on rows p, p+P, p+2P, ...
+  * @param Kp     problems interleaved on the row units (shell.TurnSequencer), 1: one at a time
   * @param a      (I - H_n), n x n
   * @param f      Phi_n, n x nw
   */
@@ -21,6 +22,7 @@ case class FgmParams(
     nu: Int,
     nw: Int,
     P: Int,
+    Kp: Int,
     fracBits: Int,
     latAdd: Int,
     latMul: Int,
@@ -51,6 +53,7 @@ case class FgmParams(
   require(nw >= 1, s"nw (state + reference words) must be >= 1, got nw=$nw")
   require(P >= 1, s"P must be >= 1: got P=$P")
   require(P <= n, s"P must not exceed n (one row unit per variable at most): got P=$P, n=$n")
+  require(Kp >= 1 && Kp <= 16, s"problems must be in [1, 16]: got $Kp")
   require(latAdd >= 0 && latMul >= 0, s"latencies must be >= 0: got lat_add=$latAdd, lat_mul=$latMul")
   require(fracBits >= 1, s"frac_bits must be >= 1, got $fracBits")
   for ((nm, w) <- Seq("coef" -> coefW, "x" -> xW, "z" -> zW, "beta" -> betaW))
@@ -87,15 +90,20 @@ case class FgmParams(
   val stageY:   Int = stageZ + latMul + latAdd
   /** Cycles per iteration, eq. (23) of 002 with ceil(log2 max(n, nw)) levels. */
   val cyclesPerIteration: Int = K + latAdd * depth + 2 * latMul + 3 * latAdd + 1
+  /** Cycles between two passes of one problem: L alone, a round of Kp turns of K cycles when interleaving. */
+  val periodCycles: Int = if (Kp == 1) cyclesPerIteration else math.max(cyclesPerIteration, Kp * K)
   val cyclesEq23: Int = K + latAdd * log2Ceil(n) + 2 * latMul + 3 * latAdd + 1
   /** From the handshake of the last input word to the first output word valid: 3 + K + Imax * L (the first pass
     * issues K rows and leaves one cycle, in which the cold start's last registers are written). */
-  val solveOverhead: Int = 3 + K
-  def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * cyclesPerIteration
+  val solveOverhead: Int = if (Kp == 1) 3 + K else 3 + cyclesPerIteration + 2
+  /** Interleaving (shell.TurnSequencer): the least latency, when the frame arrives just before its slot's turn
+    * (it waits up to periodCycles - 1 more): taken, loaded, Imax + 1 turns, the last pass's drain, the answer
+    * queue and the output register. */
+  def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * periodCycles
   val multipliers: Int = P * m + 2 * P
 
   val moduleName: String =
-    s"FgmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (target == Target.Generic) "" else s"_${target.name}")
+    s"FgmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (Kp > 1) s"_k$Kp" else "") + (if (target == Target.Generic) "" else s"_${target.name}")
 
   // ---- register map (word addresses; byte address = 4 * word) ----
   val pBits: Int = log2Ceil(P)
@@ -133,6 +141,7 @@ object FgmParams {
       nu = j("nu").num.toInt,
       nw = j("nw").num.toInt,
       P = j("P").num.toInt,
+      Kp = j.obj.get("problems").map(_.num.toInt).getOrElse(1),
       fracBits = j("frac_bits").num.toInt,
       latAdd = j("lat_add").num.toInt,
       latMul = j("lat_mul").num.toInt,

@@ -14,11 +14,18 @@ import mem.InitRam
   * @param words  words per frame
   * @param wordW  width of the saturated words
   * @param box    (lo, hi) per word, the power-on contents of the box RAM
+  * @param ids    problems of an interleaving core (> 1: s_axis has tuser, the frame's problem id, taken from its
+  *               first word and saturated to ids - 1, which sets `sat`)
   */
-class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigInt, BigInt)]) extends Module {
+class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigInt, BigInt)], ids: Int = 1)
+    extends Module {
   require(box.length == words, s"FrameIn: ${box.length} boxes for $words words")
+  require(ids >= 1, s"FrameIn: ids must be >= 1, got $ids")
+  val idW = if (ids > 1) log2Ceil(ids) else 0
   val io = IO(new Bundle {
-    val s_axis = Flipped(new AxiStreamIO(streamW))
+    val s_axis = Flipped(new AxiStreamIO(streamW, idW))
+    /** the complete frame's problem id (zero width without interleaving) */
+    val id = Output(UInt(idW.W))
     /** accept no new frame (words of a frame already begun are still taken) */
     val hold = Input(Bool())
     /** the core takes the complete frame this cycle */
@@ -60,7 +67,14 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   val lo = boxRam.io.rdata(wordW - 1, 0).asSInt
   val hi = boxRam.io.rdata(2 * wordW - 1, wordW).asSInt
   val (v, clamped) = FixedOps.clamp(io.s_axis.tdata.asSInt, lo, hi)
-  io.sat      := fire && clamped
+  // the problem id: the first word's tuser, saturated to the problems there are
+  val idReg = RegInit(0.U(idW.W))
+  val idSat = io.s_axis.tuser.map(u => u >= ids.U && atZero).getOrElse(false.B)
+  io.s_axis.tuser.foreach { u =>
+    when(fire && atZero) { idReg := Mux(u >= ids.U, (ids - 1).U, u) }
+  }
+  io.id := idReg
+  io.sat      := fire && (clamped || idSat)
   io.tlastErr := fire && (io.s_axis.tlast =/= last)
   when(fire) {
     buf(cnt) := v(wordW - 1, 0).asSInt

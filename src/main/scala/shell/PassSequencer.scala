@@ -4,7 +4,7 @@ import chisel3._
 import chisel3.util._
 
 /** A matrix row on its way down a core's pipeline (one per row unit and cycle). */
-class RowToken(kW: Int) extends Bundle {
+class RowToken(kW: Int, sW: Int = 0) extends Bundle {
   val valid = Bool()
   /** row of the first pass (the parameter pass: h = Phi w for FGM, G~ (w, 1) for ADMM) */
   val pass0 = Bool()
@@ -12,6 +12,8 @@ class RowToken(kW: Int) extends Bundle {
   val first = Bool()
   /** row index within the unit */
   val k = UInt(kW.W)
+  /** the problem the row belongs to (interleaving cores, shell.TurnSequencer; zero width otherwise) */
+  val slot = UInt(sW.W)
 }
 
 object RowToken {

@@ -1,0 +1,85 @@
+"""The cycle contract of a core that interleaves K_p independent problems on its row units (shell.TurnSequencer):
+its rounds, when a problem's passes run, when its answer comes, and the throughput.
+
+Time runs in rounds of R = max(L, K_p K) cycles from reset: problem slot j owns the turn of K cycles at round cycle
+j K, in which the row units issue the rows of its next pass (the first pass, then one per iteration); a turn
+of a slot with nothing to do issues nothing. Cycle 0 is the first cycle after reset; the token register holds row
+0 of slot j's turns at cycles 1 + j K + q R.
+
+A frame whose last word's handshake is at cycle a is taken at a + 1 if its slot is free (else in the cycle after
+the slot's answer has left), and its first pass runs in the first turn of its slot that starts at T0 >= take + 2.
+Its answer's first word is valid at T0 + Imax R + L + 2, or in the cycle after the previous answer's last word
+when that is later. K_p = 1 is the plain sequencer (shell.PassSequencer): 3 + K + Imax L after the last word.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+# the answer's first word is valid ANSWER_AFTER cycles after the last iteration's results are complete (L cycles
+# after its turn began): the answer queue's register and the output register
+ANSWER_AFTER = 2
+# from the last input word's handshake to the first turn the frame can use: taken a cycle later, the slot loaded a
+# cycle after that, and the turn decided in the cycle before it begins
+TAKE_TO_TURN = 3
+# from the answer's last word's handshake to the first turn the next frame of the slot can use: the slot free a
+# cycle later, the waiting frame taken then, loaded a cycle after, the turn decided in the cycle before it begins
+FREE_TO_TURN = 3
+
+
+@dataclass(frozen=True)
+class Interleave:
+    """K rows per pass and unit, Kp problems, L cycles per pass (the pipeline, eq. (23) of 002)."""
+    K: int
+    Kp: int
+    L: int
+
+    @property
+    def R(self) -> int:
+        """cycles between two passes of one problem"""
+        return max(self.L, self.Kp * self.K) if self.Kp > 1 else self.L
+
+    def turn_start(self, slot: int, earliest: int) -> int:
+        """the first cycle >= earliest (cycles from reset) at which slot's turn begins"""
+        phase = 1 + slot * self.K
+        if earliest <= phase:
+            return phase
+        return phase + -(-(earliest - phase) // self.R) * self.R
+
+    def answer_from_turn(self, imax: int) -> int:
+        """from the first pass's turn to the answer's first word valid (the output port free)"""
+        return imax * self.R + self.L + ANSWER_AFTER
+
+    def latency_bounds(self, imax: int) -> tuple[int, int]:
+        """from the last input word's handshake to the first output word, a free slot and output port: the least
+        and the most (the wait for the slot's turn is between 0 and R - 1 cycles)"""
+        lo = TAKE_TO_TURN + self.answer_from_turn(imax)
+        return lo, lo + self.R - 1
+
+    def saturated(self, out_words: int, nw: int) -> bool:
+        """with frames always waiting, in slot order, every turn carries a pass: a slot's answer leaves and its next
+        frame is taken and loaded before its next turn, and the frame buffer refills within a turn"""
+        # slack between a slot's answer leaving and its next turn; the next slot's frame streams in (nw words) after
+        # this slot's frame is taken and must be taken before that slot's turn, K cycles later
+        slack = self.R - (self.L + ANSWER_AFTER + out_words - 1) - FREE_TO_TURN
+        return slack >= 0 and nw + 1 <= self.K + slack
+
+    def period(self, imax: int, out_words: int, nw: int) -> int:
+        """cycles per solve of each problem when frames always wait (in slot order, no output backpressure)"""
+        lost = 0 if self.saturated(out_words, nw) else 1
+        return (imax + 1 + lost) * self.R
+
+    def throughput(self, imax: int, out_words: int, nw: int) -> float:
+        """solves per cycle, frames always waiting"""
+        return self.Kp / self.period(imax, out_words, nw)
+
+    def mac_utilisation(self, imax: int, out_words: int, nw: int) -> float:
+        """share of cycles in which the row units take a row, frames always waiting"""
+        return self.Kp * (imax + 1) * self.K / self.period(imax, out_words, nw)
+
+
+def covering_problems(K: int, L: int, out_words: int, nw: int, most: int = 16) -> int:
+    """the least K_p at which every turn carries a pass when frames always wait (1 when none up to `most` does)"""
+    for kp in range(2, most + 1):
+        if Interleave(K, kp, L).saturated(out_words, nw):
+            return kp
+    return 1
