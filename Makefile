@@ -1,4 +1,4 @@
-# User interface of the project: setup, verilog, design, test, demo, clean.
+# User interface of the project: setup, verilog, c, design, test, demo, clean.
 PYTHON      ?= python3
 VENV        ?= .venv
 PY          := $(VENV)/bin/python
@@ -24,7 +24,7 @@ JOBS        ?= auto
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT)) \
            $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL))
 
-.PHONY: setup verilog design test test-slow demo clean
+.PHONY: setup verilog c design test test-slow demo clean
 
 $(VENV)/.installed: requirements.txt pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -41,6 +41,11 @@ setup: $(VENV)/.installed $(SBT_JAR)
 ## verilog: SystemVerilog, core.json and C header of CORE for PROBLEM into OUT (P, B override the spec)
 verilog: setup
 	$(MPC) verilog $(GEN_ARGS)
+
+## c: portable C99 solvers of CORE (fgm, admm) for PROBLEM into OUT, bit-exact fixed point and float (the same
+## overrides as verilog; needs the Python environment and gcc to build them, not sbt or Java)
+c: $(VENV)/.installed
+	$(MPC) c $(GEN_ARGS)
 
 ## design: design report; with TOL, choose frac_bits and Imax with guarantees and write the spec for `make verilog`
 design: setup

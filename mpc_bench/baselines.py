@@ -1,9 +1,9 @@
 """Software baselines of the QP solver cores on this CPU: the fast gradient method (Algorithm 1 of 002) and ADMM
-(Algorithm 2 of 002) in float64 numpy, and the QP solvers of mpc_bench.qp_solvers (OSQP, DAQP, PIQP, ProxQP,
-Clarabel, quadprog), all on the same QPs of one closed loop, with the loop, the reference solutions and the timing
-(per-solve wall time and each solver's own time over replays, half before and half after the hardware jobs, the
-process pinned to one CPU), and the report cells that set the solvers' times against a core. The MINRES baselines
-are mpc_bench.baselines_minres."""
+(Algorithm 2 of 002) in float64 numpy, the QP solvers of mpc_bench.qp_solvers (OSQP, DAQP, PIQP, ProxQP, Clarabel,
+quadprog) and the generated C solvers (mpc_bench.c_timing), all on the same QPs of one closed loop, with the loop,
+the reference solutions and the timing (per-solve wall time and each solver's own time over replays, half before
+and half after the hardware jobs, the process pinned to one CPU), and the report cells that set the solvers' times
+against a core. The MINRES baselines are mpc_bench.baselines_minres."""
 from __future__ import annotations
 
 import contextlib
@@ -265,6 +265,14 @@ def _makers(problem: str, lqp, numpy_maker) -> tuple[list, list[str]]:
     return makers[:k] + [numpy_maker] + makers[k:], missing
 
 
+def _with_c(kind: str, d, makers: list, missing: list) -> tuple[list, list]:
+    """The generated C solvers of the design after the others (mpc_bench.c_timing; not run without gcc)."""
+    from mpc_bench.c_timing import c_makers
+
+    cm, cmiss = c_makers(kind, d)
+    return makers + cm, missing + cmiss
+
+
 def prepare_fgm_software(problem, designs: dict, steps: int, hold: int) -> SwCase:
     """The masses loop for the FGM solvers, and the error of the core's golden model (per b) on it."""
     from mpc_cores.fgm.model import FgmFixed
@@ -282,7 +290,8 @@ def prepare_fgm_software(problem, designs: dict, steps: int, hold: int) -> SwCas
         err = [float(np.abs(m.solve(quantize(w, db.b)).z[:nu] / (1 << db.b) - u_opt[k]).max())
                for k, w in enumerate(W)]
         core_err[b] = (max(err), float(np.median(err)))
-    makers, missing = _makers("box", box_qp(qp), lambda: NumpyFgm(qp, nu, d.c, d.lam_max, d.iterations))
+    makers, missing = _with_c("fgm", d, *_makers("box", box_qp(qp), lambda: NumpyFgm(qp, nu, d.c, d.lam_max,
+                                                                                    d.iterations)))
     return SwCase("fgm", W, u_opt, nu, makers, {
         "core_err": core_err, "steps": steps, "hold": hold, "imax": d.iterations, "missing": missing,
         "u_box": (float(np.min(problem.umin)), float(np.max(problem.umax)))})
@@ -309,7 +318,7 @@ def prepare_admm_software(problem, designs: dict, steps: int, hold: int) -> SwCa
         core_err[b] = (max(err), float(np.median(err)), int(np.argmax(err)))
     a, f = NumpyAdmm(d), AdmmFloat(d)
     same = max(float(np.abs(a.solve(w) - f.solve(w)[0]).max()) for w in W[: min(len(W), 20)])
-    makers, missing = _makers("soft", lqp, lambda: NumpyAdmm(d))
+    makers, missing = _with_c("admm", d, *_makers("soft", lqp, lambda: NumpyAdmm(d)))
     lo = float(np.min(problem.input_rate.dumin))
     hi = float(np.max(problem.input_rate.dumax))
     return SwCase("admm", W, u_opt, nu, makers, {

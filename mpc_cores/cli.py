@@ -2,6 +2,7 @@
 
   design   design report of CORE for PROBLEM; with --tol (kinds with certified designs), the certified spec
   verilog  SystemVerilog, core.json, SystemRDL and its exports, FuseSoC core file into --out
+  c        portable C99 solvers into --out: bit-exact fixed point and float (mpc_cores.csrc; no sbt, no Java)
   demo     the closed loop with the RTL (Verilator) on the bundled example
   table2   closed-loop cost tables (mpc_bench.tables)
   bench    benchmark report (mpc_bench)
@@ -123,6 +124,22 @@ def cmd_verilog(a) -> None:
     print("wrote " + ", ".join(str(out / f) for f in files))
 
 
+def cmd_c(a) -> None:
+    from mpc_cores.kind import load
+
+    kind = _kind(a)
+    if kind.c_fn is None:
+        with_c = [k.name for k in registry.kinds().values() if k.c_fn]
+        refuse(f"CORE={kind.name}: C solvers are generated for the cores {', '.join(with_c)}")
+    kind, d = _design(a)
+    out = Path(a.out or f"build/{kind.name}_{d.name}_p{d.P}")
+    try:
+        files = load(kind.c_fn)(d, out)
+    except DesignError as e:
+        refuse(str(e))
+    print("wrote " + ", ".join(str(f) for f in files))
+
+
 def cmd_demo(a) -> None:
     from mpc_cores.demo import DemoError, run_demo
 
@@ -161,7 +178,8 @@ def main(argv=None) -> None:
     ap = _Parser(prog="mpc-cores", description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     for name, what in (("design", "design report (with --tol: certified design)"),
-                       ("verilog", "generate a core"), ("demo", "closed loop with the RTL")):
+                       ("verilog", "generate a core"), ("c", "portable C99 solvers (bit-exact fixed point, float)"),
+                       ("demo", "closed loop with the RTL")):
         s = sub.add_parser(name, help=what)
         s.add_argument("--core", default="fgm", help=f"core kind: {', '.join(kinds)}")
         s.add_argument("--problem", default=str(REPO / "examples/masses.yaml"))
@@ -195,7 +213,7 @@ def main(argv=None) -> None:
     a = ap.parse_args(argv)
     if a.cmd == "demo" and not a.out:
         a.out = "build/demo"
-    {"design": cmd_design, "verilog": cmd_verilog, "demo": cmd_demo}[a.cmd](a)
+    {"design": cmd_design, "verilog": cmd_verilog, "c": cmd_c, "demo": cmd_demo}[a.cmd](a)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,8 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
   rtl_controller(dut, problem)  optional: async, the closed loop's RTL side inside cocotb (the testbench driver,
                        reset, and a controller recording `.words` in the golden controller's layout); without it
                        mpc_cores.closedloop_tb drives a fixed-point core (FGM, ADMM) through mpc_cores.driver.TB
+  c_fn(d, out_dir)     optional: `make c`, the portable C99 solvers of a design (bit-exact fixed point and float,
+                       mpc_cores.csrc), returning the paths written (None: the kind has no C solver)
 
 Modules are named by strings and imported on use, so the registry imports no core package and no package
 imports the testbenches or the benchmark.
@@ -61,6 +63,7 @@ class CoreKind:
     cycle_test: str = "cycle_contract"  # the testbench's cocotb test that measures the cycle contract
     certificate_fn: str | None = None  # "module:function(design) -> text" printed after the design report
     rtl_controller_fn: str | None = None  # "module:async function(dut, problem) -> (tb, controller)", tb reset
+    c_fn: str | None = None        # "module:function(design, out_dir) -> list of paths": `make c`
 
     def __post_init__(self):
         n = self.name

@@ -8,6 +8,7 @@ KIND = CoreKind(
     spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all", "target",
                   "safety", "rho", "soft_scale", "du_scale", "sizing_seed", "sizing_solves"),
     controllers_fn="mpc_cores.admm.kind:controllers",
+    c_fn="mpc_cores.admm.c:write_c",
 )
 
 

@@ -9,6 +9,7 @@ KIND = CoreKind(
                   "c", "int_bits", "stream_width", "tol", "problems"),
     overrides=("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "target", "problems"),
     controllers_fn="mpc_cores.fgm.kind:controllers",
+    c_fn="mpc_cores.fgm.c:write_c",
     tol_fn="mpc_cores.fgm.certify:write_certified_spec",
     certificate_fn="mpc_cores.fgm.certify:certificate_text",
 )

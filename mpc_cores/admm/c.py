@@ -1,0 +1,218 @@
+"""The ADMM core as portable C99 (`make c CORE=admm`): `<module>_solver.{h,c}`, bit-exact against AdmmFixed (the
+order of operations in mpc_cores/admm/model.py: the input clip, G~ (w, 1) once, the shifts by k_j, the adder trees,
+the integer projection with its rounded halving, every saturation and its flag, the warm start of (z, nu)), and
+`<module>_solver_float.{h,c}`, Algorithm 2 of 002 in double on the unquantised data with the same rho_j and warm
+start (AdmmFloat(d)). The shared text is mpc_cores.csrc.emit; docs/c.md."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from mpc_cores.admm.model import shift_stages
+from mpc_cores.admm.problem import BOX
+from mpc_cores.csrc import api as capi
+from mpc_cores.csrc import emit
+from mpc_cores.errors import DesignError
+
+TITLE = "ADMM (Algorithm 2 of 002) with input-rate and soft state constraints"
+OVF = ("v", "y", "q", "z", "d", "nu", "sum")     # AdmmSolveResult.flags, in the order of the overflow_signals bits
+STATE = [("z", "z", "the last solution"), ("nu", "nu", "its multipliers")]
+
+
+def write_c(d, out_dir, cfg: dict | None = None) -> list[Path]:
+    """The fixed-point and float solvers of design `d` into out_dir (CoreKind.c_fn); cfg: the config.json the
+    fixed-point one is built from (default d.config(); it matches AdmmFixed(cfg))."""
+    return capi.write_c(d, out_dir, cfg, fixed_files, float_files)
+
+
+def warm_source(cfg: dict) -> np.ndarray:
+    """Index of z (and nu) each component of the warm start comes from: the model's own shift_stages."""
+    return shift_stages(np.arange(int(cfg["n"])), int(cfg["N"]), int(cfg["nu"]))
+
+
+def check_headroom(cfg: dict) -> None:
+    """Every intermediate of the generated code below 2^HEADROOM_BITS (emit.check_headroom)."""
+    w, b = cfg["widths"], int(cfg["frac_bits"])
+    wb = lambda k: emit.width_bits(w, k)  # noqa: E731
+    k = np.asarray(cfg["shift"], dtype=np.int64)
+    up, down = max(0, int(k.max())), max(0, -int(k.min()))
+    soft = [abs(int(x)) for x in cfg["soft_c"] + cfg["soft_r"]] + [1]
+    emit.check_headroom({
+        "products": wb("coef") + max(wb("v"), wb("w"), b + 1) + 1,
+        "sum of |products|": wb("sum") + math.ceil(math.log2(int(cfg["n"]))),
+        "rho z - nu": max(wb("z") + up, wb("nu")) + 1,
+        "y + nu / rho": max(wb("y"), wb("nu") + down) + 1,
+        "projection": max(wb("q"), max(soft).bit_length()) + 4,
+        "nu + rho (y - z)": max(wb("nu"), wb("d") + up, wb("y") + 1, wb("z") + 1) + 1,
+    })
+
+
+def _proj(real: bool) -> str:
+    """The projection onto K: boxes clipped, free components passed, soft pairs (x, d) onto |x - c| <= r + d,
+    d >= 0; in integers as mpc_cores.admm.model.proj_soft (the halving rounded), in reals as project_soft."""
+    t, clip = ("mpc_real_t", "clip") if real else ("int64_t", "mpc_clip")
+    half = "(e + d) / 2" if real else "mpc_rnd(e + d, 1)"
+    over = "m <= 0" if real else "e + d <= 0"
+    return f"""\
+static void proj(const {t} *q, {t} *z)
+{{
+    int i;
+    for (i = 0; i < N; i++)
+        z[i] = KIND[i] == KIND_BOX ? {clip}(q[i], LO[i], HI[i]) : q[i];
+    for (i = 0; i < NS; i++) {{
+        {t} x = q[SX[i]], d = q[SD[i]], c = SC[i], r = SR[i];
+        {t} t = x - c, e = (t < 0 ? -t : t) - r, m = {half};
+        if (d >= 0 && d >= e)
+            continue;                                   /* inside: z = q */
+        if (e <= 0) {{                                   /* below the flat edge */
+            z[SD[i]] = 0;
+        }} else if ({over}) {{                        /* beyond the corner */
+            z[SX[i]] = t < 0 ? c - r : c + r;
+            z[SD[i]] = 0;
+        }} else {{                                        /* onto the slanted edge */
+            z[SX[i]] = t < 0 ? c - (r + m) : c + (r + m);
+            z[SD[i]] = m;
+        }}
+    }}
+}}
+"""
+
+
+# The solve's start: warm, (z, nu) of the last solve shifted by one stage; cold, z = proj(0), nu = 0.
+START = """\
+    /* warm start: (z, nu) of the last solve shifted by one stage; cold: z = proj(0), nu = 0 */
+    warm = ctrl->warm_start && state->warm_valid;
+    for (i = 0; i < N; i++) {
+        z[i] = warm ? state->z[WARM_SRC[i]] : 0;
+        nu[i] = warm ? state->nu[WARM_SRC[i]] : 0;
+    }
+    if (!warm) {
+        for (i = 0; i < N; i++)
+            q[i] = 0;
+        proj(q, z);
+    }
+"""
+
+
+def _data(cfg_or: dict, real: bool) -> str:
+    """The projection's data (kinds, boxes, soft pairs) and the warm start's source indices."""
+    lo, hi, sc, sr = (cfg_or[k] for k in ("lo", "hi", "soft_c", "soft_r"))
+    arr = (lambda nm, v: emit.array(nm, v, real=True)) if real else emit.array
+    return (f"#define NS {len(cfg_or['soft_x'])}               /* soft pairs (x, delta), all stages */\n"
+            f"#define KIND_BOX {BOX}\n" + emit.array("KIND", cfg_or["kind"], ctype="uint8_t")
+            + arr("LO", lo) + arr("HI", hi) + emit.array("SX", cfg_or["soft_x"], ctype="int")
+            + emit.array("SD", cfg_or["soft_d"], ctype="int") + arr("SC", sc) + arr("SR", sr)
+            + emit.array("WARM_SRC", warm_source(cfg_or), ctype="int"))
+
+
+def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
+    from mpc_cores.admm.model import AdmmFixed
+
+    check_headroom(cfg)
+    api = capi.fixed_api(nm, cfg, STATE, OVF)
+    n, nw = int(cfg["n"]), int(cfg["nw"])
+    if nw + 1 > n:
+        raise DesignError(f"the C solver (like the golden model) pads G~'s nw + 1 = {nw + 1} columns to n_A = {n}")
+    M = np.array(cfg["M11"], dtype=np.int64).reshape(n, n)
+    G = np.array(cfg["G"], dtype=np.int64).reshape(n, nw + 1)
+    model = AdmmFixed(cfg)
+
+    def sat(k: str, x: str) -> str:
+        return f"mpc_sat({x}, W_{k.upper()}_LO, W_{k.upper()}_HI, &f_{k})"
+
+    data = f"""\
+#define FRAC_BITS {cfg["frac_bits"]}
+#define TREE_MAX N               /* operands of the adder tree: n_A */
+#define COEF_T {emit.int_type(np.concatenate([M.ravel(), G.ravel()]))}
+{emit.width_macros(cfg["widths"], OVF)}
+/* M11 and G~ words (G~'s last column multiplies the word 2^b), rho_j = 2^K[j], the box of parameter words */
+{emit.array("M11", M, ctype="COEF_T")}{emit.array("G", G, ctype="COEF_T")}\
+{emit.array("K", cfg["shift"], ctype="int8_t")}{emit.array("WLO", cfg["wlo"])}{emit.array("WHI", cfg["whi"])}\
+{_data(cfg, False)}
+{emit.helpers(cfg["rounding"], "clip", "dot", "shift_by")}
+{_proj(False)}"""
+    body = f"""\
+    int64_t w[NW + 1], gw[N], z[N], nu[N], v[N], y[N], q[N];
+    /* w = (x, u_prev, r) saturated to its box (SAT), then the constant word 2^b; G~ (w, 1) once per solve */
+    for (i = 0; i < NW; i++) {{
+        w[i] = mpc_clip(w_in[i], WLO[i], WHI[i]);
+        sat |= w[i] != w_in[i];
+    }}
+    w[NW] = INT64_C(1) << FRAC_BITS;
+    for (i = 0; i < N; i++)
+        gw[i] = mpc_dot(G[i], w, NW + 1, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum);
+{START}\
+    for (it = 0; it < ctrl->imax; it++) {{
+        for (i = 0; i < N; i++)                         /* v = rho z - nu */
+            v[i] = {sat("v", "mpc_shift_by(z[i], K[i]) - nu[i]")};
+        for (i = 0; i < N; i++) {{                       /* y = M11 v + G~ (w, 1);  q = y + nu / rho */
+            y[i] = {sat("y", "mpc_dot(M11[i], v, N, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum) + gw[i]")};
+            q[i] = {sat("q", "y[i] + mpc_shift_by(nu[i], -K[i])")};
+        }}
+        proj(q, z);
+        for (i = 0; i < N; i++) {{                       /* nu += rho (y - z) */
+            int64_t d;
+            z[i] = {sat("z", "z[i]")};
+            d = {sat("d", "y[i] - z[i]")};
+            nu[i] = {sat("nu", "nu[i] + mpc_shift_by(d, K[i])")};
+        }}
+    }}
+"""
+    vectors = capi.selftest_vectors(model, model.wlo, model.whi, int(cfg["widths"]["stream"]), cfg)
+    return capi.solver_files(api, cfg, f"the ADMM core {nm.module} in C99 integer arithmetic", f"{TITLE}; the same "
+                             "words as the core and its golden model (mpc_cores.admm.model.AdmmFixed), flags "
+                             "included.", data, body, vectors)
+
+
+def float_data(d) -> dict:
+    """Algorithm 2's data in float64 (AdmmFloat(d, quantised=False)): M11, G~, rho_j, the projection's sets."""
+    q = d.qp
+    box = q.kind == BOX
+    return {"M11": d.M11f, "G": d.Gf, "rho": d.rho_vec, "kind": q.kind, "soft_x": q.soft_x, "soft_d": q.soft_d,
+            "lo": np.where(box, q.lo, 0.0), "hi": np.where(box, q.hi, 0.0), "soft_c": q.soft_c, "soft_r": q.soft_r,
+            "n": d.n, "N": d.N, "nu": d.nu}
+
+
+def float_files(nm: emit.Names, d, cfg: dict) -> dict[str, str]:
+    api, fd = capi.float_api(nm, [(n, c) for _, n, c in STATE]), float_data(d)
+    data = f"""\
+/* M11 and G~ (its last column multiplies 1), rho_j and 1 / rho_j (powers of two) */
+{emit.array("M11", fd["M11"], real=True)}{emit.array("G", fd["G"], real=True)}\
+{emit.array("RHO", fd["rho"], real=True)}{emit.array("IRHO", 1.0 / fd["rho"], real=True)}\
+{_data(fd, True)}
+static mpc_real_t clip(mpc_real_t x, mpc_real_t lo, mpc_real_t hi)
+{{
+    return x < lo ? lo : (x > hi ? hi : x);
+}}
+
+{_proj(True)}"""
+    body = f"""\
+    mpc_real_t gw[N], z[N], nu[N], v[N], y[N], q[N];
+    int j;
+    for (i = 0; i < N; i++) {{
+        mpc_real_t s = 0;
+        for (j = 0; j < NW; j++)
+            s += G[i][j] * w_in[j];
+        gw[i] = s + G[i][NW];
+    }}
+{START}\
+    for (it = 0; it < ctrl->imax; it++) {{
+        for (i = 0; i < N; i++)
+            v[i] = RHO[i] * z[i] - nu[i];
+        for (i = 0; i < N; i++) {{
+            mpc_real_t s = 0;
+            for (j = 0; j < N; j++)
+                s += M11[i][j] * v[j];
+            y[i] = s + gw[i];
+            q[i] = y[i] + nu[i] * IRHO[i];
+        }}
+        proj(q, z);
+        for (i = 0; i < N; i++)
+            nu[i] += RHO[i] * (y[i] - z[i]);
+    }}
+"""
+    return capi.solver_files(api, cfg, f"the ADMM solver of the core {nm.module} in floating point (double, or float "
+                             f"with -D{api.P}_SINGLE)", f"{TITLE}; Algorithm 2 on the unquantised data (not "
+                             "bit-exact: the fixed-point solver is).", data, body)

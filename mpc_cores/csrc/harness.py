@@ -1,0 +1,119 @@
+"""Generated solvers called from Python (tests/test_c.py, mpc_bench.c_timing): gcc builds the solver with a small shim
+over its API into a shared library, ctypes calls it. The shim is the only part that is not C99 alone: it times the
+solve with POSIX clock_gettime. Not needed to use the generated C."""
+from __future__ import annotations
+
+import ctypes
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+from mpc_cores.csrc.emit import Names
+
+STRICT = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic")
+
+
+def gcc() -> str | None:
+    return shutil.which("gcc")
+
+
+def compile_c(sources, out: Path, *flags: str, cwd=None) -> Path:
+    """gcc STRICT + flags on the sources into `out`; a failure raises RuntimeError with gcc's messages."""
+    cmd = [gcc() or "gcc", *STRICT, *flags, *map(str, sources), "-o", str(out)]
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
+    if p.returncode:
+        raise RuntimeError(f"{' '.join(cmd)}\n{p.stderr}")
+    return Path(out)
+
+
+def _shim(file: str, p: str, P: str, float_: bool) -> str:
+    io, v = ("double", f"{p}_real_t") if float_ else ("int64_t", f"{p}_word_t")
+    flags = ("flags[1] = st.nonfinite;" if float_ else
+             "flags[1] = st.sat;\n    flags[2] = st.overflow;\n    flags[3] = st.overflow_signals;")
+    return f"""\
+#define _POSIX_C_SOURCE 199309L
+#include <stddef.h>
+#include <time.h>
+#include "{file}.h"
+
+size_t shim_state_size(void)
+{{
+    return sizeof({p}_state_t);
+}}
+
+/* one solve (imax < 0: ctrl NULL, the reset values); flags: warm, then sat, overflow, overflow_signals (fixed) or
+   nonfinite (float); *ns: the solve's nanoseconds by CLOCK_MONOTONIC */
+int shim_solve(void *state, int imax, int warm, int out_all, const {io} *w, {io} *out, int *flags, long long *ns)
+{{
+    {p}_ctrl_t c;
+    {p}_status_t st;
+    {v} wv[{P}_NW], ov[{P}_N];
+    struct timespec t0, t1;
+    int i, k;
+    c.imax = (uint16_t)imax;
+    c.warm_start = (uint8_t)warm;
+    c.out_all = (uint8_t)out_all;
+    for (i = 0; i < {P}_NW; i++)
+        wv[i] = ({v})w[i];
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    k = (int){p}_solve(({p}_state_t *)state, imax < 0 ? NULL : &c, wv, ov, &st);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    for (i = 0; i < k; i++)
+        out[i] = ov[i];
+    flags[0] = st.warm;
+    {flags}
+    *ns = (long long)(t1.tv_sec - t0.tv_sec) * 1000000000LL + (t1.tv_nsec - t0.tv_nsec);
+    return k;
+}}
+"""
+
+
+class CSolver:
+    """A generated solver (fixed point or float) in a shared library with the shim."""
+
+    def __init__(self, lib: Path, n: int, nw: int, float_: bool):
+        self.lib = ctypes.CDLL(str(lib))
+        self.n, self.nw, self.float_ = n, nw, float_
+        self.dtype = np.float64 if float_ else np.int64
+        ct = ctypes.c_double if float_ else ctypes.c_int64
+        self.lib.shim_state_size.restype = ctypes.c_size_t
+        self.lib.shim_solve.restype = ctypes.c_int
+        self.lib.shim_solve.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                        ctypes.POINTER(ct), ctypes.POINTER(ct), ctypes.POINTER(ctypes.c_int),
+                                        ctypes.POINTER(ctypes.c_longlong)]
+        self._ct = ct
+        self._out = np.zeros(n, dtype=self.dtype)
+        self._flags = (ctypes.c_int * 4)()
+        self._ns = ctypes.c_longlong()
+
+    def new_state(self):
+        """A zeroed state: the state after reset."""
+        return ctypes.create_string_buffer(self.lib.shim_state_size())
+
+    def solve(self, state, w, imax: int | None, warm: bool = True, out_all: bool = False):
+        """(output words or reals, flags (warm, sat, overflow, overflow_signals) or (warm, nonfinite), nanoseconds);
+        imax None: ctrl NULL (the reset values)."""
+        w = np.ascontiguousarray(w, dtype=self.dtype)
+        assert w.shape == (self.nw,)
+        k = self.lib.shim_solve(state, -1 if imax is None else int(imax), int(warm), int(out_all),
+                                w.ctypes.data_as(ctypes.POINTER(self._ct)),
+                                self._out.ctypes.data_as(ctypes.POINTER(self._ct)), self._flags,
+                                ctypes.byref(self._ns))
+        flags = tuple(self._flags[: 2 if self.float_ else 4])
+        return self._out[:k].copy(), flags, self._ns.value
+
+
+def load(src_dir, nm: Names, cfg: dict, float_: bool = False, build_dir=None) -> CSolver:
+    """Build the solver `nm` generated into src_dir (the float variant with float_) with the shim into build_dir
+    (default src_dir) and load it."""
+    src = Path(src_dir).resolve()
+    build = Path(build_dir or src).resolve()
+    build.mkdir(parents=True, exist_ok=True)
+    file = nm.stem + ("_float" if float_ else "")
+    p, P = nm.p + ("_f" if float_ else ""), nm.P + ("_F" if float_ else "")
+    shim = build / f"{file}_shim.c"
+    shim.write_text(_shim(file, p, P, float_))
+    lib = compile_c([src / f"{file}.c", shim], build / f"lib{file}.so", "-fPIC", "-shared", f"-I{src}")
+    return CSolver(lib, int(cfg["n"]), int(cfg["nw"]), float_)
