@@ -16,13 +16,16 @@ TOL     ?=
 TARGET  ?=
 LAT_ADD ?=
 LAT_MUL ?=
+# FGM: problems interleaved on the row units (K_p)
+PROBLEMS ?=
 PYTEST_ARGS ?=
 # parallel test workers (pytest-xdist, one per core); a test file runs on one worker (its module fixtures
 # regenerate cores in place)
 JOBS        ?= auto
 
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT)) \
-           $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL))
+           $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL)) \
+           $(if $(PROBLEMS),--problems $(PROBLEMS))
 
 .PHONY: setup verilog c design test test-slow demo clean
 

@@ -24,7 +24,7 @@ from mpc_cores.errors import DesignError, GeneratorError, SpecError
 from mpc_cores.flow import REPO
 from mpc_cores.schema import check_override, check_size
 
-OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format", "target")
+OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format", "target", "problems")
 
 
 def refuse(msg: str) -> None:
@@ -192,6 +192,7 @@ def main(argv=None) -> None:
         s.add_argument("--iterations")
         s.add_argument("--format", help="float format (MINRES, ipm): binary32, binary16 or e<E>m<M>, e.g. e8m17")
         s.add_argument("--target", help="FPGA family of the multipliers (fgm, admm): generic, ecp5 or xilinx7")
+        s.add_argument("--problems", help="K_p, problems interleaved on the row units (fgm): 1 to 16")
         s.add_argument("--out")
         if name == "design":
             s.add_argument("--tol", help="target ||z_fixed - z*||_2 over the state box")

@@ -187,7 +187,7 @@ def test_missing_spec_file(tmp_path):
     (("--tol", "-1"), "--tol: expected a positive number, got -1"),
     (("--tol", "nan"), "--tol: expected a positive number, got nan"),
     (("--format", "e8m17"), "CORE=fgm takes the overrides P, frac_bits, lat_add, lat_mul, rounding, iterations, "
-                            "target: got format"),
+                            "target, problems: got format"),
     (("--target", "stratix"), "--target: expected one of generic, ecp5, xilinx7, got 'stratix'"),
     (("--target", "ecp5"), "target ecp5 needs lat_mul >= 4 (the DSP's registers, and a stage summing partial "
                            "products; widest product 17 x 19 bits): got lat_mul=1 (set lat_mul: 4 in the spec's "
@@ -203,10 +203,13 @@ def test_missing_spec_file(tmp_path):
     (("--core", "ipm", "--P", "-1"), "--P: expected an integer in [0, 64] (0: eq. (15) of 001), got -1"),
     (("--core", "ipm", "--iterations", "70000"), "--iterations: expected an integer in [1, 65535] (a 16-bit "
                                                  "register), got 70000"),
+    (("--problems", "17"), "--problems: expected an integer in [1, 16] (problems interleaved on the row units), got 17"),
+    (("--core", "admm", "--problem", "examples/masses_rate_soft.yaml", "--problems", "2"),
+     "CORE=admm takes the overrides P, frac_bits, lat_add, lat_mul, rounding, iterations, target: got problems"),
     (("--bogus", "1"), "unrecognized arguments: --bogus 1"),
 ], ids=["B64", "B_text", "P_text", "P0", "P_frac", "lat_mul", "imax", "rounding", "tol", "tol_nan", "format_fgm",
         "target_name", "target_lat_mul", "target_x7_lat_mul", "target_ipm",
-        "minres_P", "minres_format", "ipm_P", "ipm_imr", "unknown_option"])
+        "minres_P", "minres_format", "ipm_P", "ipm_imr", "problems_range", "problems_admm", "unknown_option"])
 def test_overrides(args, expected):
     assert refusal("design", *args) == "error: " + expected
 
