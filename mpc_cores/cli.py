@@ -192,7 +192,7 @@ def main(argv=None) -> None:
         s.add_argument("--iterations")
         s.add_argument("--format", help="float format (MINRES, ipm): binary32, binary16 or e<E>m<M>, e.g. e8m17")
         s.add_argument("--target", help="FPGA family of the multipliers (fgm, admm): generic, ecp5 or xilinx7")
-        s.add_argument("--problems", help="K_p, problems interleaved on the row units (fgm): 1 to 16")
+        s.add_argument("--problems", help="K_p, problems interleaved on the row units (fgm, admm): 1 to 16")
         s.add_argument("--out")
         if name == "design":
             s.add_argument("--tol", help="target ||z_fixed - z*||_2 over the state box")

@@ -86,6 +86,15 @@ def check_run_options(n: int, n_name: str, b: int, P: int, lat_add: int, lat_mul
         raise DesignError(f"iterations must be in [1, 65535]: got {iterations}")
 
 
+def problems_option(problem, overrides: dict) -> int:
+    """K_p, the problems interleaved on the row units (mpc_cores.interleave), from the overrides or the spec."""
+    kp = solver_opt(problem, overrides, "problems", 1)
+    if isinstance(kp, bool) or not isinstance(kp, int) or not 1 <= kp <= 16:
+        raise DesignError(f"problems (K_p, problems interleaved on the row units) must be an integer in [1, 16]: "
+                          f"got {kp}")
+    return kp
+
+
 def target_option(problem, overrides: dict) -> str:
     """The multipliers' FPGA family (mpc_cores.target), checked."""
     from mpc_cores.target import check_target

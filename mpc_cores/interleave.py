@@ -83,3 +83,34 @@ def covering_problems(K: int, L: int, out_words: int, nw: int, most: int = 16) -
         if Interleave(K, kp, L).saturated(out_words, nw):
             return kp
     return 1
+
+
+def core_fields(K: int, L: int, kp: int, imax: int, out_words: int, nw: int, one_latency: int) -> dict:
+    """core.json's interleaving entries: K_p, the period of a problem's passes, the latency's range and the
+    throughput and MAC use with frames always waiting in problem order. `one_latency`: the latency of a core without
+    interleaving (its next solve starts one cycle before that latency after the previous answer's last word)."""
+    il = Interleave(K, kp, L)
+    if kp > 1:
+        lo, hi = il.latency_bounds(imax)
+        rate, util = il.throughput(imax, out_words, nw), il.mac_utilisation(imax, out_words, nw)
+    else:
+        lo = hi = one_latency
+        rate = 1 / (one_latency + out_words - 1)
+        util = (imax + 1) * K * rate
+    return {"problems": kp, "period_cycles": il.R, "rows_per_turn": K, "latency_cycles": {"min": lo, "max": hi},
+            "throughput_solves_per_cycle": rate, "mac_utilisation": util}
+
+
+def report_lines(K: int, L: int, kp: int, imax: int, out_words: int, nw: int, one_latency: int) -> list[str]:
+    """the design report's lines on the cycles per solve and on interleaving"""
+    f = core_fields(K, L, kp, imax, out_words, nw, one_latency)
+    cover = covering_problems(K, L, out_words, nw)
+    lat = f["latency_cycles"]
+    cyc = (f"  Latency: {lat['min']} cycles per solve at Imax = {imax}" if kp == 1 else
+           f"  Latency: {lat['min']} to {lat['max']} cycles per solve at Imax = {imax} (the wait for the problem's "
+           f"turn, then {TAKE_TO_TURN} + Imax R + L + {ANSWER_AFTER})")
+    head = f"  Problems: K_p = {kp}" + (f", a round of R = max(L, K_p K) = {f['period_cycles']} cycles per "
+                                       f"iteration of each" if kp > 1 else "")
+    tail = (f"every turn is busy from K_p = {cover}" if cover > 1 else "no K_p up to 16 keeps every turn busy")
+    return [cyc, f"{head}; {f['throughput_solves_per_cycle']:.5f} solves per cycle with frames always waiting, MAC "
+                 f"utilisation {100 * f['mac_utilisation']:.1f} %; {tail}"]

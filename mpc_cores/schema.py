@@ -185,8 +185,8 @@ SOLVER = {
     "warm_start": Bool(),
     "output_all": Bool(),
     "target": Choice(TARGETS),
-    # fgm
     "problems": Int(1, 16, " (problems interleaved on the row units)"),
+    # fgm
     "c": Num(1, strict=False, why=" (Assumption 1 of 002)"),
     "int_bits": IntBits(),
     "stream_width": StreamWidth(),

@@ -14,7 +14,7 @@ from conftest import ADMM_CASES
 from mpc_cores.flow import GeneratorError, run_generator
 from mpc_cores.sim import run_cocotb
 
-SCENARIOS = 8  # cocotb tests in verif/admm/tb.py
+SCENARIOS = 9  # cocotb tests in verif/admm/tb.py
 
 
 @pytest.mark.parametrize("cid", list(ADMM_CASES))
@@ -32,6 +32,10 @@ def test_rtl_matches_golden_model(cid, admm_cores, request):
     cyc = next(r for r in rec if r["test"] == "cycle_contract")
     assert cyc["cycles_per_iteration"] == core["cycles_per_iteration"] <= core["cycles_eq24"]
     assert next(r for r in rec if r["test"] == "bitexact_random")["cases"] == solves
+    il = next(r for r in rec if r["test"] == "interleaving")
+    assert il["problems"] == core["problems"] and il["mac_utilisation"] == pytest.approx(core["mac_utilisation"])
+    if core["problems"] > 1:
+        assert cyc["period_cycles"] == core["period_cycles"]
 
 
 def test_contract_in_core_json(admm_cores):

@@ -204,12 +204,12 @@ def test_missing_spec_file(tmp_path):
     (("--core", "ipm", "--iterations", "70000"), "--iterations: expected an integer in [1, 65535] (a 16-bit "
                                                  "register), got 70000"),
     (("--problems", "17"), "--problems: expected an integer in [1, 16] (problems interleaved on the row units), got 17"),
-    (("--core", "admm", "--problem", "examples/masses_rate_soft.yaml", "--problems", "2"),
-     "CORE=admm takes the overrides P, frac_bits, lat_add, lat_mul, rounding, iterations, target: got problems"),
+    (("--core", "minres", "--problems", "2"),
+     "CORE=minres takes the overrides P, iterations, lat_add, lat_mul, format: got problems"),
     (("--bogus", "1"), "unrecognized arguments: --bogus 1"),
 ], ids=["B64", "B_text", "P_text", "P0", "P_frac", "lat_mul", "imax", "rounding", "tol", "tol_nan", "format_fgm",
         "target_name", "target_lat_mul", "target_x7_lat_mul", "target_ipm",
-        "minres_P", "minres_format", "ipm_P", "ipm_imr", "problems_range", "problems_admm", "unknown_option"])
+        "minres_P", "minres_format", "ipm_P", "ipm_imr", "problems_range", "problems_minres", "unknown_option"])
 def test_overrides(args, expected):
     assert refusal("design", *args) == "error: " + expected
 

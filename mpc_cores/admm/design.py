@@ -32,8 +32,8 @@ import scipy.linalg
 
 from mpc_cores.admm.model import ESTIMATED, AdmmFixed, wide_widths
 from mpc_cores.admm.problem import BOX, AdmmQP, build_admm_qp
-from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix, run_options,
-                                   solver_opt, target_option)
+from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix,
+                                   problems_option, run_options, solver_opt, target_option)
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError
 from mpc_cores.fixed import bits_for, quantize
 from mpc_cores.problem import MpcProblem
@@ -71,6 +71,7 @@ class AdmmDesign(FixedPointDesign):
     bounds: dict = field(default_factory=dict)      # integer-word bounds per signal
     observed: dict = field(default_factory=dict)    # largest words seen in the sizing runs
     estimated: tuple = ESTIMATED
+    problems: int = 1          # K_p, problems interleaved on the row units (mpc_cores.interleave)
 
     def label(self) -> str:
         """the design in a table row (make demo)"""
@@ -94,7 +95,8 @@ class AdmmDesign(FixedPointDesign):
 
     @property
     def module_name(self) -> str:
-        return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{module_suffix(self.target)}"
+        kp = f"_k{self.problems}" if self.problems > 1 else ""
+        return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{kp}{module_suffix(self.target)}"
 
     def products(self) -> list[tuple[int, int]]:
         """(a, b) bit widths of the multipliers (AdmmCore): the row dot products, coefficient x operand."""
@@ -128,6 +130,7 @@ class AdmmDesign(FixedPointDesign):
             "soft_c": self.soft_c.tolist(), "soft_r": self.soft_r.tolist(),
             "wlo": self.wlo.tolist(), "whi": self.whi.tolist(),
             "safety": self.safety, "estimated": list(self.estimated),
+            **({"problems": self.problems} if self.problems > 1 else {}),
         }
 
 
@@ -166,7 +169,7 @@ def check_assumption2(qp: AdmmQP, M11_hat: np.ndarray, rho_vec: np.ndarray) -> d
 def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     """Build the ADMM core description. Keyword overrides take precedence over the spec's `solver:` section:
     frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, rho, soft_scale, du_scale, safety,
-    sizing_solves (random parameters per sizing run), sizing_seed."""
+    sizing_solves (random parameters per sizing run), sizing_seed, problems."""
     opt = lambda k, d: solver_opt(problem, overrides, k, d)  # noqa: E731
     # nearest by default: truncating each of the n_A products of a row biases every y by about -n_A/2 LSB per
     # iteration and the multiplier update integrates it (measured in tests/test_admm_model.py)
@@ -227,7 +230,7 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     d = AdmmDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
                    iterations=iterations, warm_start=warm_start, target=target, rho_log2=k, shift=shift, M11f=M11f, Gf=Gf,
                    M11=M11, G=G, kind=qp.kind.copy(), lo=lo, hi=hi, soft_c=soft_c, soft_r=soft_r, wlo=wlo, whi=whi,
-                   safety=safety, output_all=output_all, assumption2=a2)
+                   safety=safety, output_all=output_all, assumption2=a2, problems=problems_option(problem, overrides))
     _size_words(d, int(opt("sizing_solves", 48)), int(opt("sizing_seed", 0)))
     apply_target(d, lat_mul, d.products())
     return d

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from mpc_cores.admm.design import AdmmDesign
 from mpc_cores.fixed import run_time_fields
+from mpc_cores.interleave import core_fields, report_lines
 from mpc_cores.target import report_line
 
 _WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (x, u_prev, r) after saturation, and the word 1",
@@ -40,7 +41,9 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
         "cycles_eq24": hw["cycles_eq24"],
         "cycles_per_solve": hw["cycles_per_solve"],
         "solve_overhead_cycles": hw["solve_overhead_cycles"],
-        "cycles_per_solve_formula": f"{hw['solve_overhead_cycles']} + IMAX * {L}",
+        "cycles_per_solve_formula": f"{hw['solve_overhead_cycles']} + IMAX * {hw['period_cycles']}" + (
+            f" (+ 0 to {hw['period_cycles'] - 1} waiting for the problem's turn)" if d.problems > 1 else ""),
+        **interleave_fields(d, hw),
         "tree_inputs": hw["tree_inputs"], "tree_depth": hw["tree_depth"],
         "multipliers": hw["multipliers"],
         "multipliers_table1": d.P * d.n,
@@ -52,6 +55,19 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
         "registers": hw["registers"],
         "regions": hw["regions"],
     }
+
+
+def interleave_fields(d: AdmmDesign, hw: dict) -> dict:
+    """core.json's interleaving entries (mpc_cores.interleave.core_fields), from the generator's row placement."""
+    if hw["problems"] != d.problems:
+        raise RuntimeError(f"generator and front end disagree on problems: {hw['problems']} vs {d.problems}")
+    L = hw["cycles_per_iteration"]
+    fields = core_fields(hw["K"], L, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
+                         2 + (d.iterations + 1) * L)
+    if fields["period_cycles"] != hw["period_cycles"] or fields["latency_cycles"]["min"] != hw["cycles_per_solve"]:
+        raise RuntimeError("generator and front end disagree on the period or the latency: "
+                           f"{hw['period_cycles']}, {hw['cycles_per_solve']} vs {fields}")
+    return fields
 
 
 def design_report(d: AdmmDesign, core: dict | None = None) -> str:
@@ -77,6 +93,8 @@ def design_report(d: AdmmDesign, core: dict | None = None) -> str:
     if core is not None:
         lines.append(f"  Cycles: L_A = {core['cycles_per_iteration']} per iteration (eq. (24): {core['cycles_eq24']}); "
                      f"{core['cycles_per_solve']} per solve at Imax = {d.iterations} (= {core['cycles_per_solve_formula']})")
+        lines += report_lines(core["K"], core["cycles_per_iteration"], d.problems, d.iterations,
+                              d.n if d.output_all else d.nu, d.nw, 2 + (d.iterations + 1) * core["cycles_per_iteration"])[1:]
     else:
         lines.append(f"  Cycles: eq. (24) of 002 gives L_A <= {d.cycles_per_iteration} per iteration")
     lines.append(f"  Multipliers: {d.P * max(d.n, d.nw + 1)} (P * max(n_A, nw + 1); Table I: P n_A = {d.P * d.n})")

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix, run_options,
-                                   solver_opt, target_option)
+from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix,
+                                   problems_option, run_options, solver_opt, target_option)
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError  # noqa: F401  (DesignError: part of this API)
 from mpc_cores.fixed import bits_for, quantize
 from mpc_cores.problem import MpcProblem, condense
@@ -140,9 +140,7 @@ def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     n, nw = qp.n, qp.nw
 
     check_run_options(n, "n", b, P, lat_add, lat_mul, rounding, iterations)
-    problems = int(opt("problems", 1))
-    if not 1 <= problems <= 16:
-        raise DesignError(f"problems (K_p, problems interleaved on the row units) must be in [1, 16]: got {problems}")
+    problems = problems_option(problem, overrides)
 
     H = qp.H
     lam_min_H = float(np.linalg.eigvalsh(H)[0])

@@ -5,6 +5,7 @@ import numpy as np
 
 from mpc_cores.fgm.design import FgmDesign, roundoff_bound
 from mpc_cores.fixed import run_time_fields
+from mpc_cores.interleave import core_fields, report_lines
 from mpc_cores.target import report_line
 
 
@@ -72,30 +73,9 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
 
 
 def interleave_fields(d) -> dict:
-    """core.json's interleaving entries (mpc_cores.interleave): K_p, the period of a problem's passes, the latency's
-    range and the throughput with frames always waiting in problem order."""
-    il, out = d.interleave, (d.n if d.output_all else d.nu)
-    lo, hi = il.latency_bounds(d.iterations) if d.problems > 1 else (d.cycles_per_solve(),) * 2
-    return {"problems": d.problems, "period_cycles": il.R, "rows_per_turn": d.K,
-            "latency_cycles": {"min": lo, "max": hi},
-            "throughput_solves_per_cycle": il.throughput(d.iterations, out, d.nw) if d.problems > 1
-            else 1 / (d.cycles_per_solve() + out - 1),
-            "mac_utilisation": il.mac_utilisation(d.iterations, out, d.nw) if d.problems > 1
-            else (d.iterations + 1) * d.K / (d.cycles_per_solve() + out - 1)}
-
-
-def interleave_line(d) -> str:
-    """the design report's line on interleaving"""
-    from mpc_cores.interleave import covering_problems
-
-    out = d.n if d.output_all else d.nu
-    cover = covering_problems(d.K, d.cycles_per_iteration, out, d.nw)
-    f = interleave_fields(d)
-    head = (f"  Problems: K_p = {d.problems}" + (f", a round of R = max(L_F, K_p K) = {f['period_cycles']} cycles per "
-            f"iteration of each" if d.problems > 1 else ""))
-    return (f"{head}; {f['throughput_solves_per_cycle']:.5f} solves per cycle with frames always waiting, MAC "
-            f"utilisation {100 * f['mac_utilisation']:.1f} %; every turn is busy from K_p = {cover}"
-            if cover > 1 else f"{head}; no K_p up to 16 keeps every turn busy")
+    """core.json's interleaving entries (mpc_cores.interleave.core_fields)."""
+    return core_fields(d.K, d.cycles_per_iteration, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
+                       3 + d.K + d.iterations * d.cycles_per_iteration)
 
 
 def design_report(d: FgmDesign, core: dict | None = None) -> str:
@@ -115,13 +95,11 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
             continue
         lines.append(f"    {k:<5} {w:>3} bits = Q{w - 1 - b}.{b}  |{k}| <= {d.bounds[k] / one:.6g}")
     lines.append(f"    stream words {d.widths['stream']} bits")
-    il = d.interleave
-    cyc = (f"{d.cycles_per_solve()} per solve at Imax = {d.iterations} (= {3 + d.K} + Imax * {d.cycles_per_iteration})"
-           if d.problems == 1 else "{} to {} per solve at Imax = {} (the wait for the problem's turn, then "
-           "3 + Imax R + L_F + 2)".format(*il.latency_bounds(d.iterations), d.iterations))
     lines += [
-        f"  Cycles: L_F = {d.cycles_per_iteration} per iteration (eq. (23): {d.cycles_eq23}); {cyc}",
-        interleave_line(d),
+        f"  Cycles: L_F = {d.cycles_per_iteration} per iteration (eq. (23): {d.cycles_eq23}); per solve "
+        f"{3 + d.K} + Imax * {d.cycles_per_iteration} without interleaving",
+        *report_lines(d.K, d.cycles_per_iteration, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
+                      3 + d.K + d.iterations * d.cycles_per_iteration),
         f"  Round-off bound eq. (20) after {d.iterations} iterations: ||z_fixed - z_exact||_2 <= {eta[-1]:.3g}",
         f"  Multipliers: {d.multipliers} (P * max(n, nw) + 2P)",
     ]

@@ -7,8 +7,8 @@ from cocotb.triggers import ClockCycles
 from cocotbext.axi import AxiResp
 
 from mpc_cores.admm.problem import BOX
-from verif.tb import (TB, TIMEOUT_MS, back_to_back, bitexact_random, cycle_contract, output_all,  # noqa: F401
-                      reset_mid_solve, saturation_flag, tlast_error)
+from verif.tb import (TB, TIMEOUT_MS, back_to_back, bitexact_random, cycle_contract, interleaving,  # noqa: F401
+                      output_all, reset_mid_solve, saturation_flag, tlast_error)
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")

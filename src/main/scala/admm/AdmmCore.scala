@@ -7,7 +7,7 @@ import fixed.FixedOps
 import linalg.{DotProductParams, DotProductTree}
 import mem.InitRam
 import proj.{BoxProjection, SoftProjection}
-import shell.{Field, FrameIn, PassSequencer, RegMap, Region, RowToken, SolverRegs}
+import shell.{Field, FrameIn, RegMap, Region, RowToken, SeqControl, SolverRegs}
 
 /** Fixed-point ADMM (Algorithm 2 of 002) for MPC with input, input-rate and soft state constraints, after Fig. 1
   * and 3 of 002. mpc_cores/admm/model.py (AdmmFixed) is its bit-exact model.
@@ -28,38 +28,41 @@ import shell.{Field, FrameIn, PassSequencer, RegMap, Region, RowToken, SolverReg
 class AdmmCore(val p: AdmmParams) extends Module {
   override def desiredName = p.moduleName
 
-  /** w = (x, u_prev, r), one signed word with frac_bits fraction bits per beat, tlast on the last */
-  val s_axis = IO(Flipped(new AxiStreamIO(p.streamW)))
-  /** du_0 (nu words) or z (n_A words), same word format, tlast on the last */
-  val m_axis = IO(new AxiStreamIO(p.streamW))
+  /** the problem id's width (tuser): interleaving cores only */
+  val sW = log2Ceil(p.Kp)
+  /** w = (x, u_prev, r), one signed word with frac_bits fraction bits per beat, tlast on the last; tuser: problem id */
+  val s_axis = IO(Flipped(new AxiStreamIO(p.streamW, sW)))
+  /** du_0 (nu words) or z (n_A words), same word format, tlast on the last; tuser: problem id */
+  val m_axis = IO(new AxiStreamIO(p.streamW, sW))
   /** configuration, status and the data memories */
   val s_axil = IO(Flipped(new AxiLiteIO(p.axiAddrW)))
 
   import AdmmParams._
-  import p.{K, P, m, n, nu, nw}
+  import p.{K, Kp, P, m, n, nu, nw}
   val b = p.fracBits
   val L = p.cyclesPerIteration
 
   // ------------------------------------------------------------------ registers, input frame, sequencer
   val regs = new SolverRegs(s_axil, AdmmRegs.map(p))
-  val frameIn = Module(new FrameIn(p.moduleName + "_w", nw, p.wW, p.streamW, p.wlo.zip(p.whi)))
+  val frameIn = Module(new FrameIn(p.moduleName + "_w", nw, p.wW, p.streamW, p.wlo.zip(p.whi), Kp))
   frameIn.io.s_axis <> s_axis
   frameIn.io.hold := regs.ctrlHold
   when(frameIn.io.sat) { regs.stSat := true.B }
   when(frameIn.io.tlastErr) { regs.stTlast := true.B }
-  val seq = Module(new PassSequencer(K, L, L, copyAfterFirst = true, maxOut = n))
-  seq.io.frameReady := frameIn.io.full
-  seq.io.imax       := regs.imaxReg
-  seq.io.outLast    := Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)
-  seq.io.outFire    := m_axis.fire
-  frameIn.io.take   := seq.io.start
-  when(seq.io.done) { regs.solveDone(seq.io.runCycles) }
-  regs.busy := seq.io.running || seq.io.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
+  /** per problem: the warm start is valid (interleaving; one problem uses the shared WARM_VALID) */
+  val warmOk = RegInit(VecInit(Seq.fill(Kp)(false.B)))
+  val ctl = SeqControl(K, L, L, copyAfterFirst = true, maxOut = n, Kp, frameIn, regs,
+    Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U), m_axis.fire, warmOk)
+  import ctl.{mine, ofSlot}
+  regs.busy := ctl.running || ctl.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true)))
   val bndRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_bnd$u", K, 2, p.zW, p.boundInit(u), outReg = true)))
-  val gwRam  = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_gw$u", K, 1, p.sumW, Seq(), outReg = true)))
+  // G~ (w, 1) per row, of each problem (rows of problem j from j 2^ceil(log2 K) on)
+  val gwKW   = math.max(1, log2Ceil(K))
+  val gwRam  = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_gw$u", if (Kp == 1) K else (1 << sW) << gwKW,
+    1, p.sumW, Seq(), outReg = true)))
   for (r <- matRam ++ bndRam ++ gwRam) {
     r.io.clock := clock
     r.io.wen   := false.B
@@ -69,10 +72,13 @@ class AdmmCore(val p: AdmmParams) extends Module {
   }
 
   // ------------------------------------------------------------------ solver state
+  // One problem: w and the operand v are registers. Kp problems: per problem w, z and nu; the operand registers
+  // wCur and vReg load a problem's w or v = rho z - nu at the start of its turn (shell.TurnSequencer).
   val warmL = RegInit(false.B)
-  val wReg  = Reg(Vec(nw, SInt(p.wW.W)))
-  val zReg  = Reg(Vec(n, SInt(p.zW.W)))
-  val nuReg = Reg(Vec(n, SInt(p.nuW.W)))
+  val wReg  = Seq.fill(Kp)(Reg(Vec(nw, SInt(p.wW.W))))
+  val wCur  = if (Kp == 1) wReg(0) else Reg(Vec(nw, SInt(p.wW.W)))
+  val zReg  = Seq.fill(Kp)(Reg(Vec(n, SInt(p.zW.W))))
+  val nuReg = Seq.fill(Kp)(Reg(Vec(n, SInt(p.nuW.W))))
   val vReg  = Reg(Vec(n, SInt(p.vW.W)))
 
   /** a 2^k, right shifts rounded like products (the model's shift_by) */
@@ -85,7 +91,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   }
 
   // Row tokens: tokN is the next cycle's, so the row memories are addressed a cycle ahead (outputs registered).
-  val tokN = seq.io.tokN
+  val tokN = ctl.tokN
   val tok0 = RegNext(tokN, 0.U.asTypeOf(tokN))
   def tokAt(stage: Int): RowToken = if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(tokN), true.B)
   val tok1   = tokAt(1)
@@ -95,7 +101,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val tokNu  = tokAt(p.stageN)
 
   val wPad = VecInit((0 until m).map { j =>
-    if (j < nw) wReg(j).pad(p.opW) else if (j == nw) (BigInt(1) << b).S(p.opW.W) else 0.S(p.opW.W)
+    if (j < nw) wCur(j).pad(p.opW) else if (j == nw) (BigInt(1) << b).S(p.opW.W) else 0.S(p.opW.W)
   })
   val vPad = VecInit((0 until m).map(j => if (j < n) vReg(j).pad(p.opW) else 0.S(p.opW.W)))
 
@@ -119,18 +125,19 @@ class AdmmCore(val p: AdmmParams) extends Module {
     // Per-row constants and nu, picked at the fetch and carried to the q step.
     val kindRom = VecInit((0 until K).map(k => p.kindAt(u, k).U(2.W)))
     val codeRom = VecInit((0 until K).map(k => p.codeAt(u, k).U(codeW.W)))
-    val nuRow   = VecInit((0 until K).map(k => p.rows(u)(k).map(j => nuReg(j)).getOrElse(0.S(p.nuW.W))))
+    val nuRows  = nuReg.map(nr => VecInit((0 until K).map(k => p.rows(u)(k).map(j => nr(j)).getOrElse(0.S(p.nuW.W)))))
     val toQ     = p.stageQ - 1
     val kindQ   = ShiftRegister(kindRom(tok1.k), toQ)
     val codeQ   = ShiftRegister(codeRom(tok1.k), toQ)
-    val nuQ     = ShiftRegister(nuRow(tok1.k), toQ)
+    val nuQ     = ShiftRegister(ofSlot(nuRows.map(_(tok1.k)), tok1.slot), toQ)
 
     // y = M11 v + G~ (w, 1); the first pass stores G~ (w, 1) row by row.
-    gwRam(u).io.raddr := tokAt(p.stageSum - 2).k
+    def gwAddr(t: RowToken): UInt = if (Kp == 1) t.k else Cat(t.slot, t.k.pad(gwKW))
+    gwRam(u).io.raddr := gwAddr(tokAt(p.stageSum - 2))
     val gw = gwRam(u).io.rdata.asSInt
     when(tokSum.valid && tokSum.pass0) {
       gwRam(u).io.wen   := true.B
-      gwRam(u).io.waddr := tokSum.k
+      gwRam(u).io.waddr := gwAddr(tokSum)
       gwRam(u).io.wmask := 1.U
       gwRam(u).io.wdata := tree.io.sum.asUInt
     }
@@ -204,39 +211,56 @@ class AdmmCore(val p: AdmmParams) extends Module {
   }
 
   // ------------------------------------------------------------------ register writes
-  val warmNow  = regs.ctrlWarm && regs.warmValid
-  val warmCopy = RegNext(seq.io.start && warmNow, false.B)
-  when(seq.io.start) {
-    wReg  := frameIn.io.frame
-    warmL := warmNow
-  }
-  val tokW1   = tokAt(p.stageW - 1)
-  val weW     = RowToken.enables(tokW1, tokW1.valid && !(tokW1.pass0 && warmL), K)
-  val ofV     = Wire(Vec(n, Bool()))
-  for (j <- 0 until n) {
+  val tokW1 = tokAt(p.stageW - 1)
+  /** v = rho z - nu of component j, and whether it saturated */
+  def vOf(z: SInt, nu: SInt, j: Int): (SInt, Bool) = FixedOps.satSub(shiftBy(z, p.shift(j)), nu, p.vW)
+  /** problem q's writes of z and nu: the warm copy, or the lanes of its rows' pipelines */
+  def writes(q: Int, warmCopy: Bool, weW: Vec[Bool]): Unit = for (j <- 0 until n) {
     val u = p.unitOf(j)
     val k = p.slotOf(j)
     // the row's own slot, or (soft state) the slot of its slack, one later on the same unit
     val (slot, lane) = if (p.kind(j) == SoftX) (k + 1, laneB(u)) else (k, laneA(u))
     val src = p.warmSource(j)
     when(warmCopy) {
-      zReg(j)  := zReg(src)
-      nuReg(j) := nuReg(src)
+      zReg(q)(j)  := zReg(q)(src)
+      nuReg(q)(j) := nuReg(q)(src)
     }.elsewhen(weW(slot)) {
-      zReg(j)  := lane.z
-      nuReg(j) := lane.nu
+      zReg(q)(j)  := lane.z
+      nuReg(q)(j) := lane.nu
     }
-    // v = rho z - nu, for the whole vector in the cycle after an iteration's last write
-    val (v, of) = FixedOps.satSub(shiftBy(zReg(j), p.shift(j)), nuReg(j), p.vW)
-    ofV(j) := of
-    when(seq.io.copyNow) { vReg(j) := v }
   }
-  when(ovfNow.asUInt.orR || seq.io.copyNow && ofV.asUInt.orR) { regs.stOvf := true.B }
+  val ofV = Wire(Vec(n, Bool()))
+  val vNow = if (Kp == 1) {
+    val warmNow  = regs.ctrlWarm && regs.warmValid
+    when(ctl.take) {
+      wReg(0) := frameIn.io.frame
+      warmL   := warmNow
+    }
+    writes(0, RegNext(ctl.take && warmNow, false.B),
+      RowToken.enables(tokW1, tokW1.valid && !(tokW1.pass0 && warmL), K))
+    // v for the whole vector in the cycle after an iteration's last write
+    ctl.copyNow
+  } else {
+    for (q <- 0 until Kp) when(ctl.take && frameIn.io.id === q.U) { wReg(q) := frameIn.io.frame }
+    // the operands of a turn, loaded as its row 0 reaches tok0 (in use from tok1 on)
+    val turn0 = RegNext(tokN.valid && tokN.k === 0.U, false.B)
+    for (i <- 0 until nw) when(turn0 && tok0.pass0) { wCur(i) := ofSlot(wReg.map(_(i)), tok0.slot) }
+    for (q <- 0 until Kp) writes(q, RegNext(turn0 && tok0.pass0 && mine(tok0, q) && ctl.warmOf(q), false.B),
+      RowToken.enables(tokW1, tokW1.valid && mine(tokW1, q) && !(tokW1.pass0 && ctl.warmOf(q)), K))
+    turn0 && !tok0.pass0
+  }
+  for (j <- 0 until n) {
+    val (v, of) = vOf(ofSlot(zReg.map(_(j)), tok0.slot), ofSlot(nuReg.map(_(j)), tok0.slot), j)
+    ofV(j) := of
+    when(vNow) { vReg(j) := v }
+  }
+  when(ovfNow.asUInt.orR || vNow && ofV.asUInt.orR) { regs.stOvf := true.B }
 
   // ------------------------------------------------------------------ output: du_0 or all of z
-  m_axis.tvalid := seq.io.outValid
-  m_axis.tdata  := zReg(seq.io.outIndex).pad(p.streamW).asUInt
-  m_axis.tlast  := seq.io.outIsLast
+  m_axis.tvalid := ctl.outValid
+  m_axis.tdata  := ofSlot(zReg.map(_(ctl.outIndex)), ctl.outSlot).pad(p.streamW).asUInt
+  m_axis.tlast  := ctl.outIsLast
+  m_axis.tuser.foreach(_ := ctl.outSlot)
   bus.Protocol.streamOut("m_axis", m_axis)
 
   // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
@@ -276,6 +300,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
           }
         }
         regs.warmValid := false.B
+        warmOk.foreach(_ := false.B)
       }
     },
     (region("MAT_M") || region("MAT_G")) -> { () =>
@@ -310,7 +335,7 @@ object AdmmRegs {
       ctrl = SolverRegs.ctrlFields(p.warmDefault, p.outAllDefault, "du_0 (nu words)",
         warmText = "start from the previous z and nu shifted by one stage when STATUS.WARM_VALID, else cold"),
       status = SolverRegs.statusFields(),
-      cyclesPerIteration = p.cyclesPerIteration, imaxDefault = p.imaxDefault)
+      cyclesPerIteration = p.periodCycles, imaxDefault = p.imaxDefault)
     val word = s"signed, ${p.fracBits} fraction bits, sign-extended to 32 bits"
     val sizes = p.regionSizes.toMap
     def region(nm: String, dims: Seq[Int], desc: String, w: Int) =

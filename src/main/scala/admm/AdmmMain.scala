@@ -17,6 +17,8 @@ object AdmmMain extends App {
       "module" -> p.moduleName,
       "n" -> p.n,
       "P" -> p.P,
+      "problems" -> p.Kp,
+      "period_cycles" -> p.periodCycles,
       "K" -> p.K,
       "tree_inputs" -> p.m,
       "tree_depth" -> p.depth,

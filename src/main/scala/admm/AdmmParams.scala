@@ -21,6 +21,7 @@ case class AdmmParams(
     N: Int,
     nw: Int,
     P: Int,
+    Kp: Int,
     fracBits: Int,
     latAdd: Int,
     latMul: Int,
@@ -49,6 +50,7 @@ case class AdmmParams(
   require((n - N * nu) % (N + 1) == 0, s"the state part of z (n_A - N*nu = ${n - N * nu}) must split into N+1 = ${N + 1} stages")
   require(nw >= 1, s"nw must be >= 1, got $nw")
   require(P >= 1 && P <= n, s"P must be in [1, n_A] (one row unit per variable at most): got P=$P, n_A=$n")
+  require(Kp >= 1 && Kp <= 16, s"problems must be in [1, 16]: got $Kp")
   require(latAdd >= 0 && latMul >= 0, s"latencies must be >= 0: got lat_add=$latAdd, lat_mul=$latMul")
   require(fracBits >= 1, s"frac_bits must be >= 1, got $fracBits")
   for (k <- Seq("v", "y", "q", "z", "d", "nu", "sum", "coef", "w", "stream"))
@@ -117,12 +119,16 @@ case class AdmmParams(
   val cyclesEq24: Int = (n + P - 1) / P + latAdd * log2Ceil(n) + latMul + 6 * latAdd + 2
   /** From the handshake of the last input word to the first output word: 2 + (Imax + 1) L (the first pass,
     * G~ (w, 1) and the start iterate, takes one iteration's time). */
-  val solveOverhead: Int = 2 + cyclesPerIteration
-  def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * cyclesPerIteration
+  /** Cycles between two passes of one problem: L alone, a round of Kp turns of K cycles when interleaving
+    * (shell.TurnSequencer; then the overhead is the least latency's: taken, loaded, the last pass's drain, the
+    * answer queue and the output register, and a frame waits up to periodCycles - 1 more for its turn). */
+  val periodCycles: Int = if (Kp == 1) cyclesPerIteration else math.max(cyclesPerIteration, Kp * K)
+  val solveOverhead: Int = if (Kp == 1) 2 + cyclesPerIteration else 3 + cyclesPerIteration + 2
+  def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * periodCycles
   val multipliers: Int = P * m
 
   val moduleName: String =
-    s"AdmmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (target == Target.Generic) "" else s"_${target.name}")
+    s"AdmmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (Kp > 1) s"_k$Kp" else "") + (if (target == Target.Generic) "" else s"_${target.name}")
 
   // ---- register map: data regions addressed by component index
   val cBits: Int = log2Ceil(m)
@@ -198,6 +204,7 @@ object AdmmParams {
       N = j("N").num.toInt,
       nw = j("nw").num.toInt,
       P = j("P").num.toInt,
+      Kp = j.obj.get("problems").map(_.num.toInt).getOrElse(1),
       fracBits = j("frac_bits").num.toInt,
       latAdd = j("lat_add").num.toInt,
       latMul = j("lat_mul").num.toInt,

@@ -7,7 +7,7 @@ import fixed.FixedOps
 import linalg.{DotProductParams, DotProductTree}
 import mem.InitRam
 import proj.BoxProjection
-import shell.{Field, FrameIn, PassSequencer, RegMap, Region, Register, RowToken, SeqControl, SolverRegs, TurnSequencer}
+import shell.{Field, FrameIn, RegMap, Region, Register, RowToken, SeqControl, SolverRegs}
 
 /** Fixed-point fast gradient method (Algorithm 1 of 002) for input-constrained MPC, after Fig. 1/2 of 002.
   *
@@ -46,28 +46,8 @@ class FgmCore(val p: FgmParams) extends Module {
   val outLast = Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)
   /** per problem: the warm start is valid (interleaving; one problem uses the shared WARM_VALID) */
   val warmOk = RegInit(VecInit(Seq.fill(Kp)(false.B)))
-  val ctl = if (Kp == 1) {
-    val seq = Module(new PassSequencer(K, K + 1, p.cyclesPerIteration, copyAfterFirst = false, maxOut = n))
-    seq.io.frameReady := frameIn.io.full
-    seq.io.imax       := regs.imaxReg
-    seq.io.outLast    := outLast
-    seq.io.outFire    := m_axis.fire
-    SeqControl(seq.io.tokN, seq.io.start, seq.io.copyNow, seq.io.running, seq.io.outValid, 0.U, seq.io.outIndex,
-      seq.io.outIsLast, seq.io.done, seq.io.runCycles, VecInit(Seq.fill(1)(false.B)))
-  } else {
-    val seq = Module(new TurnSequencer(K, Kp, p.cyclesPerIteration, maxOut = n))
-    seq.io.frameReady := frameIn.io.full
-    seq.io.frameSlot  := frameIn.io.id
-    seq.io.imax       := regs.imaxReg
-    seq.io.outLast    := outLast
-    seq.io.warm       := VecInit(warmOk.map(_ && regs.ctrlWarm))
-    seq.io.outFire    := m_axis.fire
-    when(seq.io.done) { warmOk(seq.io.outSlot) := true.B }
-    SeqControl(seq.io.tokN, seq.io.take, false.B, seq.io.running, seq.io.outValid, seq.io.outSlot, seq.io.outIndex,
-      seq.io.outIsLast, seq.io.done, seq.io.runCycles, seq.io.warmOf)
-  }
-  frameIn.io.take := ctl.take
-  when(ctl.done) { regs.solveDone(ctl.runCycles) }
+  val ctl = SeqControl(K, K + 1, p.cyclesPerIteration, copyAfterFirst = false, maxOut = n, Kp, frameIn, regs, outLast,
+    m_axis.fire, warmOk)
   regs.busy := ctl.running || ctl.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
@@ -111,10 +91,7 @@ class FgmCore(val p: FgmParams) extends Module {
   val tok0 = RegNext(tokN, 0.U.asTypeOf(tokN))
   def tokAt(stage: Int): RowToken =
     if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(tokN), true.B)
-  /** the token is problem j's (always, for one problem) */
-  def mine(t: RowToken, j: Int): Bool = if (Kp == 1) true.B else t.slot === j.U
-  /** problem `slot`'s element of `xs` (the element itself for one problem) */
-  def ofSlot[T <: Data](xs: Seq[T], slot: UInt): T = if (Kp == 1) xs.head else VecInit(xs)(slot)
+  import ctl.{mine, ofSlot}
   val tok1    = tokAt(1)
   val tokSum  = tokAt(p.stageSum)
   val tokT    = tokAt(p.stageT)

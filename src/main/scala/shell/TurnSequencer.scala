@@ -191,8 +191,3 @@ class TurnSequencer(K: Int, Kp: Int, L: Int, maxOut: Int) extends Module {
   io.runCycles := now - stamp(oSlot)
   io.running   := phase.map(_ =/= sFree).reduce(_ || _)
 }
-
-/** What a core's datapath takes from its sequencer (PassSequencer for one problem, TurnSequencer for several):
-  * the token, the frame taken, the operand copy (one problem), the answer's word and the solve's end. */
-case class SeqControl(tokN: RowToken, take: Bool, copyNow: Bool, running: Bool, outValid: Bool, outSlot: UInt,
-    outIndex: UInt, outIsLast: Bool, done: Bool, runCycles: UInt, warmOf: Vec[Bool])

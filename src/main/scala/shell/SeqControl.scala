@@ -1,0 +1,51 @@
+package shell
+
+import chisel3._
+import chisel3.util._
+
+/** What a core's datapath takes from its sequencer (PassSequencer for one problem, TurnSequencer for several):
+  * the token, the frame taken, the operand copy (one problem), the answer's word and the solve's end, and per
+  * problem whether the solve taken starts warm (several problems). */
+case class SeqControl(tokN: RowToken, take: Bool, copyNow: Bool, running: Bool, outValid: Bool, outSlot: UInt,
+    outIndex: UInt, outIsLast: Bool, done: Bool, runCycles: UInt, warmOf: Vec[Bool]) {
+  val problems: Int = warmOf.length
+
+  /** the token is problem j's (always, for one problem) */
+  def mine(t: RowToken, j: Int): Bool = if (problems == 1) true.B else t.slot === j.U
+
+  /** problem `slot`'s element of `xs` (the element itself for one problem) */
+  def ofSlot[T <: Data](xs: Seq[T], slot: UInt): T = if (problems == 1) xs.head else VecInit(xs)(slot)
+}
+
+object SeqControl {
+  /** The sequencer of a core with K rows per unit and pass, `firstLen` cycles of its first pass and L of an
+    * iteration (one problem), answers of up to maxOut words, `Kp` problems: wired to the input frame, the
+    * registers and the answer's handshake. `warmOk(j)`: problem j's warm start is valid (Kp > 1; set here when its
+    * answer leaves, the core clears it). */
+  def apply(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxOut: Int, Kp: Int, frameIn: FrameIn,
+      regs: SolverRegs, outLast: UInt, outFire: Bool, warmOk: Vec[Bool]): SeqControl = {
+    val ctl = if (Kp == 1) {
+      val seq = Module(new PassSequencer(K, firstLen, L, copyAfterFirst, maxOut))
+      seq.io.frameReady := frameIn.io.full
+      seq.io.imax       := regs.imaxReg
+      seq.io.outLast    := outLast
+      seq.io.outFire    := outFire
+      SeqControl(seq.io.tokN, seq.io.start, seq.io.copyNow, seq.io.running, seq.io.outValid, 0.U, seq.io.outIndex,
+        seq.io.outIsLast, seq.io.done, seq.io.runCycles, VecInit(Seq.fill(1)(false.B)))
+    } else {
+      val seq = Module(new TurnSequencer(K, Kp, L, maxOut))
+      seq.io.frameReady := frameIn.io.full
+      seq.io.frameSlot  := frameIn.io.id
+      seq.io.imax       := regs.imaxReg
+      seq.io.outLast    := outLast
+      seq.io.warm       := VecInit(warmOk.map(_ && regs.ctrlWarm))
+      seq.io.outFire    := outFire
+      when(seq.io.done) { warmOk(seq.io.outSlot) := true.B }
+      SeqControl(seq.io.tokN, seq.io.take, false.B, seq.io.running, seq.io.outValid, seq.io.outSlot,
+        seq.io.outIndex, seq.io.outIsLast, seq.io.done, seq.io.runCycles, seq.io.warmOf)
+    }
+    frameIn.io.take := ctl.take
+    when(ctl.done) { regs.solveDone(ctl.runCycles) }
+    ctl
+  }
+}
