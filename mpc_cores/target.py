@@ -72,3 +72,29 @@ def report_line(target: str, lat_mul: int, products: list[tuple[int, int]], coun
     return (f"  Target: {target}, {dsps} {cell} (products "
             f"{', '.join(f'{a} x {b} bits: {parts(target, a, b)} each' for a, b in products)}); "
             f"l_M = {lat_mul}, the DSP pipeline needs {need}{extra}")
+
+
+def dsp_count(target: str, products: list[tuple[int, int]], counts: list[int]) -> int:
+    """DSPs of a core with counts[i] products of widths products[i]"""
+    return sum(c * parts(target, a, b) for (a, b), c in zip(products, counts))
+
+
+def single_dsp_advice(target: str, b: int, redesign, counts: list[int], floor: int = 8) -> str | None:
+    """When some product of the design at b fraction bits takes several DSPs of the target: the largest b' < b at
+    which every product is one DSP (`redesign(b')` gives that design's products; the bounds of the design flow
+    size the words), as a line of the design report; None when every product already is one, or none is down to
+    `floor`."""
+    if target == "generic":
+        return None
+    now = redesign(b)
+    if all(parts(target, *p) == 1 for p in now):
+        return None
+    for bb in range(b - 1, floor - 1, -1):
+        try:
+            prods = redesign(bb)
+        except DesignError:
+            return None
+        if all(parts(target, *p) == 1 for p in prods):
+            return (f"  Fit: b = {bb} keeps every product on one DSP ({dsp_count(target, prods, counts)} instead of "
+                    f"{dsp_count(target, now, counts)}; B={bb}, or frac_bits: {bb} in the spec)")
+    return None

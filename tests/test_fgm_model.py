@@ -451,3 +451,19 @@ def test_fgm_refuses_state_constrained_specs():
     """Rate and soft/hard state constraints are beyond the FGM core: refused, not silently dropped."""
     with pytest.raises(DesignError, match="input-constrained MPC only.*input_rate, soft_states"):
         design_fgm(load_spec(Path(__file__).resolve().parents[1] / "examples/masses_rate_soft.yaml"))
+
+
+def test_design_report_names_the_b_of_one_dsp_per_product():
+    """On a DSP target, the report names the largest b at which every product is one DSP, and the DSPs it saves;
+    at that b (or on the generic target) it says nothing."""
+    from mpc_cores.fgm.report import design_report
+    from mpc_cores.target import parts
+
+    masses = load_spec(Path(__file__).parents[1] / "examples/masses.yaml")
+    d = design_fgm(masses, P=3, target="ecp5", lat_mul=4)
+    assert any(parts("ecp5", *p) > 1 for p in d.products())
+    assert "Fit: b = 15 keeps every product on one DSP (126 instead of 246;" in design_report(d)
+    d15 = design_fgm(masses, P=3, target="ecp5", lat_mul=4, frac_bits=15)
+    assert all(parts("ecp5", *p) == 1 for p in d15.products())
+    assert "Fit:" not in design_report(d15)
+    assert "Fit:" not in design_report(design_fgm(masses, P=3))

@@ -30,16 +30,21 @@ async def bitexact_random(dut):
     await tb.reset()
     count = int(os.environ.get("CORE_RANDOM") or "30")
     sat = ovf = False
-    for i in range(count):
+    i = 0
+    while i < count:
         tb.backpressure(i % 2 == 1)
         if i % 5 == 0:
             await tb.set_ctrl(warm=tb.rng.random() < 0.7)
         if i % 7 == 3:
             await tb.set_imax(tb.rng.randint(1, 2 * tb.core["iterations"]))
-        w = tb.random_w(outside=0.05)
-        r = await tb.solve_and_check(w, f"solve {i}")
-        sat |= r.sat
-        ovf |= r.overflow
+        # one problem: a solve at a time; interleaving: a batch of frames for random problems, all in flight
+        ids = [0] if tb.problems == 1 else \
+            [tb.rng.randrange(tb.problems) for _ in range(min(count - i, tb.rng.randint(1, 2 * tb.problems)))]
+        batch = len(ids)
+        for r in await solve_batch(tb, ids, outside=0.05, tag=f"solves {i}.."):
+            sat |= r.sat
+            ovf |= r.overflow
+        i += batch
     st = await tb.status()
     assert st["SAT"] == sat, f"SAT flag {st['SAT']} != model {sat}"
     assert st["OVERFLOW"] == ovf, f"OVERFLOW flag {st['OVERFLOW']} != model {ovf}"
@@ -85,6 +90,28 @@ def _interleave(tb):
     from mpc_cores.interleave import Interleave
 
     return Interleave(tb.core["rows_per_turn"], tb.problems, tb.core["cycles_per_iteration"])
+
+
+async def solve_batch(tb, problems: list[int], outside: float = 0.0, idle: float = 0.0, tag: str = "") -> list:
+    """Frames for the given problem ids sent one after another (with probability `idle` a random pause after one),
+    then their answers: each equals its problem's model and comes in its problem's order. Returns the model's
+    results in the order sent."""
+    pending = {j: [] for j in range(tb.problems)}
+    results = []
+    for j in problems:
+        w = tb.random_w(outside=outside)
+        exp, r = tb.expect(w, j)
+        pending[j].append(exp)
+        results.append(r)
+        await tb.send(w, j if tb.problems > 1 else None)
+        if idle and tb.rng.random() < idle:
+            await ClockCycles(tb.dut.clock, tb.rng.randrange(2 * tb.core["period_cycles"]))
+    for i in range(len(problems)):
+        got_tag, got = await tb.recv_tagged()
+        assert pending.get(got_tag), f"{tag} answer {i}: an answer for problem {got_tag}, which has none outstanding"
+        exp = pending[got_tag].pop(0)
+        assert got == exp, f"{tag} answer {i} of problem {got_tag}: RTL {got} != model {exp}"
+    return results
 
 
 async def saturated_period(tb, rounds: int = 4) -> int:
@@ -170,20 +197,7 @@ async def interleaving(dut):
     # random problem order, idle and backpressure, warm start per problem
     await tb.set_ctrl(warm=True)
     tb.backpressure(True)
-    pending = {j: [] for j in range(kp)}
-    n = 6 * kp
-    for i in range(n):
-        j = tb.rng.randrange(kp)
-        w = tb.random_w(outside=0.1)
-        pending[j].append(tb.expect(w, j)[0])
-        await tb.send(w, j if kp > 1 else None)
-        if tb.rng.random() < 0.3:
-            await ClockCycles(dut.clock, tb.rng.randrange(2 * tb.core["period_cycles"]))
-    for i in range(n):
-        tag, got = await tb.recv_tagged()
-        assert pending[tag], f"answer {i}: an answer for problem {tag}, which has none outstanding"
-        exp = pending[tag].pop(0)
-        assert got == exp, f"answer {i} of problem {tag}: RTL {got} != model {exp}"
+    await solve_batch(tb, [tb.rng.randrange(kp) for _ in range(6 * kp)], outside=0.1, idle=0.3, tag="random order")
     tb.backpressure(False)
     await ClockCycles(dut.clock, 2 * tb.core["latency_cycles"]["max"])
     assert tb.sink.empty(), "an extra answer appeared"

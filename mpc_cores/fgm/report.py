@@ -6,7 +6,7 @@ import numpy as np
 from mpc_cores.fgm.design import FgmDesign, roundoff_bound
 from mpc_cores.fixed import run_time_fields
 from mpc_cores.interleave import core_fields, report_lines
-from mpc_cores.target import report_line
+from mpc_cores.target import report_line, single_dsp_advice
 
 
 def _fmt(intb: int, b: int, width: int) -> dict:
@@ -72,6 +72,16 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
     }
 
 
+def _dsp_advice(d: FgmDesign) -> str | None:
+    """the largest b at which every product is one DSP of the target, when the design's b is larger"""
+    from mpc_cores.fgm.design import design_fgm
+
+    def products(b):
+        return design_fgm(d.problem, frac_bits=b, P=d.P, target=d.target, lat_mul=d.lat_mul, lat_add=d.lat_add,
+                          rounding=d.rounding, iterations=d.iterations).products()
+    return single_dsp_advice(d.target, d.b, products, [d.P * d.m, 2 * d.P])
+
+
 def interleave_fields(d) -> dict:
     """core.json's interleaving entries (mpc_cores.interleave.core_fields)."""
     return core_fields(d.K, d.cycles_per_iteration, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
@@ -86,6 +96,7 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
         f"FGM core for '{d.name}': n = N*nu = {d.n} ({d.problem.N} x {d.nu}), nw = {d.nw} (x: {d.problem.nx}, r: {d.problem.ny})",
         f"  P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}, {d.rounding} products, b = {b} fraction bits",
         report_line(d.target, d.lat_mul, d.products(), [d.P * d.m, 2 * d.P]),
+        *([a] if (a := _dsp_advice(d)) else []),
         f"  Assumption 1 (002): c = {d.c:.6g}, lambda_max(H^_F) = {d.lam_max:.6g}, eig(H^_n) in [{d.mu:.4g}, "
         f"{np.linalg.eigvalsh(d.Hn_hat)[-1]:.6f}], beta^ = {d.beta / one:.6f} (>= bound, < 1)",
         "  Word widths (Prop. 1 of 002 on the quantised words; no overflow for any w in the box):",

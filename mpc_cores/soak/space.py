@@ -108,3 +108,15 @@ def target_latency(rng, lat_mul: int) -> dict:
     if t == "generic":
         return dict(target=t, lat_mul=lat_mul)
     return dict(target=t, lat_mul=None if rng.random() < 0.5 else int(rng.integers(4, 7)))
+
+
+def problems(rng) -> int:
+    """K_p of a fixed-point core: one problem (60 %) or 2 to 4 interleaved"""
+    return 1 if rng.random() < 0.6 else int(rng.integers(2, 5))
+
+
+def fixed_point_solve_cycles(core: dict) -> int:
+    """A bound on the cycles of one solve of a fixed-point core under bitexact_random: Imax up to twice the
+    default, both streams pausing (an interleaving core: a pass per round of period_cycles)."""
+    return core["solve_overhead_cycles"] + 2 * core["iterations"] * core["period_cycles"] + \
+        4 * (core["n"] + core["nw"])

@@ -125,11 +125,13 @@ class AdmmCore(val p: AdmmParams) extends Module {
     // Per-row constants and nu, picked at the fetch and carried to the q step.
     val kindRom = VecInit((0 until K).map(k => p.kindAt(u, k).U(2.W)))
     val codeRom = VecInit((0 until K).map(k => p.codeAt(u, k).U(codeW.W)))
-    val nuRows  = nuReg.map(nr => VecInit((0 until K).map(k => p.rows(u)(k).map(j => nr(j)).getOrElse(0.S(p.nuW.W)))))
+    // nu of each slot's row, of the token's problem (an empty slot: 0)
+    val nuRow   = VecInit((0 until K).map(k => p.rows(u)(k).map(j => ofSlot(nuReg.map(_(j)), tok1.slot))
+      .getOrElse(0.S(p.nuW.W))))
     val toQ     = p.stageQ - 1
     val kindQ   = ShiftRegister(kindRom(tok1.k), toQ)
     val codeQ   = ShiftRegister(codeRom(tok1.k), toQ)
-    val nuQ     = ShiftRegister(ofSlot(nuRows.map(_(tok1.k)), tok1.slot), toQ)
+    val nuQ     = ShiftRegister(nuRow(tok1.k), toQ)
 
     // y = M11 v + G~ (w, 1); the first pass stores G~ (w, 1) row by row.
     def gwAddr(t: RowToken): UInt = if (Kp == 1) t.k else Cat(t.slot, t.k.pad(gwKW))

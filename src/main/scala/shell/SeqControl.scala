@@ -13,8 +13,11 @@ case class SeqControl(tokN: RowToken, take: Bool, copyNow: Bool, running: Bool, 
   /** the token is problem j's (always, for one problem) */
   def mine(t: RowToken, j: Int): Bool = if (problems == 1) true.B else t.slot === j.U
 
-  /** problem `slot`'s element of `xs` (the element itself for one problem) */
-  def ofSlot[T <: Data](xs: Seq[T], slot: UInt): T = if (problems == 1) xs.head else VecInit(xs)(slot)
+  /** problem `slot`'s element of `xs` (the element itself for one problem); an AND-OR multiplexer on the decoded
+    * slot, not an index into a vector (firtool turns some of those into multiplexers of whole arrays, which the
+    * Verilog emission refuses) */
+  def ofSlot[T <: Data](xs: Seq[T], slot: UInt): T =
+    if (problems == 1) xs.head else Mux1H(UIntToOH(slot, problems), xs)
 }
 
 object SeqControl {
