@@ -387,12 +387,12 @@ def slug(name: str) -> str:
     return re.sub(r"[^a-z0-9]+", "_", name.lower()).strip("_")
 
 
-def core_ratios(lat_us: float | None, sw: dict | None) -> dict:
+def core_ratios(lat_us: float | None, sw: dict | None, rate: float | None = None) -> dict:
     """The record fields of one core against every solver of `sw`: the core latency the ratios use and the core's
-    solves per second (one QP in flight: 1 / latency), and per solver its median and p99 wall time per solve, their
-    ratios to the core's latency and the throughput ratio, core solves/s over the solver's solves/s at its median
-    (solver over core: above 1 the core is ahead)."""
-    rate = 1e6 / lat_us if lat_us else None
+    solves per second (`rate`; by default one QP in flight: 1 / latency), and per solver its median and p99 wall
+    time per solve, their ratios to the core's latency and the throughput ratio, core solves/s over the solver's
+    solves/s at its median (solver over core: above 1 the core is ahead)."""
+    rate = rate if rate is not None else (1e6 / lat_us if lat_us else None)
     out = {"core_latency_us": lat_us, "core_solves_per_s": rate}
     for r in (sw or {}).get("solvers", []):
         k = slug(r.name)

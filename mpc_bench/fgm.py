@@ -24,7 +24,7 @@ import math
 from pathlib import Path
 
 from mpc_bench.baselines import (
-    NumpyFgm, core_ratios, fastest_cell, prepare_fgm_software, solver_section,
+    NumpyFgm, core_ratios, fastest_cell, prepare_fgm_software, slug, solver_section,
 )
 from mpc_bench.plots import by_b, latency_plot, resources_plot
 from mpc_bench.qp import (
@@ -46,6 +46,9 @@ QUICK_P, QUICK_B = (1,), (16,)
 # l_A = l_M = 1, the latencies of eq. (23) and Table III(a) of 002.
 FMAX_LAT = dict(lat_add=1, lat_mul=5, target="ecp5")
 FMAX_FULL_P, FMAX_QUICK_P, FMAX_B = (1, 3), (1,), 15
+# K_p of the Fmax cores (problems interleaved on the row units, docs/fgm.md): at P = 3 the three problems of K_p = 3
+# keep every turn busy (K_p ceil(n/P) = 42 >= L_F = 34); P = 1 stays one problem at a time, the latency reference
+FMAX_PROBLEMS = {3: 3}
 
 # Table III(a) of 002 (FGM, masses, Imax = 15): P -> (multipliers, Virtex-6 T_s at 400 MHz in us,
 # Spartan-6 T_s at 230 MHz in us).
@@ -95,6 +98,12 @@ def fgm_rows(cores: list[Core], sw: dict | None) -> list[dict]:
         cpi = c.measured["cycles_per_iteration"] if c.measured else None
         cps = c.measured["cycles_per_solve"] if c.measured else None
         cyc = cps if cps is not None else cj["cycles_per_solve"]
+        kp = cj.get("problems", 1)
+        # interleaving: the latency's worst case (the wait for the problem's turn) and the solves per cycle measured
+        # with frames always waiting; one problem: its latency, and one solve per latency
+        cyc_max = (c.measured or {}).get("latency_max", cj.get("latency_cycles", {}).get("max", cyc))
+        period = (c.measured or {}).get("solve_period")
+        per_pass = period / (kp * (cj["iterations"] + 1)) if kp > 1 and period else None
         paper_cyc = cj["iterations"] * eq23(n, P, cj["lat_add"], cj["lat_mul"])
         t3 = PAPER_TABLE3.get(P) if (n, cj["iterations"]) == (40, 15) else None
         lat = _core_latency(c, cyc)
@@ -111,16 +120,19 @@ def fgm_rows(cores: list[Core], sw: dict | None) -> list[dict]:
             "multipliers_table3": t3[0] if t3 else None,
         }
         _tool_columns(c, r)
+        lat_max = _core_latency(c, cyc_max)
+        rate = kp / period * c.pnr["fmax_mhz"] * 1e6 if kp > 1 and period and c.pnr else None
         r.update({
-            "latency_us_ecp5": lat,
+            "problems": kp, "cycles_per_solve_max": cyc_max, "solve_period_measured": period,
+            "latency_us_ecp5": lat, "latency_us_ecp5_max": lat_max,
             "latency_us_v6_ours": latency_us(cyc, F_V6_MHZ), "latency_us_v6_paper": t3[1] if t3 else None,
             "latency_us_s6_ours": latency_us(cyc, F_S6_MHZ), "latency_us_s6_paper": t3[2] if t3 else None,
-            "mac_utilisation": mac_utilisation(n, cj["multipliers"], cpi if cpi else cj["cycles_per_iteration"]),
+            "mac_utilisation": mac_utilisation(n, cj["multipliers"], per_pass or cpi or cj["cycles_per_iteration"]),
         })
         for name, key in SW_KEYS:
             r[f"{key}_us"] = med.get(name)
             r[f"{key}_over_core"] = ratio(med.get(name), lat)
-        r.update(core_ratios(lat, sw))
+        r.update(core_ratios(lat_max, sw, rate))
         out.append(r)
     return out
 
@@ -188,6 +200,8 @@ def fgm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[st
               f"l_M = {lat['lat_mul']} (operands registered in fabric, then the MULT18X18D's input, pipeline and "
               "output registers; docs/dsp.md), the rest as above:", ""]
         L += _fmax_section(*map(list, zip(*fast)), "fgm_core.lpf")
+    if fast:
+        L += interleave_table([r for _, r in fast], sw)
     L += ["", "### Latency against Table III(a) of 002", ""]
     body = [[str(r["P"]), str(r["b"]), _f(r["cycles_per_solve_measured"], "{}"), _f(r["fmax_mhz"], "{:.1f}"),
              _f(r["latency_us_ecp5"], "{:.3f}"), _f(r["latency_us_v6_ours"], "{:.3f}"),
@@ -241,6 +255,31 @@ def fgm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[st
     return L
 
 
+def interleave_table(recs: list[dict], sw: dict | None) -> list[str]:
+    """The Fmax cores' latency range, throughput and MAC use (K_p problems interleaved), against DAQP when run."""
+    daqp = next((s for s in (sw or {}).get("solvers", []) if s.name.startswith("DAQP")), None)
+    body = []
+    for r in recs:
+        k = slug(daqp.name) if daqp else None
+        body.append([str(r["P"]), str(r["problems"]), _f(r["fmax_mhz"], "{:.1f}"),
+                     f"{r['cycles_per_solve_measured'] or r['cycles_per_solve_corejson']}"
+                     + (f" to {r['cycles_per_solve_max']}" if r["problems"] > 1 else ""),
+                     _f(r["latency_us_ecp5_max"], "{:.2f}"), _f(r["solve_period_measured"], "{}"),
+                     _f(r.get("core_solves_per_s"), "{:.0f}"), f"{100 * r['mac_utilisation']:.1f} %",
+                     _f(r.get(f"{k}_p99_over_core") if k else None, "{:.1f}x"),
+                     _f(r.get(f"{k}_throughput_ratio") if k else None, "{:.2f}x")])
+    L = ["", "### Interleaved problems (K_p, Verilator and nextpnr)", ""]
+    L += _table(["P", "K_p", "Fmax MHz", "latency cycles", "worst latency us", "solve period (meas.)",
+                 "solves/s", "MAC use", "DAQP p99 / worst latency", "solves/s / DAQP's at its median"], body)
+    L += ["", "K_p problems share the row units, a pass of one problem per turn (docs/fgm.md). Latency: from the "
+          "last input word to the first output word, measured in Verilator; with K_p > 1 up to R - 1 cycles more "
+          "wait for the problem's turn (the worst case is what the DAQP column uses). Solve period: cycles between "
+          "two answers of one problem with frames always waiting, measured; solves/s: K_p / period x Fmax (one "
+          "problem: 1 / latency). MAC use: (n^2 + 2n) per iteration over multipliers x the cycles of one pass, "
+          "period / (K_p (Imax + 1)) when interleaving.", ""]
+    return L
+
+
 # ----------------------------------------------------------------------------------------- the section
 
 class Section(QpSection):
@@ -285,16 +324,16 @@ class Section(QpSection):
                 self.cores.append(Core("fgm", "masses", P, b, out / "cores" / f"masses_p{P}_b{b}", d, d.iterations))
         la, lm, tg = FMAX_LAT["lat_add"], FMAX_LAT["lat_mul"], FMAX_LAT["target"]
         for P in self.fmax_Ps:
+            kp = FMAX_PROBLEMS.get(P, 1)
+            tag = f"masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}" + (f"_k{kp}" if kp > 1 else "")
             try:
-                d = cached_design(designs, f"fgm_masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}",
-                                  ("fgm", spec, P, FMAX_B, la, lm, tg),
-                                  lambda P=P: design_fgm(problem, P=P, frac_bits=FMAX_B, **FMAX_LAT))
+                d = cached_design(designs, f"fgm_{tag}", ("fgm", spec, P, FMAX_B, la, lm, tg, kp),
+                                  lambda P=P, kp=kp: design_fgm(problem, P=P, frac_bits=FMAX_B, problems=kp,
+                                                                **FMAX_LAT))
             except DesignError as e:
-                self.error(f"FGM P={P} l_A={la} l_M={lm}: design refused: {e}")
+                self.error(f"FGM P={P} l_A={la} l_M={lm} K_p={kp}: design refused: {e}")
                 continue
-            self.cores.append(Core("fgm", "masses", P, FMAX_B,
-                                   out / "cores" / f"masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}",
-                                   d, d.iterations, role="fmax"))
+            self.cores.append(Core("fgm", "masses", P, FMAX_B, out / "cores" / tag, d, d.iterations, role="fmax"))
 
     def software_case(self):
         return prepare_fgm_software(self.problem, self.designs, self.steps, 30)

@@ -402,3 +402,27 @@ def test_fmax_table_names_kind_latencies_and_formula():
     r = admm_report.admm_rows([small], None, None)[0]
     table = "\n".join(admm_report.fmax_summary_table([r]))
     assert "| ADMM | small_rate_soft | 19 | 1 | 18 | 2, 3 |" in table and "eq. (24)" in table and "69.5" in table
+
+
+def test_fgm_rows_of_an_interleaving_core():
+    """An Fmax core with K_p problems: the ratios use its worst latency and its measured solves per second, and the
+    interleaving table shows the latency's range, the period and the MAC use."""
+    from types import SimpleNamespace
+
+    pnr = parsers.parse_nextpnr_report(REPORT)
+    c = fgm.Core("fgm", "masses", 3, 15, None, SimpleNamespace(multipliers=126), 15, role="fmax")
+    c.core = {"n": 40, "nw": 12, "nx": 8, "iterations": 15, "lat_add": 1, "lat_mul": 5, "cycles_per_iteration": 34,
+              "cycles_eq23": 34, "cycles_per_solve": 669, "solve_overhead_cycles": 39, "multipliers": 126,
+              "problems": 3, "latency_cycles": {"min": 669, "max": 710}, "module": "FgmCore_x"}
+    c.measured = {"cycles_per_iteration": 34, "cycles_per_solve": 669, "latency_max": 710, "solve_period": 672}
+    c.pnr = pnr
+    sw = {"solvers": [baselines.SwResult("DAQP (hot start)", "s", np.array([[4.0, 5.0, 30.0]]), 1e-9)]}
+    r = fgm.fgm_rows([c], sw)[0]
+    f = pnr["fmax_mhz"]
+    assert r["latency_us_ecp5_max"] == pytest.approx(710 / f) and r["core_latency_us"] == pytest.approx(710 / f)
+    assert r["core_solves_per_s"] == pytest.approx(3 / 672 * f * 1e6)
+    assert r["mac_utilisation"] == pytest.approx((40 * 40 + 80) / (126 * 14))
+    med = sw["solvers"][0].median_us
+    assert r["daqp_hot_start_throughput_ratio"] == pytest.approx(3 / 672 * f * 1e6 / (1e6 / med))
+    table = "\n".join(fgm.interleave_table([r], sw))
+    assert "| 3 | 3 |" in table and "669 to 710" in table and "672" in table and "95.2 %" in table
