@@ -54,9 +54,12 @@ def test_interleaving_cores_elaborate(kind, tmp_path):
             d = design(problem_from_dict(dict(c.spec, name=f"e{i}"), f"e{i}"), **c.design)
         except DesignError:
             continue              # the soak counts these as refused
+        if i == 0:             # one row per unit (K = 1): a turn is a single cycle
+            d = design(problem_from_dict(dict(c.spec, name=f"e{i}"), f"e{i}"), **dict(c.design, P=d.n))
         jobs.append((d, tmp_path / f"c{i}"))
     cores = flow.generate(kind, jobs)
     for (d, _), core in zip(jobs, cores):
         assert core["problems"] == d.problems > 1
         assert core["period_cycles"] == max(core["cycles_per_iteration"], d.problems * core["rows_per_turn"])
         assert core["latency_cycles"]["max"] == core["latency_cycles"]["min"] + core["period_cycles"] - 1
+    assert any(c["P"] == c["n"] for c in cores)

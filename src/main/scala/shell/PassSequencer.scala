@@ -34,6 +34,7 @@ object RowToken {
   */
 class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxOut: Int) extends Module {
   require(K >= 1 && firstLen >= K && L >= K, s"PassSequencer: need K <= firstLen and K <= L: K=$K, firstLen=$firstLen, L=$L")
+  require(firstLen >= 2 || K >= 2, s"PassSequencer: the first pass needs two positions: K=$K, firstLen=$firstLen")
   val kW = math.max(1, log2Ceil(K))
   val io = IO(new Bundle {
     /** a complete input frame waits */
@@ -62,9 +63,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val state  = RegInit(sIdle)
   val pass0  = RegInit(false.B)
   val cnt    = RegInit(0.U(log2Ceil(math.max(firstLen, L) + 1).W))
-  // iterations after the current one (Imax - 1 - iteration), and whether the current one is the first
+  // iterations after the current one (Imax - 1 - iteration)
   val left   = RegInit(0.U(16.W))
-  val iter0  = RegInit(true.B)
   val outCnt = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val outEnd = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val outAtEnd = RegInit(false.B) // outCnt === outEnd, kept in a register: the output handshake is a gate from it
@@ -73,10 +73,9 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val wrap     = RegInit((L == 1).B)        // cnt === L - 1
   val lastIter = RegInit(true.B)            // left === 0
 
-  // Next values of the state and the counters. The comparisons the tokens need are made for the next cycle and
-  // registered, and so is the next token itself: the row memories are addressed straight from registers. They
-  // are taken per case of the counters' update (cleared, incremented, held), each a comparison of a register with
-  // a constant, so that no adder or subtracter lies between the state and the token registers.
+  // Next values of the state and the counters (the state, the operand copy and the answer; the tokens have a
+  // generator of their own, below). The comparisons are made for the next cycle and registered, per case of the
+  // counter's update (cleared, incremented, held), each a comparison of a register with a constant.
   val stateNext = WireDefault(state)
   val pass0Next = WireDefault(pass0)
   val leftNext  = WireDefault(left)
@@ -94,53 +93,87 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   // the next counter's comparisons and successor, the counter cleared when `clr`
   def eqAfter(clr: Bool, c: Int): Bool = // cntNext === c
     Mux(clr, (c == 0).B, Mux(cntInc, if (c >= 1) cnt === (c - 1).U else false.B, cnt === c.U))
-  def incAfter(clr: Bool): UInt = Mux(clr, 1.U, Mux(cntInc, cnt +& 2.U, cnt +& 1.U)) // cntNext + 1
-  def issueAfter(clr: Bool): Bool = // cntNext + 1 < K
-    Mux(clr, (K > 1).B, Mux(cntInc, if (K >= 3) cnt < (K - 2).U else false.B, cnt < (K - 1).U))
   val wrap0N  = eqAfter(cntClr, firstLen - 1)
   val wrapN   = eqAfter(cntClr, L - 1)
-  val cntIncN = incAfter(cntClr)
-  val issueN  = issueAfter(cntClr)
   // an iteration ends (not the first pass): one iteration fewer left
   val iterEnd = run && !pass0 && wrap
   val lastIterN = Mux(start, io.imax === 1.U, Mux(iterEnd, left === 1.U, lastIter))
-  val iter0N    = Mux(start, true.B, Mux(iterEnd, false.B, iter0))
   wrap0    := wrap0N
   wrap     := wrapN
   lastIter := lastIterN
-  iter0    := iter0N
 
 
-  /** The token issued in the cycle after one in state `st` (pass0 `p0`, comparisons of its counters `w0` ... `i0`).
-    * Idle: the first row of the first pass, not valid (the cycle of `start` makes it valid). */
-  def nextToken(st: UInt, p0: Bool, w0: Bool, w: Bool, is: Bool, li: Bool, i0: Bool, inc: UInt): RowToken = {
-    val t = Wire(new RowToken(kW))
-    t := 0.U.asTypeOf(t)
-    when(st === sIdle) {
-      t.pass0 := true.B
-    }.elsewhen(st === sRun && p0) {
-      t.valid := w0 || is
-      t.pass0 := !w0
-      t.first := w0
-      t.k     := Mux(w0, 0.U, inc(kW - 1, 0))
-    }.elsewhen(st === sRun) {
-      t.valid := Mux(w, !li, is)
-      t.first := i0 && !w
-      t.k     := Mux(w, 0.U, inc(kW - 1, 0))
+  // The token generator: registers describing the token of this cycle (its position in the solve), advanced by
+  // one position per cycle from the start, each next value a gate or two from registers (the comparisons it needs
+  // are flags kept a cycle ahead). In idle it holds the first pass's row 0, not valid (the cycle of `start` makes
+  // it valid); after a solve's last position it returns there.
+  val gV      = RegInit(false.B)           // the position is a row
+  val gP0     = RegInit(true.B)            // of the first pass
+  val gF      = RegInit(false.B)           // of the first iteration
+  val gK      = RegInit(0.U(kW.W))
+  val gKLast  = RegInit((K == 1).B)        // gK === K - 1
+  val gGap    = RegInit(false.B)           // past the pass's rows
+  val gapW    = log2Ceil(math.max(firstLen, L) + 1)
+  val gGapCnt = RegInit(0.U(gapW.W))       // gap positions after this one
+  val gGapEnd = RegInit(false.B)           // gGapCnt === 0
+  val gRun    = RegInit(false.B)           // a solve's positions are being issued
+  val gLast   = RegInit(false.B)           // the pass is the solve's last
+  val gRem    = RegInit(0.U(16.W))         // iterations after this pass
+  val gRemOne = RegInit(false.B)           // gRem === 1
+  val adv     = gRun || start
+  val rem     = Mux(start, io.imax, gRem)
+  val remOne  = Mux(start, io.imax === 1.U, gRemOne)
+  val last    = !start && gLast
+  val rowEnd  = (gV || start) && gKLast
+  val gapLen0 = firstLen - K
+  val gapLen  = L - K
+  val passEnd = rowEnd && Mux(gP0, (gapLen0 == 0).B, (gapLen == 0).B) || gGap && gGapEnd
+  when(adv) {
+    when(passEnd) {
+      gGap := false.B
+      gK   := 0.U
+      gKLast := (K == 1).B
+      when(last) { // the solve's positions end: back to idle's token
+        gRun := false.B
+        gV   := false.B
+        gP0  := true.B
+        gF   := false.B
+      }.otherwise { // the next iteration's row 0
+        gRun    := true.B
+        gV      := true.B
+        gF      := gP0
+        gP0     := false.B
+        gLast   := remOne
+        gRem    := rem - 1.U
+        gRemOne := rem === 2.U
+      }
+    }.elsewhen(rowEnd) { // the pass's gap begins
+      gRun    := true.B
+      gV      := false.B
+      gGap    := true.B
+      gGapCnt := Mux(gP0, (math.max(gapLen0, 1) - 1).U, (math.max(gapLen, 1) - 1).U)
+      gGapEnd := Mux(gP0, (gapLen0 == 1).B, (gapLen == 1).B)
+    }.elsewhen(gGap) {
+      gGapCnt := gGapCnt - 1.U
+      gGapEnd := gGapCnt === 1.U
+    }.otherwise { // the next row
+      gRun   := true.B
+      gV     := true.B
+      gK     := gK + 1.U
+      gKLast := (if (K >= 2) gK === (K - 2).U else true.B)
     }
-    t
+    when(start) {
+      gLast   := false.B
+      gRem    := io.imax
+      gRemOne := io.imax === 1.U
+    }
   }
-  val idleTok = nextToken(sIdle, false.B, false.B, false.B, false.B, false.B, false.B, 0.U)
-  val tokR = RegInit(idleTok)
-  // The token after a start is a constant (the first pass's row 0, counters cleared); every other one is taken
-  // from the next state as if no start happened, so the start (the input frame's handshake) only selects between
-  // the two at the token register.
-  val startTok = nextToken(sRun, true.B, (firstLen == 1).B, (L == 1).B, (K > 1).B, false.B, true.B, 1.U)
-  val idle     = state === sIdle
-  val runTok = nextToken(Mux(idle, sIdle, stateNext), Mux(idle, pass0, pass0Next), eqAfter(wrapIt, firstLen - 1),
-    eqAfter(wrapIt, L - 1), issueAfter(wrapIt), Mux(iterEnd, left === 1.U, lastIter), Mux(iterEnd, false.B, iter0),
-    incAfter(wrapIt))
-  tokR := Mux(start, startTok, runTok)
+  val tokR = Wire(new RowToken(kW))
+  tokR.valid := gV
+  tokR.pass0 := gP0
+  tokR.first := gF
+  tokR.k     := gK
+  tokR.slot  := 0.U
   val tokN = WireDefault(tokR)
   when(start) { tokN.valid := true.B }
   io.tokN := tokN

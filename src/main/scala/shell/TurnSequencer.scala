@@ -109,7 +109,7 @@ class TurnSequencer(K: Int, Kp: Int, L: Int, maxOut: Int) extends Module {
       }
     }.otherwise {
       k    := k + 1.U
-      kEnd := k === (K - 2).U
+      kEnd := (if (K >= 2) k === (K - 2).U else true.B)
     }
   }
 
