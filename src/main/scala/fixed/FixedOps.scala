@@ -76,6 +76,13 @@ object FixedOps {
     * the partial products and the addend. A stage more than that registers the operands in fabric first.
     */
   def mulPipelined(a: SInt, b: SInt, lat: Int, addend: BigInt = 0, target: Target = Target.Generic): SInt = {
+    val (v, n) = mulStages(a, b, lat, addend, target)
+    ShiftRegister(v, n)
+  }
+
+  /** mulPipelined as (the product before its trailing plain registers, their number): a caller may put logic of
+    * its own before them (the same words at the same cycle, with the logic on the earlier side of a register). */
+  def mulStages(a: SInt, b: SInt, lat: Int, addend: BigInt = 0, target: Target = Target.Generic): (SInt, Int) = {
     val prodW = a.getWidth + b.getWidth
     // ecp5: the addend is summed in the fourth stage, with the partial products if there are several
     val need = target.minLatency(a.getWidth, b.getWidth).max(if (target == Target.Ecp5 && addend != 0) 4 else 0)
@@ -94,18 +101,18 @@ object FixedOps {
       val parts = for ((la, i) <- limbs(fa, DspWidth).zipWithIndex; (lb, j) <- limbs(fb, DspWidth).zipWithIndex)
         yield (ecp5Product(la, lb), k * (i + j))
       val rest = lat - (if (front) 1 else 0)
-      if (parts.length == 1 && addend == 0) ShiftRegister(parts.head._1, rest - 3)
-      else ShiftRegister(reg(summed(parts)), rest - 4)
+      if (parts.length == 1 && addend == 0) (parts.head._1, rest - 3)
+      else (reg(summed(parts)), rest - 4)
     } else if (lat >= 3) {
       // the operand that fits the wider port goes there (xilinx7: A is 25 bits)
       val (x, y) = if (b.getWidth > a.getWidth && b.getWidth <= target.dspA) (b, a) else (a, b)
       val (rx, ry) = (reg(x), reg(y))
       val parts = for ((lx, i) <- limbs(rx, target.dspA).zipWithIndex; (ly, j) <- limbs(ry, target.dspB).zipWithIndex)
         yield (reg(lx * ly), (target.dspA - 1) * i + (target.dspB - 1) * j)
-      ShiftRegister(reg(summed(parts)), lat - 3)
+      (reg(summed(parts)), lat - 3)
     } else {
       val p = if (lat == 2) reg(a) * reg(b) else a * b
-      ShiftRegister(if (addend == 0) p else p +& addend.S, if (lat == 2) 1 else lat)
+      (if (addend == 0) p else p +& addend.S, if (lat == 2) 1 else lat)
     }
   }
 
@@ -117,6 +124,20 @@ object FixedOps {
     val fold = lat >= (if (target == Target.Ecp5) 4 else 3) && shift > 0 && mode == Rounding.Nearest
     if (fold) mulPipelined(a, b, lat, BigInt(1) << (shift - 1), target) >> shift
     else shiftRound(mulPipelined(a, b, lat, 0, target), shift, mode)
+  }
+
+  /** mulRoundPipelined saturated to `width` bits, with the overflow flag. Where the multiplier's words come from a
+    * register (a DSP target, or l_M >= 3) and plain registers follow, the rounding and the saturation go before
+    * them: the adder that takes the product then starts at a register. */
+  def mulRoundSatPipelined(a: SInt, b: SInt, lat: Int, shift: Int, mode: Rounding, target: Target,
+                           width: Int): (SInt, Bool) = {
+    val fold = lat >= (if (target == Target.Ecp5) 4 else 3) && shift > 0 && mode == Rounding.Nearest
+    val (v, n) = mulStages(a, b, lat, if (fold) BigInt(1) << (shift - 1) else 0, target)
+    def rounded(x: SInt): SInt = if (fold) x >> shift else shiftRound(x, shift, mode)
+    if (n >= 1 && (target != Target.Generic || lat >= 3)) {
+      val (sv, of) = saturate(rounded(v), width)
+      (ShiftRegister(sv, n), ShiftRegister(of, n))
+    } else saturate(rounded(ShiftRegister(v, n)), width)
   }
 
   /** a + b saturated to `width` bits. */

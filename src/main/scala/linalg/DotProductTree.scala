@@ -61,9 +61,7 @@ class DotProductTree(val p: DotProductParams) extends Module {
 
   // Multipliers (l_M stages, FixedOps.mulRoundPipelined: the product rounded back to fracBits), then narrowed.
   val level0 = (0 until p.m).map { j =>
-    val prod    = FixedOps.mulRoundPipelined(io.coef(j), io.op(j), p.latMul, p.fracBits, p.rounding, p.target)
-    val (v, of) = FixedOps.saturate(prod, p.sumW)
-    (v, of)
+    FixedOps.mulRoundSatPipelined(io.coef(j), io.op(j), p.latMul, p.fracBits, p.rounding, p.target, p.sumW)
   }
 
   // Adder tree, l_A registers per level.

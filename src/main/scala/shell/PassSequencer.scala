@@ -120,35 +120,48 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val gLast   = RegInit(false.B)           // the pass is the solve's last
   val gRem    = RegInit(0.U(16.W))         // iterations after this pass
   val gRemOne = RegInit(false.B)           // gRem === 1
-  val adv     = gRun || start
-  val rem     = Mux(start, io.imax, gRem)
-  val remOne  = Mux(start, io.imax === 1.U, gRemOne)
-  val last    = !start && gLast
-  val rowEnd  = (gV || start) && gKLast
+  // A start loads the second position of the first pass (constants, and the iteration count): the input frame's
+  // handshake selects at the registers and does not enter the advance logic.
+  val rowEnd  = gV && gKLast
   val gapLen0 = firstLen - K
   val gapLen  = L - K
   val passEnd = rowEnd && Mux(gP0, (gapLen0 == 0).B, (gapLen == 0).B) || gGap && gGapEnd
-  when(adv) {
+  when(start) {
+    gRun    := true.B
+    gP0     := true.B
+    gF      := false.B
+    gLast   := false.B
+    gRem    := io.imax
+    gRemOne := io.imax === 1.U
+    if (K > 1) { // row 1
+      gV     := true.B
+      gK     := 1.U
+      gKLast := (K == 2).B
+    } else {     // the first pass's gap (firstLen >= 2)
+      gV      := false.B
+      gGap    := true.B
+      gGapCnt := (firstLen - 2).U
+      gGapEnd := (firstLen == 2).B
+    }
+  }.elsewhen(gRun) {
     when(passEnd) {
       gGap := false.B
       gK   := 0.U
       gKLast := (K == 1).B
-      when(last) { // the solve's positions end: back to idle's token
+      when(gLast) { // the solve's positions end: back to idle's token
         gRun := false.B
         gV   := false.B
         gP0  := true.B
         gF   := false.B
       }.otherwise { // the next iteration's row 0
-        gRun    := true.B
         gV      := true.B
         gF      := gP0
         gP0     := false.B
-        gLast   := remOne
-        gRem    := rem - 1.U
-        gRemOne := rem === 2.U
+        gLast   := gRemOne
+        gRem    := gRem - 1.U
+        gRemOne := gRem === 2.U
       }
     }.elsewhen(rowEnd) { // the pass's gap begins
-      gRun    := true.B
       gV      := false.B
       gGap    := true.B
       gGapCnt := Mux(gP0, (math.max(gapLen0, 1) - 1).U, (math.max(gapLen, 1) - 1).U)
@@ -157,15 +170,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
       gGapCnt := gGapCnt - 1.U
       gGapEnd := gGapCnt === 1.U
     }.otherwise { // the next row
-      gRun   := true.B
-      gV     := true.B
       gK     := gK + 1.U
       gKLast := (if (K >= 2) gK === (K - 2).U else true.B)
-    }
-    when(start) {
-      gLast   := false.B
-      gRem    := io.imax
-      gRemOne := io.imax === 1.U
     }
   }
   val tokR = Wire(new RowToken(kW))
