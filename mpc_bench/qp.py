@@ -173,7 +173,10 @@ def _memories(cores: list[Core]) -> list[str]:
 
 def _fmax_section(cores: list[Core], recs: list[dict], lpf: str) -> list[str]:
     tgt = next((r["fmax_target_mhz"] for r in recs if r["fmax_target_mhz"]), None)
-    L = [f"Constraint from constraints/{lpf} (`--freq {_f(tgt, '{:g}')}`), seed {PNR_SEED}, "
+    seeds = max((len(c.pnr.get("fmax_seeds", [])) for c in cores if c.pnr), default=1)
+    L = [f"Constraint from constraints/{lpf} (`--freq {_f(tgt, '{:g}')}`), "
+         + (f"seed {PNR_SEED}" if seeds <= 1 else f"seeds {PNR_SEED} to {PNR_SEED + seeds - 1}: the median run's "
+            "Fmax and critical path, every seed's Fmax in brackets") + ", "
          "`--lpf-allow-unconstrained`: the LPF sets the clock and the I/O standard (LVCMOS33) but no pin sites, "
          "so nextpnr places the AXI pins itself (the Fmax below is register to register; nextpnr-ecp5 has no I/O "
          "timing constraints).", ""]

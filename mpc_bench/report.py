@@ -70,7 +70,9 @@ def pnr_cells(c, comb: str) -> list[str]:
     cp = (c.pnr or {}).get("critical_path")
     if not c.pnr:
         return ["-", "-", c.pnr_note or "not run", "-", "-"]
-    return [f"{c.pnr['fmax_mhz']:.1f}", comb,
+    seeds = c.pnr.get("fmax_seeds") or []
+    fmax = f"{c.pnr['fmax_mhz']:.1f}" + (f" ({', '.join(f'{f:.1f}' for f in seeds)})" if len(seeds) > 1 else "")
+    return [fmax, comb,
             f"{cp['from']} ({cp['source_kind']}) -> {cp['to']}" if cp else "-",
             f"{cp['logic_levels']}: " + ", ".join(f"{v} {k}" for k, v in cp["kinds"].items()) if cp else "-",
             f"{cp['total_ns']:.2f} ({cp['clk_to_q_ns']:.2f} clk-to-q, {cp['logic_ns']:.2f} logic, "

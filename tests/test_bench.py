@@ -426,3 +426,17 @@ def test_fgm_rows_of_an_interleaving_core():
     assert r["daqp_hot_start_throughput_ratio"] == pytest.approx(3 / 672 * f * 1e6 / (1e6 / med))
     table = "\n".join(fgm.interleave_table([r], sw))
     assert "| 3 | 3 |" in table and "669 to 710" in table and "672" in table and "95.2 %" in table
+
+
+def test_median_of_placement_seeds():
+    """The Fmax cores of a full run are placed with three seeds: the median run's Fmax and path, every Fmax beside."""
+    from mpc_bench.tools import median_run
+    from mpc_bench.report import pnr_cells
+    from types import SimpleNamespace
+
+    runs = [{"fmax_mhz": f, "target_mhz": 200.0, "seed": s, "critical_path": None}
+            for s, f in ((1, 150.6), (2, 146.4), (3, 159.7))]
+    m = median_run(runs)
+    assert m["fmax_mhz"] == 150.6 and m["seed"] == 1 and m["fmax_seeds"] == [146.4, 150.6, 159.7]
+    assert pnr_cells(SimpleNamespace(pnr=m, pnr_note=""), "1")[0] == "150.6 (146.4, 150.6, 159.7)"
+    assert median_run(runs[:1])["fmax_seeds"] == [150.6]
