@@ -132,6 +132,17 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val kindQ   = ShiftRegister(kindRom(tok1.k), toQ)
     val codeQ   = ShiftRegister(codeRom(tok1.k), toQ)
     val nuQ     = ShiftRegister(nuRow(tok1.k), toQ)
+    // nu / rho (a rounded shift: a carry chain with nearest rounding), formed a stage after the fetch so that the
+    // q step below has one carry chain
+    val nuRhoQ  =
+      if (toQ >= 1) {
+        val nu1   = Reg(SInt(p.nuW.W))
+        val code1 = Reg(UInt(codeW.W))
+        nu1   := nuRow(tok1.k)
+        code1 := codeRom(tok1.k)
+        ShiftRegister(shiftByCode(nu1, code1, neg = true), toQ - 1)
+      }
+      else shiftByCode(nuQ, codeQ, neg = true)
 
     // y = M11 v + G~ (w, 1); the first pass stores G~ (w, 1) row by row.
     def gwAddr(t: RowToken): UInt = if (Kp == 1) t.k else Cat(t.slot, t.k.pad(gwKW))
@@ -146,7 +157,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val (y, ofY) = FixedOps.satAdd(tree.io.sum, gw, p.yW)
     val yQ = ShiftRegister(y, p.latAdd)
     // q = y + nu / rho (0 in the first pass: the cold start projects 0)
-    val (q, ofQ) = FixedOps.satAdd(yQ, shiftByCode(nuQ, codeQ, neg = true), p.qW)
+    val (q, ofQ) = FixedOps.satAdd(yQ, nuRhoQ, p.qW)
     val qP    = ShiftRegister(Mux(tokQ.pass0, 0.S(p.qW.W), q), p.latAdd)
     val yP    = ShiftRegister(yQ, p.latAdd)
     val nuP   = ShiftRegister(nuQ, p.latAdd)
