@@ -187,7 +187,8 @@ async def cycle_contract_interleaved(tb):
 async def interleaving(dut):
     """Frames always waiting, in problem order, no backpressure: every answer equals its problem's model and carries
     its id, and each problem's answers come one period (core.json's throughput) apart, which gives the measured
-    MAC utilisation. Then random problem order, idle and backpressure: each problem's answers in its order."""
+    MAC utilisation. Then random problem order, idle and backpressure: each problem's answers in its order; and a
+    reset with every problem in flight."""
     tb = TB(dut, seed=19)
     await tb.reset()
     kp = tb.problems
@@ -208,6 +209,16 @@ async def interleaving(dut):
         await tb.send(w, (1 << (kp - 1).bit_length()) - 1)
         assert await tb.recv_tagged() == (kp - 1, exp)
         assert (await tb.status())["SAT"]
+    # reset with every problem in flight: no answer from the aborted batch, every warm start dropped (the next
+    # batch matches the cold-started models)
+    for j in range(kp):
+        await tb.send(tb.random_w(), j if kp > 1 else None)
+    sent = (tb.nw + 3) * kp          # every frame taken (each for a free problem)
+    await ClockCycles(dut.clock, tb.rng.randint(sent, max(sent, tb.core["latency_cycles"]["min"])))
+    await tb.reset()
+    await ClockCycles(dut.clock, 2 * tb.core["latency_cycles"]["max"])
+    assert tb.sink.empty(), "the batch aborted by reset produced an answer"
+    await solve_batch(tb, list(range(kp)), tag="after reset")
     measure({"test": "interleaving", "module": tb.core["module"], "problems": kp, "period": period,
              "mac_utilisation": util})
 
