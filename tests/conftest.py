@@ -57,6 +57,14 @@ def random_problem(name: str, nx: int, nu: int, N: int, ny: int, seed: int, **ex
     return problem_from_dict(d, name)
 
 
+def _soak_config(seed: int):
+    """(problem, design overrides) of a `make soak` configuration of the FGM core"""
+    from mpc_cores.fgm.soak import draw
+
+    c = draw(np.random.default_rng(seed))
+    return problem_from_dict(dict(c.spec, name=f"s{seed}"), f"s{seed}"), c.design
+
+
 # id -> (problem factory, design overrides, random solves)
 CASES = {
     "masses_p1_b16": (lambda: load_spec(REPO / "examples/masses.yaml"), dict(P=1, frac_bits=16), 40),
@@ -80,7 +88,12 @@ CASES = {
     # K_p not a power of two (an id past the last saturates)
     "rand_n4_p1_b12_k3": (lambda: random_problem("r4k", 3, 1, 4, 1, 8), dict(P=1, frac_bits=12, lat_mul=2, problems=3),
                           20),
-    "rand_n6_p2_b12_k2": (lambda: random_problem("r6k", 3, 2, 3, 1, 9), dict(P=2, frac_bits=12, problems=2), 20),
+    "rand_n6_p3_b12_k2": (lambda: random_problem("r6k", 3, 2, 3, 1, 9, inputs={"min": [-1.0, -0.4], "max": [0.8, 0.3]}),
+                          dict(P=3, frac_bits=12, problems=2), 20),
+    # soak configuration 11000017 (n = 6, P = 5, K_p = 4, l_A = l_M = 3): a first pass fetched while another
+    # problem's rows were still in flight took the bounds memory from them (the rows of a unit have different
+    # input bounds here)
+    "soak_11000017_n6_p5_k4": (lambda: _soak_config(11000017)[0], _soak_config(11000017)[1], 30),
     # the masses core at P = 3 on the ECP5 target, K_p = 3: every turn busy (K_p K = 42 >= L = 34)
     "masses_p3_b14_k3_ecp5": (lambda: load_spec(REPO / "examples/masses.yaml"),
                               dict(P=3, frac_bits=14, target="ecp5", lat_mul=5, problems=3), 15),

@@ -110,7 +110,10 @@ class FgmCore(val p: FgmParams) extends Module {
     // tokN.valid (forced in the cycle of the start, from the input handshake): while the first pass has rows
     // to issue its token is valid, and in the other cycles of the first pass and in idle the read is unused
     // (no iteration row is in flight)
-    bndRam(u).io.raddr := Mux(tokN.pass0, tokN.k, tokBnd.k)
+    // Several problems: always the row reaching the projection, for a first pass too (its cold start is then
+    // formed at the projection stage): another problem's iteration rows may still be in flight when a first
+    // pass's rows are fetched, and they need their own bounds.
+    bndRam(u).io.raddr := (if (Kp == 1) Mux(tokN.pass0, tokN.k, tokBnd.k) else tokBnd.k)
   }
 
   val yPad = VecInit((0 until m).map(j => if (j < n) yReg(j).pad(p.opW) else 0.S(p.opW.W)))
@@ -215,7 +218,8 @@ class FgmCore(val p: FgmParams) extends Module {
     for (r <- 0 until n) when(turn0 && !tok0.pass0) { yReg(r) := ofSlot(yNext.map(_(r)), tok0.slot) }
     for (j <- 0 until Kp) {
       val warmCopy = RegNext(turn0 && tok0.pass0 && mine(tok0, j) && ctl.warmOf(j), false.B)
-      val weCold   = RowToken.enables(tok1, tok1.valid && tok1.pass0 && mine(tok1, j) && !ctl.warmOf(j), K)
+      // the cold start of a first-pass row, from its bounds at the projection stage (bndRam read by tokBnd)
+      val weCold   = RowToken.enables(tokT, tokT.valid && tokT.pass0 && mine(tokT, j) && !ctl.warmOf(j), K)
       val weY      = RowToken.enables(tokY1, tokY1.valid && !tokY1.pass0 && mine(tokY1, j), K)
       for (r <- 0 until n) {
         val u = r % P
