@@ -42,13 +42,25 @@ QUICK_P, QUICK_B = (1,), (16,)
 # The cores placed and routed for Fmax (role "fmax"): TARGET=ecp5, every product on a MULT18X18D with its input,
 # pipeline and output registers, and l_M = 5: one stage more registers the operands in fabric before the DSP and
 # one the DSP's output in fabric (docs/dsp.md, docs/benchmark.md). b = 15 keeps every operand of masses at 18 bits (the state words take 19 at b = 16), so a product
-# is one MULT18X18D: P = 3 (126 of the 85F's 156) is the largest P that fits. The sweeps keep the spec's
-# l_A = l_M = 1, the latencies of eq. (23) and Table III(a) of 002.
+# is one MULT18X18D: P = 3 (126 of the 85F's 156) is the largest P that Yosys fits, but nextpnr did not route it
+# within an hour (docs/benchmark.md), so it is not among the defaults. The sweeps keep the spec's l_A = l_M = 1, the
+# latencies of eq. (23) and Table III(a) of 002.
 FMAX_LAT = dict(lat_add=1, lat_mul=5, target="ecp5")
-FMAX_FULL_P, FMAX_QUICK_P, FMAX_B = (1, 3), (1,), 15
-# K_p of the Fmax cores (problems interleaved on the row units, docs/fgm.md): at P = 3 the three problems of K_p = 3
-# keep every turn busy (K_p ceil(n/P) = 42 >= L_F = 34); P = 1 stays one problem at a time, the latency reference
-FMAX_PROBLEMS = {3: 3}
+FMAX_B = 15
+# The Fmax cores as (P, K_p): one problem at a time (the latency reference) and K_p = 2 problems interleaved on the
+# row units (docs/fgm.md), which keeps every turn busy at P = 1 (K_p ceil(n/P) = 80 >= L_F = 60)
+FMAX_FULL, FMAX_QUICK = ((1, 1), (1, 2)), ((1, 1),)
+
+
+def fmax_cores(text: str | None, default) -> tuple[tuple[int, int], ...]:
+    """`--fgm-fmax` items: P, or P x K_p (e.g. "1,1x2,3x3")"""
+    if not text:
+        return default
+    out = []
+    for item in text.split(","):
+        P, _, kp = item.strip().partition("x")
+        out.append((int(P), int(kp or 1)))
+    return tuple(out)
 
 # Table III(a) of 002 (FGM, masses, Imax = 15): P -> (multipliers, Virtex-6 T_s at 400 MHz in us,
 # Spartan-6 T_s at 230 MHz in us).
@@ -290,17 +302,18 @@ class Section(QpSection):
     def add_arguments(ap) -> None:
         ap.add_argument("--P", default=None, help="FGM: comma-separated P values (default 1,2,4,8; QUICK 1)")
         ap.add_argument("--b", default=None, help="FGM: comma-separated frac_bits (default 12,16; QUICK 16)")
-        ap.add_argument("--fgm-fmax-P", default=None, help="FGM masses pipelined for Fmax (TARGET=ecp5, b = 15, "
-                                                           "l_A = 1, l_M = 5): P values (default 1,3; QUICK 1)")
+        ap.add_argument("--fgm-fmax", default=None, help="FGM masses pipelined for Fmax (TARGET=ecp5, b = 15, "
+                                                         "l_A = 1, l_M = 5): P or P x K_p items (default 1,1x2; "
+                                                         "QUICK 1)")
         ap.add_argument("--steps", type=int, default=None, help="closed-loop steps for the FGM software timing")
 
     def configure(self, a) -> None:
         super().configure(a)
         self.Ps = ints(a.P, QUICK_P if a.quick else FULL_P)
-        self.fmax_Ps = ints(a.fgm_fmax_P, FMAX_QUICK_P if a.quick else FMAX_FULL_P)
+        self.fmax = fmax_cores(a.fgm_fmax, FMAX_QUICK if a.quick else FMAX_FULL)
         self.bs = ints(a.b, QUICK_B if a.quick else FULL_B)
         self.steps = a.steps or (200 if a.quick else 600)
-        self.run.info.update(Ps=self.Ps, bs=self.bs, fgm_fmax_Ps=self.fmax_Ps)
+        self.run.info.update(Ps=self.Ps, bs=self.bs, fgm_fmax=self.fmax)
 
     def log_text(self) -> str:
         return f"FGM P = {self.Ps}, b = {self.bs}"
@@ -323,8 +336,7 @@ class Section(QpSection):
                 self.designs[b] = d
                 self.cores.append(Core("fgm", "masses", P, b, out / "cores" / f"masses_p{P}_b{b}", d, d.iterations))
         la, lm, tg = FMAX_LAT["lat_add"], FMAX_LAT["lat_mul"], FMAX_LAT["target"]
-        for P in self.fmax_Ps:
-            kp = FMAX_PROBLEMS.get(P, 1)
+        for P, kp in self.fmax:
             tag = f"masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}" + (f"_k{kp}" if kp > 1 else "")
             try:
                 d = cached_design(designs, f"fgm_{tag}", ("fgm", spec, P, FMAX_B, la, lm, tg, kp),

@@ -37,7 +37,8 @@ class Core(ToolResults):
     def tag(self) -> str:
         la, lm = (getattr(self.design, k, self.core.get(k)) for k in ("lat_add", "lat_mul"))
         lat = f" lA={la} lM={lm}" if self.role == "fmax" else ""
-        return f"{self.kind.upper()} {self.problem} P={self.P} b={self.b}{lat}"
+        kp = getattr(self.design, "problems", 1)
+        return f"{self.kind.upper()} {self.problem} P={self.P}{f' Kp={kp}' if kp > 1 else ''} b={self.b}{lat}"
 
     @property
     def placeable(self) -> bool:
@@ -182,7 +183,8 @@ def _fmax_section(cores: list[Core], recs: list[dict], lpf: str) -> list[str]:
          "timing constraints).", ""]
     body = []
     for c, r in zip(cores, recs):
-        head = [c.problem, str(r["n"]), str(c.P), str(c.b)]
+        kp = getattr(c.design, "problems", 1)
+        head = [c.problem, str(r["n"]), str(c.P) + (f", K_p = {kp}" if kp > 1 else ""), str(c.b)]
         body.append(head + pnr_cells(c, _f(r["ecp5_TRELLIS_COMB_pnr"], "{}") if c.pnr else "-"))
     L += _table(["problem", "n", "P", "b", "Fmax MHz", "TRELLIS_COMB", "critical path (register to register)",
                  "logic cells", "ns"], body)

@@ -440,3 +440,9 @@ def test_median_of_placement_seeds():
     assert m["fmax_mhz"] == 150.6 and m["seed"] == 1 and m["fmax_seeds"] == [146.4, 150.6, 159.7]
     assert pnr_cells(SimpleNamespace(pnr=m, pnr_note=""), "1")[0] == "150.6 (146.4, 150.6, 159.7)"
     assert median_run(runs[:1])["fmax_seeds"] == [150.6]
+
+
+def test_fgm_fmax_core_list():
+    """--fgm-fmax: P or P x K_p items; the defaults place one problem and two interleaved at P = 1."""
+    assert fgm.fmax_cores("1,1x2,3x3", None) == ((1, 1), (1, 2), (3, 3))
+    assert fgm.fmax_cores(None, fgm.FMAX_FULL) == ((1, 1), (1, 2)) and fgm.FMAX_QUICK == ((1, 1),)
