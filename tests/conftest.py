@@ -142,10 +142,10 @@ ADMM_CASES = {
                          dict(P=5, frac_bits=15), 40),
     # interleaving: K_p = 3 problems with soft pairs (a pair's two rows in one turn), idle cycles ending each round
     "rand_soft_n19_p3_k3": (lambda: random_problem("rk19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
-                            dict(P=3, frac_bits=16, problems=3), 20),
+                            dict(P=3, frac_bits=16, problems=3), 10),
     # K_p = 2 on the ECP5 target, every turn busy
     "rand_rate_n19_p2_k2_ecp5": (lambda: random_problem("rk19e", 3, 1, 4, 1, 7, input_rate=RATE),
-                                 dict(P=2, frac_bits=15, problems=2, target="ecp5"), 20),
+                                 dict(P=2, frac_bits=15, problems=2, target="ecp5"), 10),
 }
 
 
