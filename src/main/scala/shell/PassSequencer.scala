@@ -61,47 +61,11 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
 
   val sIdle :: sRun :: sOut :: Nil = Enum(3)
   val state  = RegInit(sIdle)
-  val pass0  = RegInit(false.B)
-  val cnt    = RegInit(0.U(log2Ceil(math.max(firstLen, L) + 1).W))
-  // iterations after the current one (Imax - 1 - iteration)
-  val left   = RegInit(0.U(16.W))
   val outCnt = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val outEnd = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val outAtEnd = RegInit(false.B) // outCnt === outEnd, kept in a register: the output handshake is a gate from it
   val busyCyc = RegInit(0.U(32.W))
-  val wrap0    = RegInit((firstLen == 1).B) // cnt === firstLen - 1
-  val wrap     = RegInit((L == 1).B)        // cnt === L - 1
-  val lastIter = RegInit(true.B)            // left === 0
-
-  // Next values of the state and the counters (the state, the operand copy and the answer; the tokens have a
-  // generator of their own, below). The comparisons are made for the next cycle and registered, per case of the
-  // counter's update (cleared, incremented, held), each a comparison of a register with a constant.
-  val stateNext = WireDefault(state)
-  val pass0Next = WireDefault(pass0)
-  val leftNext  = WireDefault(left)
-  state := stateNext
-  pass0 := pass0Next
-  left  := leftNext
-
   val start  = state === sIdle && io.frameReady
-  val run    = state === sRun
-  val wrapIt = run && Mux(pass0, wrap0, wrap)   // the pass ends: the counter restarts
-  val cntClr = start || wrapIt
-  val cntInc = run && !wrapIt
-  val cntNext = Mux(cntClr, 0.U, Mux(cntInc, cnt + 1.U, cnt))
-  cnt := cntNext
-  // the next counter's comparisons and successor, the counter cleared when `clr`
-  def eqAfter(clr: Bool, c: Int): Bool = // cntNext === c
-    Mux(clr, (c == 0).B, Mux(cntInc, if (c >= 1) cnt === (c - 1).U else false.B, cnt === c.U))
-  val wrap0N  = eqAfter(cntClr, firstLen - 1)
-  val wrapN   = eqAfter(cntClr, L - 1)
-  // an iteration ends (not the first pass): one iteration fewer left
-  val iterEnd = run && !pass0 && wrap
-  val lastIterN = Mux(start, io.imax === 1.U, Mux(iterEnd, left === 1.U, lastIter))
-  wrap0    := wrap0N
-  wrap     := wrapN
-  lastIter := lastIterN
-
 
   // The token generator: registers describing the token of this cycle (its position in the solve), advanced by
   // one position per cycle from the start, each next value a gate or two from registers (the comparisons it needs
@@ -185,37 +149,33 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   io.tokN := tokN
   io.start := start
   io.running := state === sRun
-  val copyCond = state === sRun && Mux(pass0, wrap0 && copyAfterFirst.B, wrap && !lastIter)
-  io.copyNow := RegNext(copyCond, false.B)
+  // The passes' ends come from the generator: it holds a pass's last position a cycle before the cycle that ends
+  // the pass (the state's cycles count from the one after the start). The operand copy follows that cycle, after
+  // every iteration but the last, and after the first pass when `copyAfterFirst`.
+  val lastEnd = RegNext(gRun && passEnd && gLast, false.B)
+  io.copyNow := ShiftRegister(gRun && passEnd && Mux(gP0, copyAfterFirst.B, !gLast), 2, false.B, true.B)
 
   switch(state) {
     is(sIdle) {
       when(io.frameReady) {
-        stateNext := sRun
-        pass0Next := true.B
-        leftNext := io.imax - 1.U
+        state   := sRun
         outEnd  := io.outLast
         busyCyc := 0.U
       }
     }
     is(sRun) {
       busyCyc := busyCyc + 1.U
-      when(pass0) {
-        when(wrap0) { pass0Next := false.B }
-      }.elsewhen(wrap) {
-        leftNext := left - 1.U
-        when(lastIter) {
-          stateNext := sOut
-          outCnt := 0.U
-          outAtEnd := outEnd === 0.U
-        }
+      when(lastEnd) {
+        state    := sOut
+        outCnt   := 0.U
+        outAtEnd := outEnd === 0.U
       }
     }
     is(sOut) {
       when(io.outFire) {
         outCnt := outCnt + 1.U
         outAtEnd := outCnt + 1.U === outEnd
-        when(outAtEnd) { stateNext := sIdle }
+        when(outAtEnd) { state := sIdle }
       }
     }
   }
