@@ -92,12 +92,15 @@ def _interleave(tb):
     return Interleave(tb.core["rows_per_turn"], tb.problems, tb.core["cycles_per_iteration"])
 
 
-async def solve_batch(tb, problems: list[int], outside: float = 0.0, idle: float = 0.0, tag: str = "") -> list:
+async def solve_batch(tb, problems: list[int], outside: float = 0.0, idle: float = 0.0, tag: str = "",
+                      starts: dict | None = None) -> list:
     """Frames for the given problem ids sent one after another (with probability `idle` a random pause after one),
     then their answers: each equals its problem's model and comes in its problem's order. Returns the model's
-    results in the order sent."""
+    results in the order sent; `starts`, if given, collects per problem the cycles its answers' first words were
+    valid."""
     pending = {j: [] for j in range(tb.problems)}
     results = []
+    base = len(tb.out_start)
     for j in problems:
         w = tb.random_w(outside=outside)
         exp, r = tb.expect(w, j)
@@ -111,6 +114,8 @@ async def solve_batch(tb, problems: list[int], outside: float = 0.0, idle: float
         assert pending.get(got_tag), f"{tag} answer {i}: an answer for problem {got_tag}, which has none outstanding"
         exp = pending[got_tag].pop(0)
         assert got == exp, f"{tag} answer {i} of problem {got_tag}: RTL {got} != model {exp}"
+        if starts is not None:
+            starts.setdefault(got_tag, []).append(tb.out_start[base + i])
     return results
 
 
@@ -120,19 +125,8 @@ async def saturated_period(tb, rounds: int = 4) -> int:
     period of core.json's throughput apart. Returns that period (cycles per solve of each problem). Which problem
     answers first depends on where in the round the first frame arrives."""
     kp = tb.problems
-    exps = {j: [] for j in range(kp)}
-    for i in range(rounds * kp):
-        w = tb.random_w()
-        exps[i % kp].append(tb.expect(w, i % kp)[0])
-        await tb.send(w, i % kp if kp > 1 else None)
-    tb.out_start.clear()
-    starts = {j: [] for j in range(kp)}
-    for i in range(rounds * kp):
-        tag, got = await tb.recv_tagged()
-        assert exps.get(tag), f"answer {i}: an answer for problem {tag}, which has none outstanding"
-        exp = exps[tag].pop(0)
-        assert got == exp, f"answer {i} of problem {tag}: RTL {got} != model {exp}"
-        starts[tag].append(tb.out_start[i])
+    starts: dict = {}
+    await solve_batch(tb, [i % kp for i in range(rounds * kp)], tag="saturated", starts=starts)
     period = kp / tb.core["throughput_solves_per_cycle"]
     gaps = [b - a for s in starts.values() for a, b in zip(s[1:], s[2:])]
     assert gaps and all(g == round(period) for g in gaps), f"periods {gaps}, core.json says {period}"
