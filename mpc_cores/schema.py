@@ -209,6 +209,12 @@ SOLVER = {
     "ipm_format": FloatFormat(),
     "ipm_mu_tol": Num(0),
     "ipm_res_tol": Num(0),
+    # dgp
+    "eps_g": Num(0),
+    "eps_V": Num(0),
+    "accelerated": Bool(),
+    "lanes": Int(1, 1024, " (multipliers of the row unit)"),
+    "dual_margin": Num(1, strict=False, why=" (d_i >= max(y*_i, 1), (14) of 003)"),
 }
 
 _BOX = Section({"min": None, "max": None}, frozenset({"min", "max"}))

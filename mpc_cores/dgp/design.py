@@ -1,0 +1,234 @@
+"""DGP front end: from an MPC problem with state constraints to the quantised data and word widths of the core.
+
+The dual box (14)-(15) of 003: d_i >= max(y*_i, 1) with y* the dual solutions over the accepted box of w = (x, r),
+found by solving the QP (OSQP) at the box's vertices in x and at random interior points, times a margin
+(`dual_margin`, 2 by default); the projection box is [0, alpha d] with alpha = 2, the choice of (22).
+
+Fraction bits p from (36) and integer bits r from (37), on the scaled problem (L = 1, mpc_cores.dgp.problem):
+  p >= log2( m sqrt(n) / ( sqrt(eps / L_V + (n / m) (2 D / L_V)^2) - sqrt(n / m) 2 D / L_V ) ) - 1,
+       eps = min(eps_g sigma, eps_V), m = 2 mc one-sided rows, D = ||d||_2, L_V = lambda_max(Q);
+  r >= log2(max(y^, z^, g^) + 1) + 1,  y^ = alpha ||d||_inf, z^ = ||E||_inf y^ + ||e||_inf, g^ = ||A||_inf z^ + ||b||_inf.
+Every data word (y, v, z, s, g and the bounds) has r + p bits, as in section VI of 003. The accelerated form's
+extrapolated dual w = y + beta (y - y_prev) lies in [-y^, 2 y^]: its analogue of (37) takes y^ = 2 alpha ||d||_inf.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mpc_cores.design_base import (FixedPointDesign, apply_target, module_suffix, run_options, solver_opt,
+                                   target_option)
+from mpc_cores.dgp.problem import DgpQP, dgp_qp, solve_osqp
+from mpc_cores.errors import DesignError
+from mpc_cores.fixed import bits_for, quantize
+from mpc_cores.problem import MpcProblem
+
+ALPHA = 2.0
+BETA_TABLE = 256          # accelerated form: beta_k = k / (k + 3) for k < 256, then beta_255
+DEFAULT_EPS = 1e-3
+
+
+@dataclass
+class DgpDesign(FixedPointDesign):
+    """qp: the DgpQP. Words: b = p fraction bits; widths['data'] = r + p."""
+    output_all: bool
+    accelerated: bool
+    lanes: int                   # multipliers of the row unit (a row of c columns takes ceil(c / lanes) cycles)
+    eps_g: float
+    eps_V: float
+    margin: float
+    d: np.ndarray                # dual box (2 mc,), scaled units: (upper rows, lower rows)
+    K: np.ndarray                # words, n x mc
+    G: np.ndarray                # words, mc x n
+    Fe: np.ndarray               # words, n x nw
+    Lw: np.ndarray               # words, mc x nw
+    lo0: np.ndarray              # words, mc
+    hi0: np.ndarray
+    ud: np.ndarray               # words, 2 mc: alpha d
+    eg: int                      # eps_g word (scaled units)
+    eV: int                      # eps_V word (the accelerated form's duality-gap test)
+    beta: np.ndarray             # words, BETA_TABLE (accelerated form)
+    xlo: np.ndarray              # accepted box of w words
+    xhi: np.ndarray
+    bits36: int = 0              # p from (36)
+    bits37: int = 0              # r from (37)
+    analysis: dict = field(default_factory=dict)
+    widths: dict = field(default_factory=dict)
+
+    @property
+    def mc(self) -> int:
+        return self.qp.mc
+
+    @property
+    def m(self) -> int:
+        return 2 * self.qp.mc
+
+    @property
+    def name(self) -> str:
+        return self.problem.name
+
+    @property
+    def module_name(self) -> str:
+        acc = "a" if self.accelerated else "p"
+        return f"DgpCore_{self.name}_n{self.n}_m{self.m}_l{self.lanes}_b{self.b}{acc}{module_suffix(self.target)}"
+
+    def label(self) -> str:
+        return f"p = {self.b}, Imax = {self.iterations}, {'accelerated' if self.accelerated else 'plain'}"
+
+    def products(self) -> list[tuple[int, int]]:
+        """(a, b) bit widths of the multipliers: the row unit (coefficient x operand word), and the accelerated
+        form's beta_k x (y - y_prev)."""
+        w = self.widths
+        out = [(w["coef"], w["op"])]
+        if self.accelerated:
+            out.append((w["beta"], w["data"] + 1))
+        return out
+
+    def config(self) -> dict:
+        """The JSON the Chisel generator and the golden model read."""
+        return {
+            **self.common_config("dgp"),
+            "mc": self.mc, "lanes": self.lanes, "accelerated": self.accelerated,
+            "K": self.K.tolist(), "G": self.G.tolist(), "Fe": self.Fe.tolist(), "Lw": self.Lw.tolist(),
+            "lo0": self.lo0.tolist(), "hi0": self.hi0.tolist(), "ud": self.ud.tolist(), "eg": int(self.eg), "eV": int(self.eV),
+            "beta": self.beta.tolist(), "xlo": self.xlo.tolist(), "xhi": self.xhi.tolist(),
+            "restart_shift": restart_shifts(self.widths),
+        }
+
+
+def restart_shifts(widths: dict) -> list[int]:
+    """Right shifts that bring g and y_new - y to 18-bit operands for the restart test's products."""
+    return [max(0, widths["data"] - 18), max(0, widths["data"] + 1 - 18)]
+
+
+def sample_duals(qp: DgpQP, p: MpcProblem, samples: int = 256, seed: int = 0) -> np.ndarray:
+    """Largest dual (upper rows, lower rows) over the box vertices in x (at most 256, random references) and
+    `samples` random points of the box of w; refuses a state of the box for which the QP is infeasible."""
+    rng = np.random.default_rng(seed)
+    nx = p.nx
+    wlo = np.concatenate([p.xmin, p.rmin])
+    whi = np.concatenate([p.xmax, p.rmax])
+    pts = []
+    verts = 1 << nx
+    for v in (range(verts) if verts <= 256 else rng.integers(0, verts, 256)):
+        w = rng.uniform(wlo, whi)
+        w[:nx] = np.where([(int(v) >> i) & 1 for i in range(nx)], p.xmax, p.xmin)
+        pts.append(w)
+    pts += [rng.uniform(wlo, whi) for _ in range(samples)]
+    ymax = np.zeros(qp.m)
+    for w in pts:
+        _, yp, ym, st = solve_osqp(qp, w, eps=1e-7)
+        if st != "solved":
+            raise DesignError(f"the QP is infeasible at the state x = {np.round(w[:nx], 4).tolist()} of the accepted "
+                              f"box (OSQP: {st}); shrink `states` to a box of states from which the constraints "
+                              f"can be met")
+        ymax = np.maximum(ymax, np.concatenate([yp, ym]))
+    return ymax
+
+
+def bits_36(n: int, m: int, D: float, LV: float, eps: float) -> float:
+    a = math.sqrt(n / m) * 2 * D / LV
+    return math.log2(m * math.sqrt(n) / (math.sqrt(eps / LV + a * a) - a)) - 1
+
+
+def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
+    """Build the DGP core description. Keyword overrides take precedence over the spec's `solver:` section:
+    frac_bits, int_bits, eps_g, eps_V, tol (both eps), accelerated, lanes, iterations, warm_start, output_all,
+    target, lat_add, lat_mul, dual_margin."""
+    opt = lambda k, dflt: solver_opt(problem, overrides, k, dflt)  # noqa: E731
+    for k in ("input_rate", "soft_states"):
+        if getattr(problem, k, None) is not None:
+            raise DesignError(f"the DGP core takes input and hard state constraints (Gz <= g + E x of 003): the spec "
+                              f"also has {k}; use the ADMM core for it")
+    _, P, lat_add, lat_mul, _, iterations, warm_start, output_all = run_options(
+        problem, overrides, frac_bits=0, rounding="nearest", iterations=200)
+    if P != 1:
+        raise DesignError(f"the DGP core has one row unit (set its multipliers with `lanes`): got P={P}")
+    rounding = str(opt("rounding", "nearest"))
+    if rounding != "nearest":
+        raise DesignError(f"the DGP core rounds to nearest, as (36) of 003 assumes: got rounding={rounding!r}")
+    tol = opt("tol", None)
+    eps_g = float(opt("eps_g", tol if tol is not None else DEFAULT_EPS))
+    eps_V = float(opt("eps_V", tol if tol is not None else DEFAULT_EPS))
+    if not (eps_g > 0 and eps_V > 0):
+        raise DesignError(f"eps_g and eps_V must be > 0: got eps_g={eps_g}, eps_V={eps_V}")
+    accelerated = bool(opt("accelerated", True))
+    lanes = int(opt("lanes", 8))
+    margin = float(opt("dual_margin", 2.0))
+    if margin < 1:
+        raise DesignError(f"dual_margin must be >= 1 (d_i >= max(y*_i, 1), (14) of 003): got {margin}")
+    if not 1 <= iterations <= 65535:
+        raise DesignError(f"iterations must be in [1, 65535]: got {iterations}")
+    if lat_add < 0 or (lat_mul or 0) < 0:
+        raise DesignError(f"lat_add and lat_mul must be >= 0: got lat_add={lat_add}, lat_mul={lat_mul}")
+    target = target_option(problem, overrides)
+    qp = dgp_qp(problem)
+    n, mc, nw = qp.n, qp.mc, qp.nw
+    if not 1 <= lanes <= max(n, mc, nw):
+        raise DesignError(f"lanes must be in [1, {max(n, mc, nw)}] (the longest row): got lanes={lanes}")
+
+    d = np.maximum(margin * sample_duals(qp, problem), 1.0)
+    D = float(np.linalg.norm(d))
+    LV = float(np.linalg.eigvalsh(qp.Q)[-1])
+    m = 2 * mc
+    eps = min(eps_g * qp.sigma, eps_V)
+    p36 = math.ceil(bits_36(n, m, D, LV, eps))
+    b = int(opt("frac_bits", p36))
+    if b < 1:
+        raise DesignError(f"frac_bits must be >= 1: got {b}")
+
+    wlo = np.concatenate([problem.xmin, problem.rmin])
+    whi = np.concatenate([problem.xmax, problem.rmax])
+    wabs = np.maximum(np.abs(wlo), np.abs(whi))
+    K, Fe = qp.K, qp.Fe
+    yhat = ALPHA * float(d.max()) * (2.0 if accelerated else 1.0)
+    ehat = float(np.max(np.abs(Fe) @ wabs))
+    zhat = 2 * float(np.max(np.abs(K).sum(axis=1))) * yhat + ehat          # ||E||_inf, E = [K, -K]
+    bnd = np.maximum(np.abs(qp.lo0) + np.abs(qp.Lw) @ wabs, np.abs(qp.hi0) + np.abs(qp.Lw) @ wabs)
+    ghat = float(np.max(np.abs(qp.G).sum(axis=1))) * zhat + float(bnd.max())
+    r37 = math.ceil(math.log2(max(yhat, zhat, ghat) + 1) + 1)
+    r = int(opt("int_bits", r37))
+    if r < r37:
+        raise DesignError(f"int_bits={r} is below the {r37} integer bits (37) of 003 requires "
+                          f"(max(y^, z^, g^) = {max(yhat, zhat, ghat):.4g}): the words could overflow")
+
+    one = 1 << b
+    xlo = quantize(wlo, b, "floor")
+    xhi = quantize(whi, b, "ceil")
+    beta = np.array([int(round(k / (k + 3) * one)) for k in range(BETA_TABLE)], dtype=np.int64)
+    dsn = DgpDesign(problem=problem, qp=qp, b=b, P=1, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
+                    iterations=iterations, warm_start=warm_start, target=target, output_all=output_all,
+                    accelerated=accelerated, lanes=lanes, eps_g=eps_g, eps_V=eps_V, margin=margin, d=d,
+                    K=quantize(K, b), G=quantize(qp.G, b), Fe=quantize(Fe, b), Lw=quantize(qp.Lw, b),
+                    lo0=quantize(qp.lo0, b, "ceil"), hi0=quantize(qp.hi0, b, "floor"),
+                    ud=quantize(ALPHA * d, b, "floor"), eg=int(math.floor(eps_g * qp.sigma * one)),
+                    eV=int(math.floor(eps_V * one)), beta=beta,
+                    xlo=xlo, xhi=xhi, bits36=p36, bits37=r37,
+                    analysis={"D": D, "L_V": LV, "eps": eps, "sigma": qp.sigma, "y_hat": yhat, "z_hat": zhat,
+                              "g_hat": ghat, "e_hat": ehat, "d_max": float(d.max()), "m": m})
+    _size_words(dsn, r)
+    apply_target(dsn, lat_mul, dsn.products())
+    return dsn
+
+
+def _size_words(d: DgpDesign, r: int) -> None:
+    """Word widths: data r + p bits; the row sums' accumulator from the sum of |rounded products| over a row."""
+    W = r + d.b
+    coefs = [d.K, d.G, d.Fe, d.Lw]
+    cb = int(max(int(np.abs(c).max()) if c.size else 0 for c in coefs))
+    one = 1 << d.b
+    dmax = (1 << (W - 1)) - 1
+    xmax = int(max(np.abs(d.xlo).max(), np.abs(d.xhi).max()))
+    # a row's products: |rnd(c v)| <= |c| |v| / 2^p + 1, v a data word (or a w word in the first pass)
+    acc = max(int(np.abs(c).sum(axis=1).max()) * max(dmax, xmax) // one + c.shape[1] + 1 for c in coefs if c.size)
+    if W + bits_for(cb) > 62 + 20:
+        raise DesignError(f"data words of {W} bits times coefficients of {bits_for(cb)} bits exceed the model's "
+                          f"exact products: reduce eps or the state box")
+    if max(bits_for(xmax), W) > 64:
+        raise DesignError(f"{W}-bit data words exceed the 64-bit stream: reduce eps_g / eps_V or the state box")
+    sums = bits_for(dmax * (d.iterations + 1))
+    d.widths = {"data": W, "coef": bits_for(cb), "x": bits_for(xmax), "op": max(W + 1, bits_for(xmax)),
+                "acc": bits_for(acc + (1 << (W - 1))), "sum": sums + 1, "beta": bits_for(one),
+                "stream": 8 * -(-max(W, bits_for(xmax)) // 8)}
