@@ -9,6 +9,7 @@ _KINDS = (
     "mpc_cores.admm.kind:KIND",
     "mpc_cores.minres.kind:KIND",
     "mpc_cores.ipm.kind:KIND",
+    "mpc_cores.dgp.kind:KIND",
 )
 
 

@@ -77,13 +77,54 @@ class DgpDesign(FixedPointDesign):
     def label(self) -> str:
         return f"p = {self.b}, Imax = {self.iterations}, {'accelerated' if self.accelerated else 'plain'}"
 
+    # ---- cycle contract (mirrors DgpParams.scala; the tests check both against simulation)
+    @property
+    def chunks(self) -> dict:
+        c = self.lanes
+        return {"F": -(-self.nw // c), "K": -(-self.mc // c), "G": -(-self.n // c)}
+
+    @property
+    def issue_cycles(self) -> dict:
+        ch = self.chunks
+        return {"F": (self.n + self.mc) * ch["F"], "K": self.n * ch["K"], "G": self.mc * ch["G"]}
+
+    @property
+    def row_latency(self) -> int:
+        depth = math.ceil(math.log2(self.lanes)) if self.lanes > 1 else 0
+        return 1 + self.lat_mul + self.lat_add * depth + 1
+
+    @property
+    def gap_cycles(self) -> dict:
+        return {"K": self.row_latency, "G": self.row_latency + 2 + (self.lat_mul if self.accelerated else 0)}
+
+    @property
+    def cycles_per_iteration(self) -> int:
+        i, g = self.issue_cycles, self.gap_cycles
+        return i["K"] + g["K"] + i["G"] + g["G"] + 1
+
+    @property
+    def div_cycles(self) -> int:
+        return 0 if self.accelerated else self.widths["sum"] + 4
+
+    @property
+    def solve_overhead(self) -> int:
+        return 2 + self.issue_cycles["F"] + self.div_cycles
+
+    def cycles_to_output(self, iters: int) -> int:
+        """from the handshake of the last input word to the first output word, for a solve of `iters` iterations"""
+        return self.solve_overhead + iters * self.cycles_per_iteration
+
+    @property
+    def multipliers(self) -> int:
+        return self.lanes + (6 if self.accelerated else 0)
+
     def products(self) -> list[tuple[int, int]]:
         """(a, b) bit widths of the multipliers: the row unit (coefficient x operand word), and the accelerated
         form's beta_k x (y - y_prev)."""
         w = self.widths
         out = [(w["coef"], w["op"])]
         if self.accelerated:
-            out.append((w["beta"], w["data"] + 1))
+            out += [(w["data"], w["data"]), (w["beta"], w["data"])]
         return out
 
     def config(self) -> dict:
@@ -228,7 +269,7 @@ def _size_words(d: DgpDesign, r: int) -> None:
                           f"exact products: reduce eps or the state box")
     if max(bits_for(xmax), W) > 64:
         raise DesignError(f"{W}-bit data words exceed the 64-bit stream: reduce eps_g / eps_V or the state box")
-    sums = bits_for(dmax * (d.iterations + 1))
+    sums = bits_for(dmax * 65536)          # Sz, Sg and T over IMAX <= 65535 iterations
     d.widths = {"data": W, "coef": bits_for(cb), "x": bits_for(xmax), "op": max(W + 1, bits_for(xmax)),
                 "acc": bits_for(acc + (1 << (W - 1))), "sum": sums + 1, "beta": bits_for(one),
                 "stream": 8 * -(-max(W, bits_for(xmax)) // 8)}

@@ -1,0 +1,78 @@
+"""core.json and the design report of a DGP core."""
+from __future__ import annotations
+
+from mpc_cores.dgp.design import ALPHA, DgpDesign
+from mpc_cores.fixed import run_time_fields
+from mpc_cores.target import report_line
+
+
+def _counts(d: DgpDesign) -> list[int]:
+    return [d.lanes] + ([4, 2] if d.accelerated else [])
+
+
+def core_json(d: DgpDesign, hw: dict) -> dict:
+    """Metadata of a generated DGP core: the Python design and the generator's hw.json, checked against each other."""
+    for key, mine in (("cycles_per_iteration", d.cycles_per_iteration), ("solve_overhead_cycles", d.solve_overhead),
+                      ("multipliers", d.multipliers), ("div_cycles", d.div_cycles)):
+        if hw[key] != mine:
+            raise RuntimeError(f"generator and front end disagree on {key}: {hw[key]} vs {mine}")
+    b = d.b
+    sw = d.widths["stream"]
+    a = d.analysis
+    return {
+        "core": "dgp", "name": d.name, "module": hw["module"], "sv": f"{hw['module']}.sv",
+        "n": d.n, "nu": d.nu, "nw": d.nw, "nx": d.problem.nx, "ny": d.problem.ny, "N": d.problem.N,
+        "mc": d.mc, "m": d.m, "lanes": d.lanes, "accelerated": d.accelerated,
+        "frac_bits": b, "int_bits": d.widths["data"] - b, "bits_eq36": d.bits36, "bits_eq37": d.bits37,
+        "data_format": {"int_bits": d.widths["data"] - b, "frac_bits": b, "width": d.widths["data"]},
+        **run_time_fields(d, sw),
+        "eps_g": d.eps_g, "eps_V": d.eps_V, "alpha": ALPHA, "dual_margin": d.margin,
+        "analysis": a, "widths": d.widths,
+        "cycles_per_iteration": hw["cycles_per_iteration"],
+        "solve_overhead_cycles": hw["solve_overhead_cycles"],
+        "cycles_to_output_formula": f"{hw['solve_overhead_cycles']} + I * {hw['cycles_per_iteration']} "
+                                    f"(I: the iterations run, 1..IMAX, in the status word and ITERATIONS)",
+        "cycles_at_imax": d.cycles_to_output(d.iterations),
+        "div_cycles_per_word": hw["div_cycles"],
+        "issue_cycles": hw["issue_cycles"], "gap_cycles": hw["gap_cycles"], "chunks": hw["chunks"],
+        "multipliers": hw["multipliers"],
+        "output_words": "u0 (nu words) or z (n words, CTRL.OUT_ALL), then a status word: iterations in bits 15:0, "
+                        "test met 16, input saturated 17, datapath overflow 18",
+        "axil_addr_width": hw["axil_addr_width"],
+        "registers": hw["registers"], "regions": hw["regions"],
+    }
+
+
+def design_report(d: DgpDesign, core: dict | None = None) -> str:
+    a = d.analysis
+    W = d.widths["data"]
+    form = ("accelerated (Nesterov, gradient restart; stops when g <= eps_g and the duality gap <= eps_V; outputs "
+            "the last z)" if d.accelerated else "plain (stops at (32c) of 003; outputs the averaged primal (20))")
+    i, g = d.issue_cycles, d.gap_cycles
+    lines = [
+        f"DGP core for '{d.name}': n = N*nu = {d.n} ({d.problem.N} x {d.nu}), {d.mc} two-sided constraint rows "
+        f"(m = {d.m} one-sided, dual words), nw = {d.nw}",
+        f"  Form: {form}",
+        f"  Scaling: sigma = {a['sigma']:.6g} makes L = lambda_max(A Q^-1 A') = 1 (section VI-A of 003)",
+        f"  Dual box (14)-(15): d_i = max({d.margin:g} x largest sampled y*_i, 1), alpha = {ALPHA:g}; ||d||_2 = D = "
+        f"{a['D']:.4g}, ||d||_inf = {a['d_max']:.4g}",
+        f"  Fraction bits p = {d.b}: (36) of 003 gives p >= {d.bits36} for eps = min(eps_g sigma, eps_V) = "
+        f"{a['eps']:.3g} (eps_g = {d.eps_g:g}, eps_V = {d.eps_V:g}, L_V = {a['L_V']:.4g})",
+        f"  Integer bits r = {W - d.b}: (37) of 003 gives r >= {d.bits37} (y^ = {a['y_hat']:.4g}"
+        f"{', doubled for the extrapolated dual' if d.accelerated else ''}, z^ = {a['z_hat']:.4g}, "
+        f"g^ = {a['g_hat']:.4g})",
+        f"  Words: data {W} bits = Q{W - d.b - 1}.{d.b} (sign included in r), coefficients {d.widths['coef']}, "
+        f"row accumulator {d.widths['acc']}, sums of the test {d.widths['sum']}, stream {d.widths['stream']} bits",
+        f"  Row unit: {d.lanes} lanes; chunks per row F {d.chunks['F']}, K {d.chunks['K']}, G {d.chunks['G']}; "
+        f"l_A = {d.lat_add}, l_M = {d.lat_mul}",
+        report_line(d.target, d.lat_mul, d.products(), _counts(d)),
+        f"  Cycles per iteration: {d.cycles_per_iteration} = pass K {i['K']} + {g['K']} + pass G {i['G']} + {g['G']}"
+        f" + 1",
+        f"  Latency: {d.solve_overhead} + I x {d.cycles_per_iteration} cycles from the last input word to the first "
+        f"output word, I the iterations run (at IMAX = {d.iterations}: {d.cycles_to_output(d.iterations)})",
+    ]
+    if not d.accelerated:
+        lines.append(f"  Output: each word of the averaged primal takes {d.div_cycles} cycles (serial division)")
+    if core is not None:
+        lines.append(f"  Module {core['module']}, {core['multipliers']} multipliers")
+    return "\n".join(lines)

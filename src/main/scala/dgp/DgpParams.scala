@@ -1,0 +1,145 @@
+package dgp
+
+import chisel3.util.log2Ceil
+import dsp.Target
+import fixed.FixedOps
+
+/** Everything the DGP generator needs (mpc_cores/dgp/design.py writes it): sizes, word widths from (36)/(37) of 003,
+  * and the quantised data of iteration (35). Integers are words with `fracBits` fraction bits.
+  *
+  * @param mc     two-sided constraint rows (the dual has 2 mc words: upper rows, then lower rows)
+  * @param lanes  multipliers of the row unit: a row of c columns takes ceil(c / lanes) cycles
+  * @param k      K = -Q^-1 G', n x mc (z = K v + e)
+  * @param g      G, mc x n (s = G z)
+  * @param fe     Fe, n x nw (e = Fe w)
+  * @param lw     Lw, mc x nw (lo = lo0 + Lw w, hi = hi0 + Lw w)
+  */
+case class DgpParams(
+    name: String,
+    n: Int,
+    nu: Int,
+    nw: Int,
+    mc: Int,
+    lanes: Int,
+    accelerated: Boolean,
+    fracBits: Int,
+    latAdd: Int,
+    latMul: Int,
+    target: Target,
+    coefW: Int,
+    xW: Int,
+    dataW: Int,
+    opW: Int,
+    accW: Int,
+    sumW: Int,
+    betaW: Int,
+    streamW: Int,
+    imaxDefault: Int,
+    warmDefault: Boolean,
+    outAllDefault: Boolean,
+    k: Seq[Seq[BigInt]],
+    g: Seq[Seq[BigInt]],
+    fe: Seq[Seq[BigInt]],
+    lw: Seq[Seq[BigInt]],
+    lo0: Seq[BigInt],
+    hi0: Seq[BigInt],
+    ud: Seq[BigInt],
+    eg: BigInt,
+    eV: BigInt,
+    beta: Seq[BigInt],
+    xlo: Seq[BigInt],
+    xhi: Seq[BigInt]) {
+
+  require(n >= 1 && nw >= 1 && mc >= 1, s"sizes must be >= 1: n=$n nw=$nw mc=$mc")
+  require(nu >= 1 && n % nu == 0, s"nu must divide n: got nu=$nu, n=$n")
+  require(lanes >= 1 && lanes <= math.max(n, math.max(mc, nw)), s"lanes must be in [1, longest row]: got $lanes")
+  require(fracBits >= 1, s"frac_bits must be >= 1, got $fracBits")
+  require(latAdd >= 0 && latMul >= 0, s"latencies must be >= 0: got lat_add=$latAdd, lat_mul=$latMul")
+  require(dataW >= 2 && dataW <= 62 && xW <= 62, s"data words must be in [2, 62] bits: got $dataW")
+  require(streamW % 8 == 0 && streamW >= math.max(xW, dataW) && streamW <= 64,
+    s"stream width must be a multiple of 8 in [max(x, data width), 64]: got $streamW")
+  require(imaxDefault >= 1 && imaxDefault <= 65535, s"iterations must be in [1, 65535], got $imaxDefault")
+  require(k.length == n && k.forall(_.length == mc), s"K must be $n x $mc")
+  require(g.length == mc && g.forall(_.length == n), s"G must be $mc x $n")
+  require(fe.length == n && fe.forall(_.length == nw), s"Fe must be $n x $nw")
+  require(lw.length == mc && lw.forall(_.length == nw), s"Lw must be $mc x $nw")
+  require(lo0.length == mc && hi0.length == mc && ud.length == 2 * mc, "lo0, hi0 (mc) and ud (2 mc) lengths")
+  require(xlo.length == nw && xhi.length == nw, s"xlo/xhi must have $nw entries")
+  private def fits(v: BigInt, w: Int) = v >= FixedOps.minOf(w) && v <= FixedOps.maxOf(w)
+  require((k ++ g ++ fe ++ lw).flatten.forall(fits(_, coefW)), s"a matrix entry does not fit the coefficient width $coefW")
+  require((lo0 ++ hi0 ++ ud).forall(fits(_, dataW)), s"a bound does not fit the data width $dataW")
+  require(beta.forall(fits(_, betaW)), s"a beta word does not fit $betaW bits")
+
+  /** chunks per row of each pass: F (rows of Fe and Lw, nw columns), K (mc columns), G (n columns) */
+  def chunks(cols: Int): Int = (cols + lanes - 1) / lanes
+  val cF: Int = chunks(nw)
+  val cK: Int = chunks(mc)
+  val cG: Int = chunks(n)
+  /** matrix memory rows (lanes words each): Fe, Lw, K, G rows, chunk by chunk */
+  val baseF: Int = 0
+  val baseK: Int = (n + mc) * cF
+  val baseG: Int = baseK + n * cK
+  val matRows: Int = baseG + mc * cG
+  /** issue cycles of the passes */
+  val issueF: Int = (n + mc) * cF
+  val issueK: Int = n * cK
+  val issueG: Int = mc * cG
+
+  val depth: Int = log2Ceil(lanes)
+  /** dot-product tree: l_M + l_A ceil(log2 lanes) */
+  val treeLat: Int = latMul + latAdd * depth
+  /** from a chunk's issue (matrix address) to its row's sum in the accumulator register (row result stage):
+    * RAM read and operand register 1, tree, accumulator 1 */
+  val rowLat: Int = 1 + treeLat + 1
+  /** idle cycles after pass K: its last z is written at its result stage, pass G's first operand reads it after */
+  val gapK: Int = rowLat
+  /** idle cycles after pass G before the decision: the element stage (g; y_new, dy and the test's sums; y written)
+    * and the accelerated form's products (l_M) */
+  val gapG: Int = rowLat + 2 + (if (accelerated) latMul else 0)
+  /** one iteration: pass K, gap, pass G, gap, the decision cycle */
+  val cyclesPerIteration: Int = issueK + gapK + issueG + gapG + 1
+  /** the averaged primal's dividend 2 Sz + I */
+  val divW: Int = sumW + 2
+  /** cycles of the plain form's division of an output word (start to the word valid) */
+  val divCycles: Int = if (accelerated) 0 else divW + 2
+  /** from the handshake of the last input word to the first output word, besides the iterations: the frame's
+    * take (2), the first pass's issue (pass K follows at once), and the plain form's first division */
+  val solveOverhead: Int = 2 + issueF + divCycles
+  /** data-dependent solve: from the handshake of the last input word to the first output word */
+  def cyclesToOutput(iters: Int): Int = solveOverhead + iters * cyclesPerIteration
+  val multipliers: Int = lanes + (if (accelerated) 6 else 0)
+
+  val moduleName: String =
+    s"DgpCore_${name}_n${n}_m${2 * mc}_l${lanes}_b${fracBits}" + (if (accelerated) "a" else "p") +
+      (if (target == Target.Generic) "" else s"_${target.name}")
+
+  /** byte-address width of the AXI4-Lite port: the registers only (the data are fixed at generation) */
+  val axiAddrW: Int = log2Ceil(shell.SolverRegs.RegionStart) + 2
+
+  def matInit: Seq[Seq[BigInt]] = {
+    def rowChunks(r: Seq[BigInt], c: Int) =
+      (0 until c).map(j => (0 until lanes).map(l => r.lift(j * lanes + l).getOrElse(BigInt(0))))
+    fe.flatMap(rowChunks(_, cF)) ++ lw.flatMap(rowChunks(_, cF)) ++ k.flatMap(rowChunks(_, cK)) ++ g.flatMap(rowChunks(_, cG))
+  }
+}
+
+object DgpParams {
+  private def ints(v: ujson.Value): Seq[BigInt] = v.arr.toSeq.map(x => BigInt(x.num.toLong))
+  private def mat(v: ujson.Value): Seq[Seq[BigInt]] = v.arr.toSeq.map(ints)
+
+  def fromJson(text: String): DgpParams = {
+    val j = ujson.read(text)
+    val w = j("widths")
+    DgpParams(
+      name = j("name").str, n = j("n").num.toInt, nu = j("nu").num.toInt, nw = j("nw").num.toInt,
+      mc = j("mc").num.toInt, lanes = j("lanes").num.toInt, accelerated = j("accelerated").bool,
+      fracBits = j("frac_bits").num.toInt, latAdd = j("lat_add").num.toInt, latMul = j("lat_mul").num.toInt,
+      target = Target(j.obj.get("target").map(_.str).getOrElse("generic")),
+      coefW = w("coef").num.toInt, xW = w("x").num.toInt, dataW = w("data").num.toInt, opW = w("op").num.toInt,
+      accW = w("acc").num.toInt, sumW = w("sum").num.toInt, betaW = w("beta").num.toInt,
+      streamW = w("stream").num.toInt, imaxDefault = j("iterations").num.toInt, warmDefault = j("warm_start").bool,
+      outAllDefault = j("output_all").bool, k = mat(j("K")), g = mat(j("G")), fe = mat(j("Fe")), lw = mat(j("Lw")),
+      lo0 = ints(j("lo0")), hi0 = ints(j("hi0")), ud = ints(j("ud")), eg = BigInt(j("eg").num.toLong),
+      eV = BigInt(j("eV").num.toLong), beta = ints(j("beta")), xlo = ints(j("xlo")), xhi = ints(j("xhi")))
+  }
+}
