@@ -110,7 +110,7 @@ class TB(AxiDriver):
         self.problems = int(self.core.get("problems", 1))
         self.models = [self.model] + [golden_model(self.cfg) for _ in range(self.problems - 1)]
         # box of the accepted parameter words
-        self.box = (self.model.xlo, self.model.xhi) if self.core["core"] == "fgm" else (self.model.wlo, self.model.whi)
+        self.box = (self.model.xlo, self.model.xhi) if hasattr(self.model, "xlo") else (self.model.wlo, self.model.whi)
         self.warm = self.core["warm_start"]
         self.out_all = self.core["output_all"]
         self.cycle = 0

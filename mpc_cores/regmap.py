@@ -117,7 +117,8 @@ class Regmap:
         self.name, self.regs = read_rdl(rdl)
         self.STATUS_BITS = self.bits("STATUS")
         self.CTRL_BITS = self.bits("CTRL")
-        self.P = self.reset("CONFIG0", "P")
+        # row units of the FGM and ADMM maps (the DGP core has one)
+        self.P = self.reset("CONFIG0", "P") if "P" in self.regs["CONFIG0"].fields else 1
         mat = next((self.regs[k] for k in ("MAT_A", "MAT_M") if k in self.regs), None)
         self.cb = int(math.log2(mat.dims[-1])) if mat else 0   # column bits of the matrix memories
 

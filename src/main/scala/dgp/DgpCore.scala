@@ -270,8 +270,8 @@ class DgpCore(val p: DgpParams) extends Module {
   }
 
   // ------------------------------------------------------------------ output
-  val outLast   = Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)
-  val statusNow = outIdx === outLast + 1.U
+  /** the status word follows the last of the nu (n with OUT_ALL) solution words */
+  val statusNow = outIdx === Mux(regs.ctrlOutAll, n.U, nu.U)
   val statusWord = Cat(solveOvf, solveSat, metR, itersR)
   val word = Wire(SInt(W.W))
   val wordOk = Wire(Bool())
@@ -281,7 +281,7 @@ class DgpCore(val p: DgpParams) extends Module {
     // zbar_i = floor((2 Sz_i + I) / (2 I)): Sz / I rounded to nearest
     val div = Module(new SerialDivider(p.divW, 18))
     val have = RegInit(false.B)
-    div.io.start := st === St.out && !have && !div.io.busy && !statusNow
+    div.io.start := st === St.out && !have && !div.io.busy && !div.io.done && !statusNow
     div.io.x := (sz.get(outIdx) << 1) +& itersR.zext
     div.io.d := itersR << 1
     when(div.io.done) { have := true.B }
