@@ -20,6 +20,8 @@ class Api:
     status: list[str]              # status members after `iterations` and `warm`
     defines: list[tuple[str, str, str]]   # (name, value, comment) after the sizes
     ovf: tuple[str, ...] = ()      # fixed point: the saturating datapath words, flags f_<key> in the solve
+    state_len: str = "N"           # the size macro (after the prefix) of the state's arrays
+    warm_from: str | None = None   # what a warm start starts from (None: the previous solution shifted by one stage)
 
     @property
     def p(self) -> str:
@@ -56,7 +58,11 @@ def header(api: Api, cfg: dict, title: str, what: str) -> str:
         sizes.insert(3, ("FRAC_BITS", cfg["frac_bits"], "fraction bits of every word"))
     defs = "".join(f"#define {P}_{k} {v}{' ' * max(1, 24 - len(P) - len(k) - len(str(v)))}/* {c} */\n"
                    for k, v, c in sizes + list(api.defines))
-    state = "".join(f"    {t} {nm}[{P}_N];{' ' * max(1, 16 - len(t) - len(nm))}/* {c} */\n" for t, nm, c in api.state)
+    n = api.state_len
+    state = "".join(f"    {t} {nm}[{P}_{n}];{' ' * max(1, 16 - len(t) - len(nm) - len(n) + 1)}/* {c} */\n"
+                    for t, nm, c in api.state)
+    warm_ctrl, warm_status = (("the previous solution shifted by one stage", "the shifted previous solution")
+                              if api.warm_from is None else (api.warm_from, api.warm_from))
     pad = " " * (len(p) + 16)
     status = "".join(f"    {s}\n" for s in api.status)
     return f"""\
@@ -75,7 +81,7 @@ def header(api: Api, cfg: dict, title: str, what: str) -> str:
 /* The run-time settings of a solve: the IMAX register and CTRL.WARM_START, CTRL.OUT_ALL. */
 typedef struct {{
     uint16_t imax;          /* iterations (the register takes 1..65535; 0 runs none) */
-    uint8_t warm_start;     /* start from the previous solution shifted by one stage, when there is one */
+    uint8_t warm_start;     /* start from {warm_ctrl}, when there is one */
     uint8_t out_all;        /* write all of z, else its first NU words */
 }} {p}_ctrl_t;
 #define {P}_CTRL_RESET {{{P}_IMAX, {P}_WARM_START, {P}_OUTPUT_ALL}}
@@ -89,7 +95,7 @@ typedef struct {{
 /* What the core's STATUS says about one solve. */
 typedef struct {{
     uint16_t iterations;    /* iterations run */
-    uint8_t warm;           /* the solve started from the shifted previous solution */
+    uint8_t warm;           /* the solve started from {warm_status} */
 {status}}} {p}_status_t;
 
 /* One solve of the parameter w (NW words): out receives the first NU words of z (the first input u0, or its change
