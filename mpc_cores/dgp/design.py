@@ -273,3 +273,29 @@ def _size_words(d: DgpDesign, r: int) -> None:
     d.widths = {"data": W, "coef": bits_for(cb), "x": bits_for(xmax), "op": max(W + 1, bits_for(xmax)),
                 "acc": bits_for(acc + (1 << (W - 1))), "sum": sums + 1, "beta": bits_for(one),
                 "stream": 8 * -(-max(W, bits_for(xmax)) // 8)}
+
+
+def write_tol_spec(kind, problem_path, tol: float, overrides: dict, out=None):
+    """`make design CORE=dgp TOL=...`: the design for eps_g = eps_V = TOL (bits from (36) and (37) of 003), its
+    report, and the spec `make verilog` takes (to `out`, default build/design/<name>_dgp_tol<tol>.yaml)."""
+    from pathlib import Path
+
+    import yaml
+
+    from mpc_cores.problem import load_spec
+
+    p = load_spec(problem_path)
+    d = design_dgp(p, **{**overrides, "tol": float(tol), "eps_g": float(tol), "eps_V": float(tol)})
+    print(kind.design_report(d))
+    spec = yaml.safe_load(Path(problem_path).read_text())
+    spec.setdefault("name", p.name)
+    spec["solver"] = dict(spec.get("solver") or {}, eps_g=float(tol), eps_V=float(tol), frac_bits=d.b,
+                          int_bits=d.widths["data"] - d.b, iterations=d.iterations, accelerated=d.accelerated,
+                          lanes=d.lanes)
+    out = Path(out or f"build/design/{p.name}_dgp_tol{tol:g}.yaml")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(f"# Designed by `make design CORE=dgp TOL={tol:g}` from {problem_path}: fraction bits from (36) "
+                   f"and integer bits from (37) of 003\n# for an (eps_V, eps_g) = ({tol:g}, {tol:g}) solution.\n"
+                   + yaml.safe_dump(spec, sort_keys=False))
+    print(f"wrote {out}  (next: make verilog CORE=dgp PROBLEM={out})")
+    return out

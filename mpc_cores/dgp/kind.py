@@ -10,4 +10,5 @@ KIND = CoreKind(
     overrides=("frac_bits", "lat_add", "lat_mul", "iterations", "target", "tol", "accelerated", "lanes"),
     controllers_fn="mpc_cores.dgp.control:controllers",
     c_fn="mpc_cores.dgp.c:write_c",
+    tol_fn="mpc_cores.dgp.design:write_tol_spec",
 )
