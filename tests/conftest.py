@@ -146,6 +146,12 @@ ADMM_CASES = {
     # K_p = 2 on the ECP5 target, every turn busy
     "rand_rate_n19_p2_k2_ecp5": (lambda: random_problem("rk19e", 3, 1, 4, 1, 7, input_rate=RATE),
                                  dict(P=2, frac_bits=15, problems=2, target="ecp5"), 10),
+    # the splitting family of 004 on the same datapath: Vu-Condat (the last y kept per component, v = sigma (y + z)
+    # - nu) with soft pairs and K_p = 2; AMA (v = -nu, the unaugmented KKT matrix) on the ECP5 target
+    "rand_soft_n19_p3_k2_vucondat": (lambda: random_problem("rv19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
+                                     dict(P=3, frac_bits=16, problems=2, method="vucondat"), 10),
+    "rand_rate_n19_p2_ecp5_ama": (lambda: random_problem("rm19", 3, 1, 4, 1, 7, input_rate=RATE),
+                                  dict(P=2, frac_bits=15, target="ecp5", method="ama"), 12),
 }
 
 

@@ -240,7 +240,11 @@ def test_cli(tmp_path):
 def test_cli_refuses_kinds_without_c(core):
     from test_refusals import refusal
 
-    assert refusal("c", "--core", core) == f"error: CORE={core}: C solvers are generated for the cores fgm, admm"
+    from mpc_cores import registry
+
+    with_c = [k.name for k in registry.kinds().values() if k.c_fn]
+    assert {"fgm", "admm", "dgp"} <= set(with_c) and core not in with_c
+    assert refusal("c", "--core", core) == f"error: CORE={core}: C solvers are generated for the cores {', '.join(with_c)}"
 
 
 def test_bench_rows(designs, tmp_path):

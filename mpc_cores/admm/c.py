@@ -21,6 +21,21 @@ OVF = ("v", "y", "q", "z", "d", "nu", "sum")     # AdmmSolveResult.flags, in the
 STATE = [("z", "z", "the last solution"), ("nu", "nu", "its multipliers")]
 
 
+def state_of(cfg: dict) -> list[tuple[str, str, str]]:
+    """The arrays kept between solves: z and nu, and for vucondat the last primal iterate y (which holds z after a
+    cold start: the wider of the two words)."""
+    if cfg.get("method", "admm") != "vucondat":
+        return STATE
+    w = cfg["widths"]
+    return STATE + [("z" if w["z"] > w["y"] else "y", "y", "the last primal iterate (Vu-Condat)")]
+
+
+# the method's operand v (mpc_cores.admm.model): admm rho z - nu, ama -nu, vucondat sigma (y + z) - nu
+V_FIXED = {"admm": "mpc_shift_by(z[i], K[i]) - nu[i]", "ama": "-nu[i]",
+           "vucondat": "mpc_shift_by(y[i] + z[i], K[i]) - nu[i]"}
+V_FLOAT = {"admm": "RHO[i] * z[i] - nu[i]", "ama": "-nu[i]", "vucondat": "RHO[i] * (y[i] + z[i]) - nu[i]"}
+
+
 def write_c(d, out_dir, cfg: dict | None = None) -> list[Path]:
     """The fixed-point and float solvers of design `d` into out_dir (CoreKind.c_fn); cfg: the config.json the
     fixed-point one is built from (default d.config(); it matches AdmmFixed(cfg))."""
@@ -43,6 +58,7 @@ def check_headroom(cfg: dict) -> None:
         "products": wb("coef") + max(wb("v"), wb("w"), b + 1) + 1,
         "sum of |products|": wb("sum") + math.ceil(math.log2(int(cfg["n"]))),
         "rho z - nu": max(wb("z") + up, wb("nu")) + 1,
+        "sigma (y + z) - nu": max(max(wb("y"), wb("z")) + 1 + up, wb("nu")) + 1,
         "y + nu / rho": max(wb("y"), wb("nu") + down) + 1,
         "projection": max(wb("q"), max(soft).bit_length()) + 4,
         "nu + rho (y - z)": max(wb("nu"), wb("d") + up, wb("y") + 1, wb("z") + 1) + 1,
@@ -94,6 +110,15 @@ START = """\
         proj(q, z);
     }
 """
+# Vu-Condat: the last primal iterate y, shifted like z (cold: y = z)
+START_Y = """\
+    for (i = 0; i < N; i++)
+        y[i] = warm ? state->y[WARM_SRC[i]] : z[i];
+"""
+
+
+def start(cfg: dict) -> str:
+    return START + (START_Y if cfg.get("method", "admm") == "vucondat" else "")
 
 
 def _data(cfg_or: dict, real: bool) -> str:
@@ -111,7 +136,8 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     from mpc_cores.admm.model import AdmmFixed
 
     check_headroom(cfg)
-    api = capi.fixed_api(nm, cfg, STATE, OVF)
+    api = capi.fixed_api(nm, cfg, state_of(cfg), OVF)
+    method = cfg.get("method", "admm")
     n, nw = int(cfg["n"]), int(cfg["nw"])
     if nw + 1 > n:
         raise DesignError(f"the C solver (like the golden model) pads G~'s nw + 1 = {nw + 1} columns to n_A = {n}")
@@ -143,10 +169,10 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     w[NW] = INT64_C(1) << FRAC_BITS;
     for (i = 0; i < N; i++)
         gw[i] = mpc_dot(G[i], w, NW + 1, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum);
-{START}\
+{start(cfg)}\
     for (it = 0; it < ctrl->imax; it++) {{
-        for (i = 0; i < N; i++)                         /* v = rho z - nu */
-            v[i] = {sat("v", "mpc_shift_by(z[i], K[i]) - nu[i]")};
+        for (i = 0; i < N; i++)                         /* v, the method's operand ({method}) */
+            v[i] = {sat("v", V_FIXED[method])};
         for (i = 0; i < N; i++) {{                       /* y = M11 v + G~ (w, 1);  q = y + nu / rho */
             y[i] = {sat("y", "mpc_dot(M11[i], v, N, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum) + gw[i]")};
             q[i] = {sat("q", "y[i] + mpc_shift_by(nu[i], -K[i])")};
@@ -176,7 +202,8 @@ def float_data(d) -> dict:
 
 
 def float_files(nm: emit.Names, d, cfg: dict) -> dict[str, str]:
-    api, fd = capi.float_api(nm, [(n, c) for _, n, c in STATE]), float_data(d)
+    api, fd = capi.float_api(nm, [(n, c) for _, n, c in state_of(cfg)]), float_data(d)
+    method = cfg.get("method", "admm")
     data = f"""\
 /* M11 and G~ (its last column multiplies 1), rho_j and 1 / rho_j (powers of two) */
 {emit.array("M11", fd["M11"], real=True)}{emit.array("G", fd["G"], real=True)}\
@@ -197,10 +224,10 @@ static mpc_real_t clip(mpc_real_t x, mpc_real_t lo, mpc_real_t hi)
             s += G[i][j] * w_in[j];
         gw[i] = s + G[i][NW];
     }}
-{START}\
+{start(cfg)}\
     for (it = 0; it < ctrl->imax; it++) {{
         for (i = 0; i < N; i++)
-            v[i] = RHO[i] * z[i] - nu[i];
+            v[i] = {V_FLOAT[method]};
         for (i = 0; i < N; i++) {{
             mpc_real_t s = 0;
             for (j = 0; j < N; j++)

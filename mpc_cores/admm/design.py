@@ -18,6 +18,15 @@ change of problem). With S = D^(1/2) M11^ D^(1/2) and U an orthonormal basis of 
   (i)  the eigenvalues of U'SU lie in (0, 1): the quantised y-step is the exact y-step of a problem whose reduced
        Hessian is positive definite, i.e. (9) stays convex despite quantisation;
   (ii) the spectral radius of S is < 1: the round-off dynamics (17)/(18) are Schur stable (Lemma 2).
+Methods (`method`, the splitting family of 004 on the same datapath; only v and the matrices differ):
+  admm      v = D z - nu, M11 from H_A + D (Algorithm 2 of 002, above);
+  ama       the alternating minimisation algorithm (Tseng): v = -nu, M11 and G~ from the unaugmented KKT matrix
+            [[H_A, F'], [F, 0]] (H_A positive definite on Ker F), the dual step rho_j = 2^k_j below 2 mu,
+            mu = lambda_min(Z' H_A Z) with Z a basis of Ker F (default: the largest such power of two, scales 1);
+  vucondat  the primal-dual method of Vu and Condat (Chambolle-Pock with L = I) with tau = 1/rho and sigma = rho/2:
+            M11 from H_A + D, the datapath's shifts are those of sigma_j = rho_j / 2 (q = y + nu/sigma,
+            nu += sigma (y - z)) and v = sigma (y + z) - nu, y the last primal iterate (tau sigma = 1/2 < 1).
+Assumption 2 of 002 is that of ADMM's iteration; it is checked for method admm only.
 Integer bits: IV-C2 of 002 gives no analytic bound for the multipliers, so the dynamic signals are sized from
 the largest magnitudes seen by the bit-exact model on random and corner parameters (cold and warm-started
 sequences) times a safety factor; the static ones (coefficients, w, G~ w) are bounded analytically.
@@ -40,6 +49,7 @@ from mpc_cores.problem import MpcProblem
 
 # Defaults of the example (tuned on masses_rate_soft, closed loop, warm start, Imax = 40).
 RHO_DEFAULT = 2.0
+METHODS = ("admm", "ama", "vucondat")
 SOFT_SCALE_DEFAULT = 16.0
 DU_SCALE_DEFAULT = 4.0
 SAFETY_DEFAULT = 2.0          # estimated bounds x 2, i.e. one extra integer bit
@@ -72,10 +82,12 @@ class AdmmDesign(FixedPointDesign):
     observed: dict = field(default_factory=dict)    # largest words seen in the sizing runs
     estimated: tuple = ESTIMATED
     problems: int = 1          # K_p, problems interleaved on the row units (mpc_cores.interleave)
+    method: str = "admm"       # admm, ama or vucondat (the splitting family of 004)
+    mu: float | None = None    # ama: lambda_min of H_A on Ker F (the dual step bound 2 mu)
 
     def label(self) -> str:
         """the design in a table row (make demo)"""
-        return f"b = {self.b}, Imax = {self.iterations}"
+        return f"{'' if self.method == 'admm' else self.method + ', '}b = {self.b}, Imax = {self.iterations}"
 
     @property
     def N(self) -> int:
@@ -96,7 +108,8 @@ class AdmmDesign(FixedPointDesign):
     @property
     def module_name(self) -> str:
         kp = f"_k{self.problems}" if self.problems > 1 else ""
-        return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{kp}{module_suffix(self.target)}"
+        m = "" if self.method == "admm" else f"_{self.method}"
+        return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{kp}{m}{module_suffix(self.target)}"
 
     def products(self) -> list[tuple[int, int]]:
         """(a, b) bit widths of the multipliers (AdmmCore): the row dot products, coefficient x operand."""
@@ -129,7 +142,7 @@ class AdmmDesign(FixedPointDesign):
             "soft_x": q.soft_x.tolist(), "soft_d": q.soft_d.tolist(),
             "soft_c": self.soft_c.tolist(), "soft_r": self.soft_r.tolist(),
             "wlo": self.wlo.tolist(), "whi": self.whi.tolist(),
-            "safety": self.safety, "estimated": list(self.estimated),
+            "safety": self.safety, "estimated": list(self.estimated), "method": self.method,
             **({"problems": self.problems} if self.problems > 1 else {}),
         }
 
@@ -169,7 +182,7 @@ def check_assumption2(qp: AdmmQP, M11_hat: np.ndarray, rho_vec: np.ndarray) -> d
 def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     """Build the ADMM core description. Keyword overrides take precedence over the spec's `solver:` section:
     frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, rho, soft_scale, du_scale, safety,
-    sizing_solves (random parameters per sizing run), sizing_seed, problems."""
+    sizing_solves (random parameters per sizing run), sizing_seed, problems, method."""
     opt = lambda k, d: solver_opt(problem, overrides, k, d)  # noqa: E731
     # nearest by default: truncating each of the n_A products of a row biases every y by about -n_A/2 LSB per
     # iteration and the multiplier update integrates it (measured in tests/test_admm_model.py)
@@ -189,28 +202,55 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     if qp.ns and not qp.sigma2 > 0:
         raise DesignError("soft_states.sigma2 must be > 0 (Remark 1 of 002)")
 
-    k = _pow2_exponent(opt("rho", RHO_DEFAULT), "rho")
-    s_soft = _pow2_exponent(opt("soft_scale", SOFT_SCALE_DEFAULT), "soft_scale")
-    s_du = _pow2_exponent(opt("du_scale", DU_SCALE_DEFAULT), "du_scale")
+    method = str(opt("method", "admm"))
+    if method not in METHODS:
+        raise DesignError(f"method must be one of {', '.join(METHODS)}: got {method!r}")
+
+    def opt_m(key, default):
+        """a penalty option: the override, else the spec's when the spec is written for this method, else the
+        method's default (a spec's rho for ADMM does not carry over to AMA)"""
+        if overrides.get(key) is not None:
+            return overrides[key]
+        return problem.solver.get(key, default) if problem.solver.get("method", "admm") == method else default
+    mu = None
+    if method == "ama":
+        Z = scipy.linalg.null_space(qp.F)
+        mu = float(np.linalg.eigvalsh(Z.T @ qp.H @ Z)[0]) if Z.size else float(np.linalg.eigvalsh(qp.H)[0])
+        if not mu > 1e-9:
+            raise DesignError(f"method ama needs H_A positive definite on Ker F (the unaugmented step): its smallest "
+                              f"eigenvalue there is {mu:.3g}; use method admm or vucondat")
+        kdef = math.floor(math.log2(2 * mu)) - (1 if 2.0 ** math.floor(math.log2(2 * mu)) >= 2 * mu else 0)
+        k = _pow2_exponent(opt_m("rho", 2.0 ** kdef), "rho")
+        s_soft = _pow2_exponent(opt_m("soft_scale", 1.0), "soft_scale")
+        s_du = _pow2_exponent(opt_m("du_scale", 1.0), "du_scale")
+    else:
+        k = _pow2_exponent(opt("rho", RHO_DEFAULT), "rho")
+        s_soft = _pow2_exponent(opt("soft_scale", SOFT_SCALE_DEFAULT), "soft_scale")
+        s_du = _pow2_exponent(opt("du_scale", DU_SCALE_DEFAULT), "du_scale")
     shift = np.full(n, k, dtype=np.int64)
     shift[qp.soft_x] += s_soft
     shift[qp.soft_d] += s_soft
     shift[: qp.N * qp.nu] += s_du
+    rho_vec = np.ldexp(1.0, shift)
+    if method == "ama" and not rho_vec.max() < 2 * mu:
+        raise DesignError(f"method ama needs every rho_j < 2 mu = {2 * mu:.6g} (mu = lambda_min of H_A on Ker F): "
+                          f"got max rho_j = {rho_vec.max():g}; lower rho, soft_scale or du_scale")
+    if method == "vucondat":
+        shift = shift - 1                  # the datapath's shifts: sigma_j = rho_j / 2
     if shift.min() < -b:
         raise DesignError(f"rho_j = 2^{int(shift.min())} is not representable with frac_bits={b} "
                           f"(Assumption 2 of 002 wants rho exact in b bits): increase rho or frac_bits")
-    rho_vec = np.ldexp(1.0, shift)
 
-    M11f, Gf = kkt_blocks(qp, rho_vec)
+    M11f, Gf = kkt_blocks(qp, np.zeros(n) if method == "ama" else rho_vec)
     M11 = quantize(M11f, b)
     G = quantize(Gf, b)
-    a2 = check_assumption2(qp, M11 / float(1 << b), rho_vec)
-    if not a2["ok_i"]:
+    a2 = check_assumption2(qp, M11 / float(1 << b), rho_vec) if method == "admm" else {}
+    if a2 and not a2["ok_i"]:
         raise DesignError(
             f"Assumption 2(i) of 002 fails at frac_bits={b}, rho=2^{k}: D^(1/2) M11^ D^(1/2) on Ker F has eigenvalues "
             f"in [{a2['kernel_min']:.6g}, {a2['kernel_max']:.6g}], not inside (0, 1) (the quantised problem is no longer "
             f"convex); increase frac_bits or choose another rho")
-    if not a2["ok_ii"]:
+    if a2 and not a2["ok_ii"]:
         raise DesignError(
             f"Assumption 2(ii) of 002 fails at frac_bits={b}, rho=2^{k}: ||D^(1/2) M11^ D^(1/2)|| = {a2['spectral_radius']:.6g} >= 1 "
             f"(the round-off dynamics (18) are not Schur stable); increase frac_bits or choose another rho")
@@ -230,7 +270,8 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     d = AdmmDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
                    iterations=iterations, warm_start=warm_start, target=target, rho_log2=k, shift=shift, M11f=M11f, Gf=Gf,
                    M11=M11, G=G, kind=qp.kind.copy(), lo=lo, hi=hi, soft_c=soft_c, soft_r=soft_r, wlo=wlo, whi=whi,
-                   safety=safety, output_all=output_all, assumption2=a2, problems=problems_option(problem, overrides))
+                   safety=safety, output_all=output_all, assumption2=a2, problems=problems_option(problem, overrides),
+                   method=method, mu=mu)
     _size_words(d, int(opt("sizing_solves", 48)), int(opt("sizing_seed", 0)))
     apply_target(d, lat_mul, d.products())
     return d
@@ -263,7 +304,7 @@ def _size_words(d: AdmmDesign, solves: int, seed: int) -> None:
     state = None
     for W, warm in runs:
         res = model.solve_batch(W, warm_from=state if warm else None, track=True)
-        state = (res.z, res.nu)
+        state = (res.z, res.nu) + ((res.y,) if res.y is not None else ())
         for key in ESTIMATED:
             seen[key] = max(seen[key], int(res.peaks[key]))
     box = d.kind == BOX

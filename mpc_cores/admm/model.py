@@ -24,7 +24,12 @@ sh(a, k) = a << k for k >= 0, shift_round(a, -k, rounding) for k < 0; sat(., W) 
         s <= 0              -> (c +- r, 0)                    beyond the corner (sign of t)
         else m = shift_round(s, 1, rounding) -> (c +- (r + m), m)    onto the slanted edge, halving rounded
   6. nu_j = sat(nu_j + sh(sat(y_j - z_j, W_d), k_j), W_nu)  (line 4: nu + rho_j (y - z))
-The core returns z (and keeps (z, nu) for the next warm start). A saturation in steps 0-6 other than the input
+Methods (config "method", mpc_cores/admm/design.py): step 2 is the method's operand, the rest is shared:
+  admm      v_j = sat(sh(z_j, k_j) - nu_j, W_v)
+  ama       v_j = sat(-nu_j, W_v)
+  vucondat  v_j = sat(sh(y_j + z_j, k_j) - nu_j, W_v), y the previous iteration's y of step 3 (cold start: y = z,
+            warm: shifted like z), k_j the shifts of sigma_j
+The core returns z (and keeps (z, nu), and y for vucondat, for the next warm start). A saturation in steps 0-6 other than the input
 clip sets `overflow` (and the flag of that signal); the input clip sets `sat`.
 """
 from __future__ import annotations
@@ -89,6 +94,7 @@ class AdmmSolveResult:
     overflow: bool              # a datapath word saturated
     flags: dict = field(default_factory=dict)   # which signals saturated
     iterates: list | None = None  # z_0..z_Imax words when recorded
+    y: np.ndarray | None = None   # vucondat: the last y (part of the warm start)
 
 
 @dataclass
@@ -100,6 +106,7 @@ class AdmmBatchResult:
     flags: dict
     peaks: dict                 # largest |word| per signal over the batch and all iterations
     iterates: list | None = None
+    y: np.ndarray | None = None  # vucondat: the last y
 
 
 class AdmmFixed:
@@ -127,7 +134,8 @@ class AdmmFixed:
         self.sr = np.array(cfg["soft_r"], dtype=np.int64)
         self.wlo = np.array(cfg["wlo"], dtype=np.int64)
         self.whi = np.array(cfg["whi"], dtype=np.int64)
-        self.prev: tuple | None = None       # (z, nu) of the last solve; None: no valid warm start
+        self.method = cfg.get("method", "admm")
+        self.prev: tuple | None = None       # (z, nu[, y]) of the last solve; None: no valid warm start
 
     def reset(self) -> None:
         self.prev = None
@@ -160,7 +168,8 @@ class AdmmFixed:
 
     def solve_batch(self, W, imax: int | None = None, warm_from=None, track: bool = False,
                     record: bool = False) -> AdmmBatchResult:
-        """Independent solves of the parameter rows of W; warm_from = (z, nu) of each row's previous solve."""
+        """Independent solves of the parameter rows of W; warm_from = (z, nu) (vucondat: (z, nu, y)) of each row's
+        previous solve."""
         imax = self.iterations if imax is None else int(imax)
         wd, rnd, k = self.widths, self.rounding, self.k
         W_in = np.atleast_2d(np.asarray(W, dtype=np.int64))
@@ -171,9 +180,11 @@ class AdmmFixed:
         flags = dict.fromkeys(_WIDTH_KEYS, False)
         gw, flags["sum"], _ = self._dot(self.G, w1)
         if warm_from is not None:
-            z, nu = (shift_stages(np.asarray(a, dtype=np.int64), self.N, self.nu) for a in warm_from)
+            z, nu, *ys = (shift_stages(np.asarray(a, dtype=np.int64), self.N, self.nu) for a in warm_from)
+            y = ys[0] if ys else z.copy()
         else:
             z, nu = self.cold_start(S)
+            y = z.copy()
         peaks = dict.fromkeys(ESTIMATED, 0)
         its = [z.copy()] if record else None
 
@@ -185,7 +196,12 @@ class AdmmFixed:
             return val
 
         for _ in range(imax):
-            v = step("v", shift_by(z, k, rnd) - nu)
+            if self.method == "ama":
+                v = step("v", -nu)
+            elif self.method == "vucondat":
+                v = step("v", shift_by(y + z, k, rnd) - nu)
+            else:
+                v = step("v", shift_by(z, k, rnd) - nu)
             s, f, pk = self._dot(self.M11, v)
             flags["sum"] |= f
             peaks["msum"] = max(peaks["msum"], pk)
@@ -196,19 +212,21 @@ class AdmmFixed:
             if record:
                 its.append(z.copy())
         overflow = np.full(S, any(flags.values()))
-        return AdmmBatchResult(z=z, nu=nu, sat=sat, overflow=overflow, flags=flags, peaks=peaks, iterates=its)
+        return AdmmBatchResult(z=z, nu=nu, sat=sat, overflow=overflow, flags=flags, peaks=peaks, iterates=its,
+                               y=y if self.method == "vucondat" else None)
 
     def solve(self, w_words, imax: int | None = None, warm: bool | None = None, record: bool = False) -> AdmmSolveResult:
         warm = self.warm_start if warm is None else bool(warm)
         w = np.asarray(w_words, dtype=np.int64)
         assert w.shape == (self.nw,), f"expected {self.nw} words, got {w.shape}"
-        wf = None if not (warm and self.prev is not None) else (self.prev[0][None], self.prev[1][None])
+        wf = None if not (warm and self.prev is not None) else tuple(a[None] for a in self.prev)
         r = self.solve_batch(w[None], imax, warm_from=wf, record=record)
         z, nu = r.z[0], r.nu[0]
-        self.prev = (z.copy(), nu.copy())
+        y = None if r.y is None else r.y[0].copy()
+        self.prev = (z.copy(), nu.copy()) + ((y,) if y is not None else ())
         its = None if r.iterates is None else [a[0] for a in r.iterates]
         return AdmmSolveResult(z=z, nu=nu, sat=bool(r.sat[0]), overflow=bool(r.overflow[0]), flags=r.flags,
-                               iterates=its)
+                               iterates=its, y=y)
 
 
 class AdmmFloat:
@@ -250,19 +268,23 @@ class AdmmFloat:
         gw = self.G @ np.append(w, 1.0)
         if z0 is not None:
             z, nu = np.asarray(z0, dtype=float).copy(), np.zeros(d.n) if nu0 is None else np.asarray(nu0, float).copy()
+            y = z.copy()
         elif warm and self.prev is not None:
-            z, nu = (shift_stages(a, d.N, d.nu) for a in self.prev)
+            z, nu, y = (shift_stages(a, d.N, d.nu) for a in self.prev)
         else:
             z, nu = self.proj(np.zeros(d.n)), np.zeros(d.n)
+            y = z.copy()
         its = [z.copy()] if record else None
-        rho = self.rho
+        rho = self.rho        # the datapath's steps 2^k_j (vucondat: sigma_j)
+        method = getattr(d, "method", "admm")
         for _ in range(imax):
-            y = self.M11 @ (rho * z - nu) + gw
+            v = -nu if method == "ama" else rho * (y + z) - nu if method == "vucondat" else rho * z - nu
+            y = self.M11 @ v + gw
             z = self.proj(y + nu / rho)
             nu = nu + rho * (y - z)
             if record:
                 its.append(z.copy())
-        self.prev = (z.copy(), nu.copy())
+        self.prev = (z.copy(), nu.copy(), y.copy())
         return z, nu, its
 
 

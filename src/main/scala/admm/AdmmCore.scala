@@ -80,6 +80,11 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val zReg  = Seq.fill(Kp)(Reg(Vec(n, SInt(p.zW.W))))
   val nuReg = Seq.fill(Kp)(Reg(Vec(n, SInt(p.nuW.W))))
   val vReg  = Reg(Vec(n, SInt(p.vW.W)))
+  /** vucondat: the last y of each component (the primal iterate), for v = sigma (y + z) - nu */
+  val vc    = p.method == "vucondat"
+  /** (the cold start puts z there, which may be wider than y) */
+  val yRegW = math.max(p.yW, p.zW)
+  val yReg  = if (vc) Seq.fill(Kp)(Reg(Vec(n, SInt(yRegW.W)))) else Nil
 
   /** a 2^k, right shifts rounded like products (the model's shift_by) */
   def shiftBy(a: SInt, k: Int): SInt = if (k >= 0) (a << k).asSInt else FixedOps.shiftRound(a, -k, p.rounding)
@@ -110,6 +115,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
   class Lane extends Bundle {
     val z  = SInt(p.zW.W)
     val nu = SInt(p.nuW.W)
+    /** vucondat: the row's y (the cold start: z) */
+    val y  = SInt(yRegW.W)
   }
   val laneA = Wire(Vec(P, new Lane)) // the row in the slot
   val laneB = Wire(Vec(P, new Lane)) // the soft state before a slack row
@@ -212,6 +219,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
     laneA(u).nu := ShiftRegister(Mux(first, 0.S, nuA), p.latAdd)
     laneB(u).z  := ShiftRegister(ShiftRegister(zB, p.latAdd), p.latAdd)
     laneB(u).nu := ShiftRegister(Mux(first, 0.S, nuB), p.latAdd)
+    laneA(u).y  := ShiftRegister(ShiftRegister(Mux(tokZ.pass0, zA.pad(yRegW), yZ.pad(yRegW)), p.latAdd), p.latAdd)
+    laneB(u).y  := ShiftRegister(ShiftRegister(Mux(tokZ.pass0, zB.pad(yRegW), yZB.pad(yRegW)), p.latAdd), p.latAdd)
 
     // Saturation in a live row of an iteration sets the sticky overflow flag (the first pass: the tree only).
     val kindZs = kindZ
@@ -225,8 +234,13 @@ class AdmmCore(val p: AdmmParams) extends Module {
 
   // ------------------------------------------------------------------ register writes
   val tokW1 = tokAt(p.stageW - 1)
-  /** v = rho z - nu of component j, and whether it saturated */
-  def vOf(z: SInt, nu: SInt, j: Int): (SInt, Bool) = FixedOps.satSub(shiftBy(z, p.shift(j)), nu, p.vW)
+  /** the method's operand v of component j, and whether it saturated: admm rho z - nu, ama -nu, vucondat
+    * sigma (y + z) - nu */
+  def vOf(z: SInt, nu: SInt, y: Option[SInt], j: Int): (SInt, Bool) = p.method match {
+    case "ama"      => FixedOps.satSub(0.S, nu, p.vW)
+    case "vucondat" => FixedOps.satSub(shiftBy(y.get +& z, p.shift(j)), nu, p.vW)
+    case _          => FixedOps.satSub(shiftBy(z, p.shift(j)), nu, p.vW)
+  }
   /** problem q's writes of z and nu: the warm copy, or the lanes of its rows' pipelines */
   def writes(q: Int, warmCopy: Bool, weW: Vec[Bool]): Unit = for (j <- 0 until n) {
     val u = p.unitOf(j)
@@ -237,9 +251,11 @@ class AdmmCore(val p: AdmmParams) extends Module {
     when(warmCopy) {
       zReg(q)(j)  := zReg(q)(src)
       nuReg(q)(j) := nuReg(q)(src)
+      if (vc) yReg(q)(j) := yReg(q)(src)
     }.elsewhen(weW(slot)) {
       zReg(q)(j)  := lane.z
       nuReg(q)(j) := lane.nu
+      if (vc) yReg(q)(j) := lane.y
     }
   }
   val ofV = Wire(Vec(n, Bool()))
@@ -263,7 +279,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
     turn0 && !tok0.pass0
   }
   for (j <- 0 until n) {
-    val (v, of) = vOf(ofSlot(zReg.map(_(j)), tok0.slot), ofSlot(nuReg.map(_(j)), tok0.slot), j)
+    val (v, of) = vOf(ofSlot(zReg.map(_(j)), tok0.slot), ofSlot(nuReg.map(_(j)), tok0.slot),
+      if (vc) Some(ofSlot(yReg.map(_(j)), tok0.slot)) else None, j)
     ofV(j) := of
     when(vNow) { vReg(j) := v }
   }

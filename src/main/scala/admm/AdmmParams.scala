@@ -22,6 +22,8 @@ case class AdmmParams(
     nw: Int,
     P: Int,
     Kp: Int,
+    /** the splitting method (004) on this datapath: "admm", "ama" (v = -nu) or "vucondat" (v = sigma (y + z) - nu) */
+    method: String,
     fracBits: Int,
     latAdd: Int,
     latMul: Int,
@@ -127,8 +129,10 @@ case class AdmmParams(
   def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * periodCycles
   val multipliers: Int = P * m
 
+  require(Seq("admm", "ama", "vucondat").contains(method), s"method must be admm, ama or vucondat: got $method")
   val moduleName: String =
-    s"AdmmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (Kp > 1) s"_k$Kp" else "") + (if (target == Target.Generic) "" else s"_${target.name}")
+    s"AdmmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (Kp > 1) s"_k$Kp" else "") +
+      (if (method == "admm") "" else s"_$method") + (if (target == Target.Generic) "" else s"_${target.name}")
 
   // ---- register map: data regions addressed by component index
   val cBits: Int = log2Ceil(m)
@@ -205,6 +209,7 @@ object AdmmParams {
       nw = j("nw").num.toInt,
       P = j("P").num.toInt,
       Kp = j.obj.get("problems").map(_.num.toInt).getOrElse(1),
+      method = j.obj.get("method").map(_.str).getOrElse("admm"),
       fracBits = j("frac_bits").num.toInt,
       latAdd = j("lat_add").num.toInt,
       latMul = j("lat_mul").num.toInt,
