@@ -26,7 +26,7 @@ async def closed_loop_rtl(dut):
     problem = load_spec(os.environ["CL_SPEC"])
     core = json.loads((Path(os.environ["CORE_OUT"]) / "core.json").read_text())
     kind = registry.get(core["core"])
-    admm = core["core"] == "admm"
+    admm = "method" in core          # the ADMM datapath (admm, ama, vucondat)
     if kind.rtl_controller_fn:
         tb, ctrl = await kind.rtl_controller(dut, problem)
     else:

@@ -7,6 +7,8 @@ from mpc_cores.kind import CoreKind, load
 _KINDS = (
     "mpc_cores.fgm.kind:KIND",
     "mpc_cores.admm.kind:KIND",
+    "mpc_cores.admm.kind:AMA_KIND",
+    "mpc_cores.admm.kind:VUCONDAT_KIND",
     "mpc_cores.minres.kind:KIND",
     "mpc_cores.ipm.kind:KIND",
     "mpc_cores.dgp.kind:KIND",

@@ -172,7 +172,16 @@ def small_cores(cores, admm_cores):
     ipm = REPO / "build" / "tests" / "ipm" / "n2_m1_t3_p1"
     hard = {"hard_states": {"indices": [0], "min": -1.0, "max": 1.0}}
     generate("ipm", [(design_ipm(random_problem("ia", 2, 1, 3, 1, 5, **hard), P=1, iterations=6, newton=3), ipm)])
-    dirs = {"fgm": cores["rand_n4_p4_b10"], "admm": admm_cores["rand_rate_n19_p5"], "minres": out, "ipm": ipm}
+    # the DGP one is case small_accel of tests/test_dgp_rtl.py
+    from mpc_cores.dgp.design import design_dgp
+
+    dgp = REPO / "build" / "tests" / "dgp" / "small_accel"
+    generate("dgp", [(design_dgp(random_problem("dg5", 2, 1, 4, 0, 5, states={"min": -0.5, "max": 0.5},
+                                                hard_states={"indices": [0], "min": -1.0, "max": 1.0}),
+                                 lanes=2, iterations=60), dgp)])
+    dirs = {"fgm": cores["rand_n4_p4_b10"], "admm": admm_cores["rand_rate_n19_p5"], "minres": out, "ipm": ipm,
+            "dgp": dgp, "ama": admm_cores["rand_rate_n19_p2_ecp5_ama"],
+            "vucondat": admm_cores["rand_soft_n19_p3_k2_vucondat"]}
     return {k: (d, json.loads((d / "core.json").read_text())) for k, d in dirs.items()}
 
 

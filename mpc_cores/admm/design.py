@@ -324,3 +324,13 @@ def _size_words(d: AdmmDesign, solves: int, seed: int) -> None:
     d.widths = widths
     d.bounds = bounds
     d.observed = seen
+
+
+def design_ama(problem: MpcProblem, **overrides) -> AdmmDesign:
+    """`CORE=ama`: the ADMM core's datapath running the alternating minimisation algorithm."""
+    return design_admm(problem, **{**overrides, "method": "ama"})
+
+
+def design_vucondat(problem: MpcProblem, **overrides) -> AdmmDesign:
+    """`CORE=vucondat`: the ADMM core's datapath running the primal-dual method of Vu and Condat."""
+    return design_admm(problem, **{**overrides, "method": "vucondat"})

@@ -6,7 +6,7 @@ KIND = CoreKind(
     title="ADMM with input-rate and soft state constraints (Algorithm 2 of 002), fixed point",
     model_fn="mpc_cores.admm.model:AdmmFixed",
     spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all", "target",
-                  "safety", "rho", "soft_scale", "du_scale", "sizing_seed", "sizing_solves", "problems"),
+                  "safety", "rho", "soft_scale", "du_scale", "sizing_seed", "sizing_solves", "problems", "method"),
     overrides=("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "target", "problems"),
     controllers_fn="mpc_cores.admm.kind:controllers",
     c_fn="mpc_cores.admm.c:write_c",
@@ -19,3 +19,18 @@ def controllers(d):
     from mpc_cores.admm.control import AdmmFixedController, AdmmOsqpController
 
     return AdmmOsqpController(d.problem), AdmmFixedController(d), 0.0
+
+
+def _method_kind(method: str, title: str) -> CoreKind:
+    """A method of the splitting family (004) on the ADMM core's datapath: the ADMM generator, golden model,
+    report, testbench and C emitter, with the design's method set (mpc_cores/admm/design.py)."""
+    return CoreKind(
+        name=method, title=title, model_fn="mpc_cores.admm.model:AdmmFixed", generator_main="admm.AdmmMain",
+        design_fn=f"mpc_cores.admm.design:design_{method}", report_module="mpc_cores.admm.report",
+        testbench="verif.admm.tb", soak=f"mpc_cores.admm.soak:{method.upper()}_SOAK",
+        spec_section=KIND.spec_section, overrides=KIND.overrides, controllers_fn="mpc_cores.admm.kind:controllers",
+        c_fn="mpc_cores.admm.c:write_c")
+
+
+AMA_KIND = _method_kind("ama", "alternating minimisation algorithm (Tseng; 004) on the ADMM datapath, fixed point")
+VUCONDAT_KIND = _method_kind("vucondat", "primal-dual method of Vu and Condat (004) on the ADMM datapath, fixed point")

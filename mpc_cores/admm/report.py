@@ -27,7 +27,8 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
     L = hw["cycles_per_iteration"]
     q = d.qp
     return {
-        "core": "admm",
+        "core": d.method,            # the kind: admm, or a splitting method on its datapath (ama, vucondat)
+        "method": d.method,
         "name": d.name,
         "module": hw["module"],
         "sv": f"{hw['module']}.sv",
@@ -70,19 +71,31 @@ def interleave_fields(d: AdmmDesign, hw: dict) -> dict:
     return fields
 
 
+def _method_lines(d: AdmmDesign) -> list[str]:
+    """the method (004) and its step sizes; Assumption 2 of 002 for ADMM"""
+    ks = sorted(set(int(k) for k in d.shift))
+    if d.method == "ama":
+        return [f"  Method: AMA (v = -nu, M11 of the unaugmented KKT matrix); rho_j = 2^k_j, k_j in {ks}, below 2 mu = "
+                f"{2 * d.mu:.4g} (mu = lambda_min of H_A on Ker F)"]
+    if d.method == "vucondat":
+        return [f"  Method: Vu-Condat (Chambolle-Pock, L = I): tau = 1/rho, sigma = rho/2; rho = 2^{d.rho_log2}, "
+                f"sigma_j = 2^k_j with k_j in {ks} (the datapath's shifts), v = sigma (y + z) - nu"]
+    a2 = d.assumption2
+    return [f"  rho = 2^{d.rho_log2}, shifts k_j in {ks} (soft pairs, du scaled)",
+            f"  Assumption 2 (002) on the quantised M11: eig on Ker F in [{a2['kernel_min']:.4g}, {a2['kernel_max']:.6f}] "
+            f"(inside (0, 1)), spectral radius {a2['spectral_radius']:.6f} (< 1)"]
+
+
 def design_report(d: AdmmDesign, core: dict | None = None) -> str:
     b = d.b
     one = 1 << b
-    a2 = d.assumption2
     q = d.qp
     lines = [
         f"ADMM core for '{d.name}': n_A = {d.n} = N (nu + nx~ + |S|) + nx~ + |S| = {d.N} ({d.nu} + {q.nx} + {q.ns}) "
         f"+ {q.nx} + {q.ns}, nw = {d.nw} (x, u_prev, r)",
         f"  P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}, {d.rounding} products, b = {b} fraction bits",
         report_line(d.target, d.lat_mul, d.products(), [d.multipliers]),
-        f"  rho = 2^{d.rho_log2}, shifts k_j in {sorted(set(int(k) for k in d.shift))} (soft pairs, du scaled)",
-        f"  Assumption 2 (002) on the quantised M11: eig on Ker F in [{a2['kernel_min']:.4g}, {a2['kernel_max']:.6f}] "
-        f"(inside (0, 1)), spectral radius {a2['spectral_radius']:.6f} (< 1)",
+        *_method_lines(d),
         "  Word widths (static words analytic; iterates: largest seen in the bit-exact model x safety, IV-C2 of 002):",
     ]
     for k, w in d.widths.items():

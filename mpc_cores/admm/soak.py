@@ -34,3 +34,21 @@ SOAK = SoakSpace(
            "cold start and Imax, random idle and backpressure on both streams; interleaving cores: batches of up "
            "to 2 K_p frames for random problem ids, all in flight"),
 )
+
+
+
+def _with_method(method: str) -> SoakSpace:
+    """ADMM's random space with the design's method set"""
+    def draw_m(rng) -> Config:
+        c = draw(rng)
+        d = dict(c.design, method=method)
+        if method == "ama":
+            d.pop("rho")               # AMA's step comes from the problem (below 2 mu)
+        return Config(c.spec, d)
+    return SoakSpace(draw=draw_m, test=SOAK.test, count_knob=SOAK.count_knob, measured=SOAK.measured,
+                     cycles_per_solve=SOAK.cycles_per_solve, solves_per_config=SOAK.solves_per_config,
+                     space=SOAK.space[:2] + (SOAK.space[2] + f"; method {method}",) + SOAK.space[3:])
+
+
+AMA_SOAK = _with_method("ama")
+VUCONDAT_SOAK = _with_method("vucondat")
