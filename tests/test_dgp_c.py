@@ -181,11 +181,11 @@ def test_bit_exact(form, designs, built):
 
 @pytest.mark.parametrize("form", list(FORMS))
 def test_bit_exact_saturating(form, designs, tmp_path):
-    """The data words cut by 10 bits below the design's, so that the bounds, z, s, g and the extrapolated dual
+    """The data words cut to one integer bit (values in [-1, 1)), so that the bounds, z, s and g
     saturate (about half of the solves): still every word and flag as the golden model's."""
     d = designs[form]
     cfg = d.config()
-    cfg["widths"] = dict(cfg["widths"], data=cfg["widths"]["data"] - 10)
+    cfg["widths"] = dict(cfg["widths"], data=cfg["frac_bits"] + 1)      # words in [-1, 1)
     seen = replay(cfg, build(d, tmp_path, cfg)[0], 4, 12, seed=3)
     assert seen["overflow"] >= seen["solves"] // 4, seen
 

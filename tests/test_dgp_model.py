@@ -197,9 +197,6 @@ def test_input_saturation_flag():
     assert (r.iterations[0], r.z[0].tolist()) == (c.iterations[0], c.z[0].tolist())
 
 
-@pytest.mark.xfail(strict=True, reason="the design flow's dual box d (y* sampled at the x vertices with random "
-                   "references and at random points, times 2) is below y* at 1068 of the 4096 vertices of the box "
-                   "of w = (x, r), and alpha d at 398 (docs/dgp.md)")
 def test_dual_box_bounds_y_star_at_the_vertices():
     """(14) of 003: d_i >= y*_i for every parameter of the accepted box (Remark 1: uniform bounds); at least at
     its vertices, and y* inside the projection box [0, alpha d], without which (35) converges to the exact penalty
@@ -236,7 +233,11 @@ def test_refuses_int_bits_below_37():
     with pytest.raises(DesignError, match=r"\(37\)") as e:
         design_dgp(problem(), int_bits=d.bits37 - 1)
     assert "\n" not in str(e.value)
-    assert design_dgp(problem(), int_bits=d.bits37 + 1).widths["data"] == d.bits37 + 1 + d.b
+    assert design_dgp(problem(), int_bits=d.bits37).widths["data"] == d.bits37 + d.b
+    # wider words than the exact products of the model and the C solver allow (40 bits) are refused too
+    with pytest.raises(DesignError, match="at most 40") as e:
+        design_dgp(problem(), int_bits=41 - d.b)
+    assert "\n" not in str(e.value)
 
 
 def test_refuses_a_box_with_infeasible_states():

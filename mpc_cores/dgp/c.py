@@ -157,8 +157,8 @@ def _iteration(real: bool, accelerated: bool, sat) -> str:
         }}
         stop &= gap <= EV;
         kb = rs < 0 ? 0 : (kb + 1 < NBETA ? kb + 1 : NBETA - 1);
-        for (i = 0; i < M; i++) {{                      /* wy = y_new, or y_new + beta_k (y_new - y) */
-            {"mpc_real_t" if real else "int64_t"} ext = {sat("yn[i] + " + rnd(beta, "yn[i] - y[i]"))};
+        for (i = 0; i < M; i++) {{                      /* wy = y_new, or clip(y_new + beta_k (y_new - y), 0, ud) */
+            {"mpc_real_t" if real else "int64_t"} ext = {clip}(yn[i] + {rnd(beta, "yn[i] - y[i]")}, 0, UD[i]);
             wy[i] = rs < 0 ? yn[i] : ext;
             y[i] = yn[i];
         }}

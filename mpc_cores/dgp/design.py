@@ -1,15 +1,21 @@
 """DGP front end: from an MPC problem with state constraints to the quantised data and word widths of the core.
 
 The dual box (14)-(15) of 003: d_i >= max(y*_i, 1) with y* the dual solutions over the accepted box of w = (x, r),
-found by solving the QP (OSQP) at the box's vertices in x and at random interior points, times a margin
-(`dual_margin`, 2 by default); the projection box is [0, alpha d] with alpha = 2, the choice of (22).
+found by solving the QP (OSQP) at every vertex of that box (4096 of them at most, else 4096 random vertices) and at
+random interior points, times a margin (`dual_margin`, 2 by default); the projection box is [0, alpha d] with
+alpha = 2, the choice of (22). This is sampled, not the certified bound of Remark 1 of 003: y* is piecewise affine
+in w and may peak inside the box.
 
 Fraction bits p from (36) and integer bits r from (37), on the scaled problem (L = 1, mpc_cores.dgp.problem):
   p >= log2( m sqrt(n) / ( sqrt(eps / L_V + (n / m) (2 D / L_V)^2) - sqrt(n / m) 2 D / L_V ) ) - 1,
        eps = min(eps_g sigma, eps_V), m = 2 mc one-sided rows, D = ||d||_2, L_V = lambda_max(Q);
   r >= log2(max(y^, z^, g^) + 1) + 1,  y^ = alpha ||d||_inf, z^ = ||E||_inf y^ + ||e||_inf, g^ = ||A||_inf z^ + ||b||_inf.
 Every data word (y, v, z, s, g and the bounds) has r + p bits, as in section VI of 003. The accelerated form's
-extrapolated dual w = y + beta (y - y_prev) lies in [-y^, 2 y^]: its analogue of (37) takes y^ = 2 alpha ||d||_inf.
+extrapolated dual is clipped to the same box [0, alpha d], so (37) holds for it unchanged; (36) is applied as it
+stands (the accelerated form's round-off is checked by simulation, docs/dgp.md).
+
+Warm start: the plain form's guarantee on V (Corollary 1 of 003) needs y(0) = 0, so its default is cold; the
+accelerated form's gap test bounds V(z) - V* from any start, so its default is warm.
 """
 from __future__ import annotations
 
@@ -144,19 +150,27 @@ def restart_shifts(widths: dict) -> list[int]:
     return [max(0, widths["data"] - 18), max(0, widths["data"] + 1 - 18)]
 
 
+_DUALS_CACHE: dict = {}
+
+
 def sample_duals(qp: DgpQP, p: MpcProblem, samples: int = 256, seed: int = 0) -> np.ndarray:
-    """Largest dual (upper rows, lower rows) over the box vertices in x (at most 256, random references) and
-    `samples` random points of the box of w; refuses a state of the box for which the QP is infeasible."""
+    """Largest dual (upper rows, lower rows) over the vertices of the box of w = (x, r) (every one up to 4096,
+    else 4096 random ones) and `samples` random points of it; refuses a state of the box for which the QP is
+    infeasible. Cached per problem data within a process."""
+    import hashlib
+
+    key = hashlib.sha256(b"".join(np.ascontiguousarray(a, dtype=float).tobytes() for a in
+                                  (qp.Q, qp.Phi, qp.G, qp.lo0, qp.hi0, qp.Lw, p.xmin, p.xmax, p.rmin, p.rmax))
+                         + f"{samples},{seed}".encode()).hexdigest()
+    if key in _DUALS_CACHE:
+        return _DUALS_CACHE[key].copy()
     rng = np.random.default_rng(seed)
     nx = p.nx
     wlo = np.concatenate([p.xmin, p.rmin])
     whi = np.concatenate([p.xmax, p.rmax])
-    pts = []
-    verts = 1 << nx
-    for v in (range(verts) if verts <= 256 else rng.integers(0, verts, 256)):
-        w = rng.uniform(wlo, whi)
-        w[:nx] = np.where([(int(v) >> i) & 1 for i in range(nx)], p.xmax, p.xmin)
-        pts.append(w)
+    nw = len(wlo)
+    verts = range(1 << nw) if nw <= 12 else rng.integers(0, 1 << min(nw, 62), 4096)
+    pts = [np.where([(int(v) >> i) & 1 for i in range(nw)], whi, wlo) for v in verts]
     pts += [rng.uniform(wlo, whi) for _ in range(samples)]
     ymax = np.zeros(qp.m)
     for w in pts:
@@ -166,7 +180,8 @@ def sample_duals(qp: DgpQP, p: MpcProblem, samples: int = 256, seed: int = 0) ->
                               f"box (OSQP: {st}); shrink `states` to a box of states from which the constraints "
                               f"can be met")
         ymax = np.maximum(ymax, np.concatenate([yp, ym]))
-    return ymax
+    _DUALS_CACHE[key] = ymax
+    return ymax.copy()
 
 
 def bits_36(n: int, m: int, D: float, LV: float, eps: float) -> float:
@@ -196,6 +211,8 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     if not (eps_g > 0 and eps_V > 0):
         raise DesignError(f"eps_g and eps_V must be > 0: got eps_g={eps_g}, eps_V={eps_V}")
     accelerated = bool(opt("accelerated", True))
+    if solver_opt(problem, overrides, "warm_start", None) is None:
+        warm_start = accelerated           # the plain form's V guarantee needs a cold start (Corollary 1 of 003)
     lanes = int(opt("lanes", 8))
     margin = float(opt("dual_margin", 2.0))
     if margin < 1:
@@ -224,7 +241,7 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     whi = np.concatenate([problem.xmax, problem.rmax])
     wabs = np.maximum(np.abs(wlo), np.abs(whi))
     K, Fe = qp.K, qp.Fe
-    yhat = ALPHA * float(d.max()) * (2.0 if accelerated else 1.0)
+    yhat = ALPHA * float(d.max())
     ehat = float(np.max(np.abs(Fe) @ wabs))
     zhat = 2 * float(np.max(np.abs(K).sum(axis=1))) * yhat + ehat          # ||E||_inf, E = [K, -K]
     bnd = np.maximum(np.abs(qp.lo0) + np.abs(qp.Lw) @ wabs, np.abs(qp.hi0) + np.abs(qp.Lw) @ wabs)
@@ -264,9 +281,10 @@ def _size_words(d: DgpDesign, r: int) -> None:
     xmax = int(max(np.abs(d.xlo).max(), np.abs(d.xhi).max()))
     # a row's products: |rnd(c v)| <= |c| |v| / 2^p + 1, v a data word (or a w word in the first pass)
     acc = max(int(np.abs(c).sum(axis=1).max()) * max(dmax, xmax) // one + c.shape[1] + 1 for c in coefs if c.size)
-    if W + bits_for(cb) > 62 + 20:
-        raise DesignError(f"data words of {W} bits times coefficients of {bits_for(cb)} bits exceed the model's "
-                          f"exact products: reduce eps or the state box")
+    if W + 1 > 41 or bits_for(cb) > 32:
+        raise DesignError(f"data words of {W} bits (at most 40) or coefficients of {bits_for(cb)} bits (at most 32) "
+                          f"exceed the exact products of the golden model and the C solver: raise eps_g / eps_V or "
+                          f"shrink the state box")
     if max(bits_for(xmax), W) > 64:
         raise DesignError(f"{W}-bit data words exceed the 64-bit stream: reduce eps_g / eps_V or the state box")
     sums = bits_for(dmax * 65536)          # Sz, Sg and T over IMAX <= 65535 iterations

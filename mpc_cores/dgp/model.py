@@ -19,7 +19,8 @@ One solve (w: nw parameter words; y = (y+, y-) the 2 mc dual words, upper rows t
      gap = -sum_i rnd(wy_i g_i) <= eV (the duality gap V(z) - Phi(wy) of z = argmin L(., wy), which bounds
      V(z) - V*, the test of GPAD); output z
      restart = sum_i rnd(g_i (y_new_i - y_i)) < 0;  k = 0 if restart else min(k + 1, 255)
-     wy = y_new if restart else sat(y_new + rnd(beta_k (y_new - y)));  y = y_new
+     wy = y_new if restart else clip(y_new + rnd(beta_k (y_new - y)), 0, ud);  y = y_new
+     (the extrapolated dual stays in the dual box [0, ud], so that the gap -wy'g bounds V(z) - V* by weak duality)
 At Imax without the test met, the output is that of the last iteration. The status reports the iterations run.
 """
 from __future__ import annotations
@@ -141,7 +142,7 @@ class DgpFixed:
                 out = z
                 restart = dot_round(g, y_new - y, p) < 0
                 k = np.where(restart, 0, np.minimum(k + 1, len(self.beta) - 1))
-                ext = sat_w(y_new + mul_round(self.beta[k][:, None], y_new - y, p))
+                ext = np.clip(y_new + mul_round(self.beta[k][:, None], y_new - y, p), 0, self.ud)
                 wy_new = np.where(restart[:, None], y_new, ext)
             else:
                 Sz += z
@@ -189,7 +190,7 @@ def dgp_float(qp, w, imax: int, accelerated: bool, eps_g: float, eps_V: float, u
             out = z
             restart = float(g @ (y_new - y)) < 0
             k = 0 if restart else min(k + 1, 255)
-            wy = y_new if restart else y_new + k / (k + 3) * (y_new - y)
+            wy = y_new if restart else np.clip(y_new + k / (k + 3) * (y_new - y), 0, up)
         else:
             Sz += z
             Sg += g

@@ -59,7 +59,7 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
         f"  Fraction bits p = {d.b}: (36) of 003 gives p >= {d.bits36} for eps = min(eps_g sigma, eps_V) = "
         f"{a['eps']:.3g} (eps_g = {d.eps_g:g}, eps_V = {d.eps_V:g}, L_V = {a['L_V']:.4g})",
         f"  Integer bits r = {W - d.b}: (37) of 003 gives r >= {d.bits37} (y^ = {a['y_hat']:.4g}"
-        f"{', doubled for the extrapolated dual' if d.accelerated else ''}, z^ = {a['z_hat']:.4g}, "
+        f", z^ = {a['z_hat']:.4g}, "
         f"g^ = {a['g_hat']:.4g})",
         f"  Words: data {W} bits = Q{W - d.b - 1}.{d.b} (sign included in r), coefficients {d.widths['coef']}, "
         f"row accumulator {d.widths['acc']}, sums of the test {d.widths['sum']}, stream {d.widths['stream']} bits",

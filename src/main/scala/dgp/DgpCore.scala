@@ -238,9 +238,10 @@ class DgpCore(val p: DgpParams) extends Module {
       gapAcc := gapAcc + pGap(0) + pGap(1)
       rstAcc := rstAcc + pRst(0) + pRst(1)
       for (h <- 0 until 2) {
-        val (ext, ofX) = sat(yN3(h) +& pExt(h))
-        wyc.get(r3 + (h * mc).U) := ext
-        when(ofX) { ovfNow := true.B }
+        // the extrapolated dual stays in [0, ud] (so the gap test bounds V(z) - V*)
+        val t = yN3(h) +& pExt(h)
+        val u = udRom(r3 + (h * mc).U)
+        wyc.get(r3 + (h * mc).U) := Mux(t < 0.S, 0.S, Mux(t > u, u, t))(W - 1, 0).asSInt
       }
     }
   }
