@@ -13,8 +13,10 @@ def draw(rng) -> Config:
     # flow refuses a box with a state from which they cannot)
     spec["states"] = _box(rng, nx, 0.1, 0.5)
     accelerated = bool(rng.random() < 0.6)
+    ny = len(spec.get("tracking", {}).get("outputs", []))
+    longest = max(N * nu + N * hard, nx + ny)          # the longest matrix row: lanes beyond it are refused
     eps = pick(rng, [1e-2, 3e-3, 1e-3])
-    return Config(spec, dict(lanes=int(rng.integers(1, 7)), accelerated=accelerated, eps_g=eps, eps_V=eps,
+    return Config(spec, dict(lanes=int(rng.integers(1, min(6, longest) + 1)), accelerated=accelerated, eps_g=eps, eps_V=eps,
                              lat_add=int(rng.integers(0, 4)), **target_latency(rng, int(rng.integers(0, 4))),
                              iterations=int(rng.integers(10, 61)) if accelerated else int(rng.integers(40, 301)),
                              warm_start=bool(rng.random() < 0.8), output_all=bool(rng.random() < 0.3)))
