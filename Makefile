@@ -71,6 +71,12 @@ demo: setup
 table2: setup
 	$(MPC) table2 $(TABLE_ARGS)
 
+## methods: comparison of the splitting family (ADMM, AMA, Vu-Condat; plain/accelerated, with/without the power-of-two
+## preconditioner) and the DGP in float64 into build/reports/methods.md and methods.json (METHODS_ARGS, e.g. --quick)
+.PHONY: methods
+methods: $(VENV)/.installed
+	$(PY) -m mpc_cores.methods --out build/reports $(METHODS_ARGS)
+
 ## bench: benchmark report of the FGM, ADMM and MINRES cores into BENCH (cycles, Yosys resources, nextpnr Fmax,
 ## latency against 002/001, OSQP, scipy and numpy on this CPU); QUICK=1 for the short sweep (FGM P = 1, b = 16,
 ## also pipelined; ADMM masses P = 1 in Verilator, small problem pipelined P = 1; MINRES P = 1 in Verilator; no
