@@ -75,7 +75,7 @@ table2: setup
 ## preconditioner) and the DGP in float64 into build/reports/methods.md and methods.json (METHODS_ARGS, e.g. --quick)
 .PHONY: methods
 methods: $(VENV)/.installed
-	$(PY) -m mpc_cores.methods --out build/reports $(METHODS_ARGS)
+	$(PY) -m mpc_cores.methods_table --out build/reports $(METHODS_ARGS)
 
 ## bench: benchmark report of the FGM, ADMM and MINRES cores into BENCH (cycles, Yosys resources, nextpnr Fmax,
 ## latency against 002/001, OSQP, scipy and numpy on this CPU); QUICK=1 for the short sweep (FGM P = 1, b = 16,

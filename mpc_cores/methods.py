@@ -33,7 +33,7 @@ of (20) of 003 is the output) and accelerated (Nesterov, beta_k = k/(k+3), gradi
 is a Ruiz equilibration of the dual Hessian G Q^-1 G' (rows of the constraints scaled by powers of two), followed
 by the uniform scaling to L = 1 of mpc_cores.dgp.problem; a scaling of z would leave the dual problem unchanged.
 
-The study and the tables are in mpc_cores.methods_table; `python -m mpc_cores.methods --out build/reports`.
+The study and the tables are in mpc_cores.methods_table; `python -m mpc_cores.methods_table --out build/reports`.
 """
 from __future__ import annotations
 
@@ -469,15 +469,6 @@ class DgpFloatController(Controller):
         return z[0, : self.qp.nu]
 
 
-def main(argv=None) -> int:
-    from mpc_cores.methods_table import main as table_main
-
-    return table_main(argv)
-
-
 __all__ = ["DgpFloatController", "Pow2Scaling", "SPLITTING", "SplitController", "SplitSetup", "SplitState", "Tracker",
            "dgp_precondition", "dgp_run", "pow2_below", "project_batch", "reduced_curvature",
            "ruiz_pow2", "scale_qp", "split_cold", "split_run", "split_setup", "splitting_problem"]
-
-if __name__ == "__main__":
-    raise SystemExit(main())
