@@ -48,18 +48,29 @@ class DgpCore(val p: DgpParams) extends Module {
   def sat(x: SInt): (SInt, Bool) = FixedOps.saturate(x, W)
 
   // ------------------------------------------------------------------ state
+  // The rows of a pass come in order, so the vectors read row by row are rotating FIFOs read at their head (as the
+  // FGM's, Fig. 1 of 002): e, lo, hi, Sz (one step per row of their pass), and the element stage's y, its copy of
+  // the operand dual and Sg (one step per row of pass G, the new value entering at the tail). A pass rotates each
+  // exactly once round, so between passes element i sits at index i. No row needs a wide multiplexer.
   val wReg = Reg(Vec(nw, SInt(p.xW.W)))
   val e    = Reg(Vec(n, SInt(W.W)))
   val lo   = Reg(Vec(mc, SInt(W.W)))
   val hi   = Reg(Vec(mc, SInt(W.W)))
   val z    = Reg(Vec(n, SInt(W.W)))
-  /** the dual y = (y+, y-): upper rows 0..mc-1, lower rows mc..2mc-1; it survives a solve (the warm start) */
-  val y    = Reg(Vec(2 * mc, SInt(W.W)))
-  /** the operand dual: y itself (plain) or the extrapolated dual (accelerated) and its candidate */
-  val wy   = if (acc) Reg(Vec(2 * mc, SInt(W.W))) else y
-  val wyc  = if (acc) Some(Reg(Vec(2 * mc, SInt(W.W)))) else None
+  /** the dual y = (y+, y-), upper and lower rows; it survives a solve (the warm start) */
+  val yH   = Seq.fill(2)(Reg(Vec(mc, SInt(W.W))))
+  /** the operand dual of pass K (accelerated: the extrapolated dual, its candidate, and the element stage's copy;
+    * plain: y itself) */
+  val wyH  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else yH
+  val wycH = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else Nil
+  val wyE  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else yH
   val sz   = if (acc) None else Some(Reg(Vec(n, SInt(p.sumW.W))))
-  val sg   = if (acc) None else Some(Reg(Vec(2 * mc, SInt(p.sumW.W))))
+  val sg   = if (acc) Nil else Seq.fill(2)(Reg(Vec(mc, SInt(p.sumW.W))))
+  /** one step of a rotating FIFO: the head leaves, `in` enters at the tail */
+  def rotate(v: Vec[SInt], in: SInt): Unit = {
+    for (i <- 0 until v.length - 1) v(i) := v(i + 1)
+    v(v.length - 1) := in
+  }
   val tThr = Reg(SInt(p.sumW.W))
   val kAcc = RegInit(0.U(8.W))
   val betaRom = VecInit(p.beta.map(v => v.S(p.betaW.W)))
@@ -100,8 +111,13 @@ class DgpCore(val p: DgpParams) extends Module {
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
     viol := false.B; gapAcc := 0.S; rstAcc := 0.S
-    for (i <- 0 until 2 * mc) when(!warmNow) { y(i) := 0.S }
-    if (acc) for (i <- 0 until 2 * mc) wy(i) := Mux(warmNow, y(i), 0.S)
+    for (h <- 0 until 2; i <- 0 until mc) {
+      when(!warmNow) { yH(h)(i) := 0.S }
+      if (acc) {
+        wyH(h)(i) := Mux(warmNow, yH(h)(i), 0.S)
+        wyE(h)(i) := Mux(warmNow, yH(h)(i), 0.S)
+      }
+    }
     sz.foreach(_.foreach(_ := 0.S))
     sg.foreach(_.foreach(_ := 0.S))
   }
@@ -152,8 +168,8 @@ class DgpCore(val p: DgpParams) extends Module {
   def chunked(v: Seq[SInt], cs: Int): Vec[Vec[SInt]] =
     VecInit((0 until cs).map(j => VecInit((0 until p.lanes).map(l => v.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))))
   val wCh  = chunked(wReg, p.cF)(chunk)
-  val ypCh = chunked(wy.take(mc), p.cK)(chunk)
-  val ymCh = chunked(wy.drop(mc), p.cK)(chunk)
+  val ypCh = chunked(wyH(0), p.cK)(chunk)
+  val ymCh = chunked(wyH(1), p.cK)(chunk)
   val zCh  = chunked(z, p.cG)(chunk)
   val opR = RegNext(VecInit((0 until p.lanes).map { l =>
     MuxLookup(pass, wCh(l))(Seq(1.U -> (ypCh(l) -& ymCh(l))(p.opW - 1, 0).asSInt, 2.U -> zCh(l)))
@@ -171,58 +187,66 @@ class DgpCore(val p: DgpParams) extends Module {
   val rowOk = tokR.valid && tokR.last
 
   // ------------------------------------------------------------------ row results: first pass and pass K
-  val eOf = e(tokR.row)
+  val eOf = e(0)
   val (zNew, ofZ) = sat(accR +& eOf)
   val (eNew, ofE) = sat(accR)
   val cIdx = tokR.row - n.U
   val (loNew, ofL) = sat(VecInit(p.lo0.map(_.S(W.W)))(cIdx) +& accR)
   val (hiNew, ofH) = sat(VecInit(p.hi0.map(_.S(W.W)))(cIdx) +& accR)
   when(rowOk && tokR.pass === 0.U) {
+    // rows 0..n-1 (e), then n..n+mc-1 (the bounds), in order: each enters its FIFO at the tail
     when(tokR.row < n.U) {
-      e(tokR.row) := eNew
+      rotate(e, eNew)
       ovfNow := ofE
     }.otherwise {
-      lo(cIdx) := loNew; hi(cIdx) := hiNew
+      rotate(lo, loNew); rotate(hi, hiNew)
       ovfNow := ofL || ofH
     }
   }
   when(rowOk && tokR.pass === 1.U) {
     z(tokR.row) := zNew
     ovfNow := ofZ
-    sz.foreach(s => s(tokR.row) := s(tokR.row) + zNew)
+    rotate(e, e(0))
+    sz.foreach(s => rotate(s, s(0) + zNew))
   }
 
   // ------------------------------------------------------------------ pass G: the element stage, upper and lower row
   // E1: g = (s - hi, lo - s)
   val (sNow, ofS) = sat(accR)
-  val (gpNow, ofGp) = sat(sNow -& hi(tokR.row))
-  val (gmNow, ofGm) = sat(lo(tokR.row) -& sNow)
-  when(rowOk && tokR.pass === 2.U && (ofS || ofGp || ofGm)) { ovfNow := true.B }
+  val (gpNow, ofGp) = sat(sNow -& hi(0))
+  val (gmNow, ofGm) = sat(lo(0) -& sNow)
+  when(rowOk && tokR.pass === 2.U) {
+    rotate(lo, lo(0)); rotate(hi, hi(0))
+    when(ofS || ofGp || ofGm) { ovfNow := true.B }
+  }
   val e1 = RegNext(rowOk && tokR.pass === 2.U, false.B)
   val r1 = RegNext(tokR.row)
   val g1 = RegNext(VecInit(gpNow, gmNow))
   // E2: y_new = clip(wy + g, 0, ud), dy = y_new - y; the sums of the test
   val udRom = VecInit(p.ud.map(_.S(W.W)))
   val idx1  = Seq(r1, r1 + mc.U)
-  val wy1   = idx1.map(i => wy(i))
+  val wy1   = wyE.map(_(0))
   val yNew1 = (0 until 2).map { h =>
     val t = wy1(h) +& g1(h)
     val u = udRom(idx1(h))
     Mux(t < 0.S, 0.S, Mux(t > u, u, t))(W - 1, 0).asSInt
   }
-  val dy1 = (0 until 2).map(h => (yNew1(h) -& y(idx1(h)))(W - 1, 0).asSInt)
-  for (sgv <- sg) when(e1) {
+  val dy1 = (0 until 2).map(h => (yNew1(h) -& yH(h)(0))(W - 1, 0).asSInt)
+  when(e1) {
     for (h <- 0 until 2) {
-      val nv = sgv(idx1(h)) + g1(h)
-      sgv(idx1(h)) := nv
-      when(nv > tThr) { viol := true.B }
+      rotate(yH(h), yNew1(h))                          // plain: also the operand dual
+      if (acc) rotate(wyE(h), wyE(h)(0))
+      if (!acc) {
+        val nv = sg(h)(0) + g1(h)
+        rotate(sg(h), nv)
+        when(nv > tThr) { viol := true.B }
+      }
     }
   }
   if (acc) when(e1 && (g1(0) > p.eg.S || g1(1) > p.eg.S)) { viol := true.B }
   val e2 = RegNext(e1, false.B)
   val r2 = RegNext(r1)
   val yN2 = RegNext(VecInit(yNew1))
-  when(e2) { y(r2) := yN2(0); y(r2 + mc.U) := yN2(1) }
   if (acc) {
     val g2  = RegNext(g1)
     val dy2 = RegNext(VecInit(dy1))
@@ -241,7 +265,7 @@ class DgpCore(val p: DgpParams) extends Module {
         // the extrapolated dual stays in [0, ud] (so the gap test bounds V(z) - V*)
         val t = yN3(h) +& pExt(h)
         val u = udRom(r3 + (h * mc).U)
-        wyc.get(r3 + (h * mc).U) := Mux(t < 0.S, 0.S, Mux(t > u, u, t))(W - 1, 0).asSInt
+        wycH(h)(r3) := Mux(t < 0.S, 0.S, Mux(t > u, u, t))(W - 1, 0).asSInt
       }
     }
   }
@@ -256,7 +280,11 @@ class DgpCore(val p: DgpParams) extends Module {
     viol := false.B; gapAcc := 0.S; rstAcc := 0.S
     tThr := tThr + p.eg.S
     if (acc) {
-      for (i <- 0 until 2 * mc) wy(i) := Mux(restart, y(i), wyc.get(i))
+      for (h <- 0 until 2; i <- 0 until mc) {
+        val next = Mux(restart, yH(h)(i), wycH(h)(i))
+        wyH(h)(i) := next
+        wyE(h)(i) := next
+      }
       val kNew = Mux(restart, 0.U, Mux(kAcc === 255.U, 255.U, kAcc + 1.U))
       kAcc  := kNew
       betaR := betaRom(Mux(kNew === 255.U, 255.U, kNew + 1.U))
