@@ -43,7 +43,7 @@ from mpc_bench.baselines import SwCase
 from mpc_bench.dgp_report import dgp_rows, dgp_section, summary_lines
 from mpc_bench.parsers import ECP5_85F, ecp5_resources
 from mpc_bench.qp import QpSection
-from mpc_bench.qp_solvers import _clarabel_timers
+from mpc_bench.qp_solvers import Clarabel
 from mpc_bench.report import write_alone
 from mpc_bench.tools import (
     FMAX_SEEDS, FMAX_SEEDS_QUICK, Job, Log, ToolResults, cached_design, is_cached, run_cycle_test, run_yosys,
@@ -204,11 +204,11 @@ class DaqpState:
         return x, info["solve_time"]
 
 
-class ClarabelState:
+class ClarabelState(Clarabel):
     """Clarabel (interior point) set up once with the rows as 2 mc nonnegative-cone rows [G; -G] z <= [hi; -lo];
-    each solve updates q and b. Own time: solve_time less the set-up and the earlier solves' post-processing (as
-    mpc_bench.qp_solvers.Clarabel)."""
-    name, timer = "Clarabel", "solve_time less the set-up and the earlier solves' post-processing"
+    each solve updates q and b. Own time: mpc_bench.qp_solvers.Clarabel's (solve_time less the set-up and the
+    earlier solves' post-processing)."""
+    name = "Clarabel"
 
     def __init__(self, sq: StateQp):
         import clarabel
@@ -224,14 +224,6 @@ class ClarabelState:
                          f"{2 * sq.mc} inequality rows")
         self.iters: list[int] = []
         self.post = 0.0
-
-    def _own(self, total: float) -> float | None:
-        t = _clarabel_timers(self.solver)
-        if "setup" not in t:
-            return None
-        own = total - t["setup"] - self.post
-        self.post = t.get("post-process", 0.0)
-        return own
 
     def solve(self, w: np.ndarray):
         lo, hi = self.sq.bounds(w)

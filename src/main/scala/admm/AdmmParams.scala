@@ -167,6 +167,8 @@ case class AdmmParams(
 }
 
 object AdmmParams {
+  import gen.ConfigJson.{ints, mat, small}
+
   val Free = 0
   val Box = 1
   val SoftX = 2
@@ -193,9 +195,6 @@ object AdmmParams {
     Iterator.from((n + P - 1) / P).map(attempt).collectFirst { case Some(u) => u }.get
   }
 
-  private def ints(v: ujson.Value): Seq[BigInt] = v.arr.toSeq.map(x => BigInt(x.num.toLong))
-  private def mat(v: ujson.Value): Seq[Seq[BigInt]] = v.arr.toSeq.map(ints)
-  private def small(v: ujson.Value): Seq[Int] = v.arr.toSeq.map(_.num.toInt)
 
   /** Read the config.json written by the Python front end (mpc_cores/admm/design.py). */
   def fromJson(text: String): AdmmParams = {

@@ -124,8 +124,7 @@ case class DgpParams(
 }
 
 object DgpParams {
-  private def ints(v: ujson.Value): Seq[BigInt] = v.arr.toSeq.map(x => BigInt(x.num.toLong))
-  private def mat(v: ujson.Value): Seq[Seq[BigInt]] = v.arr.toSeq.map(ints)
+  import gen.ConfigJson.{ints, mat}
 
   def fromJson(text: String): DgpParams = {
     val j = ujson.read(text)

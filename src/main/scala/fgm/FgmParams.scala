@@ -128,8 +128,7 @@ case class FgmParams(
 }
 
 object FgmParams {
-  private def ints(v: ujson.Value): Seq[BigInt] = v.arr.toSeq.map(x => BigInt(x.num.toLong))
-  private def mat(v: ujson.Value): Seq[Seq[BigInt]] = v.arr.toSeq.map(ints)
+  import gen.ConfigJson.{ints, mat}
 
   /** Read the config.json written by the Python front end (mpc_cores/fgm/design.py). */
   def fromJson(text: String): FgmParams = {
