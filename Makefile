@@ -27,7 +27,7 @@ GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--f
            $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL)) \
            $(if $(PROBLEMS),--problems $(PROBLEMS))
 
-.PHONY: setup verilog c design test test-slow demo clean
+.PHONY: setup verilog c split design test test-slow demo clean
 
 $(VENV)/.installed: requirements.txt pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -49,6 +49,11 @@ verilog: setup
 ## overrides as verilog; needs the Python environment and gcc to build them, not sbt or Java)
 c: $(VENV)/.installed
 	$(MPC) c $(GEN_ARGS)
+
+## split: the heterogeneous split of CORE (admm, ama, vucondat) into OUT: the hardware block of the linear-system
+## step s = M11 v (<module>_linstep.sv, linstep.json) and the C solvers, whose _solve_split calls it
+split: setup
+	$(MPC) split $(GEN_ARGS)
 
 ## design: design report; with TOL, choose frac_bits and Imax with guarantees and write the spec for `make verilog`
 design: setup

@@ -140,6 +140,23 @@ def cmd_c(a) -> None:
     print("wrote " + ", ".join(str(f) for f in files))
 
 
+def cmd_split(a) -> None:
+    from mpc_cores.kind import load
+
+    kind = _kind(a)
+    if kind.split_fn is None:
+        with_split = [k.name for k in registry.kinds().values() if k.split_fn]
+        refuse(f"CORE={kind.name}: the heterogeneous split is generated for the cores {', '.join(with_split)}")
+    kind, d = _design(a)
+    out = Path(a.out or f"build/{kind.name}_{d.name}_p{d.P}_split")
+    try:
+        files, report = load(kind.split_fn)(d, out)
+    except (DesignError, GeneratorError) as e:
+        refuse(str(e))
+    print(report)
+    print("wrote " + ", ".join(str(f) for f in files))
+
+
 def cmd_demo(a) -> None:
     from mpc_cores.demo import DemoError, run_demo
 
@@ -179,6 +196,7 @@ def main(argv=None) -> None:
     sub = ap.add_subparsers(dest="cmd", required=True)
     for name, what in (("design", "design report (with --tol: certified design)"),
                        ("verilog", "generate a core"), ("c", "portable C99 solvers (bit-exact fixed point, float)"),
+                       ("split", "heterogeneous split: the linear-system step's hardware block and the C around it"),
                        ("demo", "closed loop with the RTL")):
         s = sub.add_parser(name, help=what)
         s.add_argument("--core", default="fgm", help=f"core kind: {', '.join(kinds)}")
@@ -214,7 +232,7 @@ def main(argv=None) -> None:
     a = ap.parse_args(argv)
     if a.cmd == "demo" and not a.out:
         a.out = "build/demo"
-    {"design": cmd_design, "verilog": cmd_verilog, "c": cmd_c, "demo": cmd_demo}[a.cmd](a)
+    {"design": cmd_design, "verilog": cmd_verilog, "c": cmd_c, "split": cmd_split, "demo": cmd_demo}[a.cmd](a)
 
 
 if __name__ == "__main__":

@@ -23,6 +23,8 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
                        mpc_cores.closedloop_tb drives a fixed-point core (FGM, ADMM) through mpc_cores.driver.TB
   c_fn(d, out_dir)     optional: `make c`, the portable C99 solvers of a design (bit-exact fixed point and float,
                        mpc_cores.csrc), returning the paths written (None: the kind has no C solver)
+  split_fn(d, out_dir) optional: `make split`, the heterogeneous split of 004: the hardware block of the
+                       linear-system step and the C that calls it, returning (paths written, report text)
 
 Modules are named by strings and imported on use, so the registry imports no core package and no package
 imports the testbenches or the benchmark.
@@ -64,6 +66,7 @@ class CoreKind:
     certificate_fn: str | None = None  # "module:function(design) -> text" printed after the design report
     rtl_controller_fn: str | None = None  # "module:async function(dut, problem) -> (tb, controller)", tb reset
     c_fn: str | None = None        # "module:function(design, out_dir) -> list of paths": `make c`
+    split_fn: str | None = None    # "module:function(design, out_dir) -> (paths, report)": `make split`
 
     def __post_init__(self):
         n = self.name

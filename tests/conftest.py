@@ -39,6 +39,11 @@ def pytest_addoption(parser):
 def random_problem(name: str, nx: int, nu: int, N: int, ny: int, seed: int, **extra):
     """A random stabilisable plant with box bounds, tracking the first ny states; `extra` adds spec sections
     (input_rate, soft_states, hard_states)."""
+    return problem_from_dict(random_spec(name, nx, nu, N, ny, seed, **extra), name)
+
+
+def random_spec(name: str, nx: int, nu: int, N: int, ny: int, seed: int, **extra) -> dict:
+    """random_problem's spec as a dict (what a spec file holds)."""
     rng = np.random.default_rng(seed)
     A = rng.standard_normal((nx, nx))
     A *= 0.95 / max(abs(np.linalg.eigvals(A)))
@@ -54,7 +59,7 @@ def random_problem(name: str, nx: int, nu: int, N: int, ny: int, seed: int, **ex
     if ny:
         d["tracking"] = {"outputs": list(range(ny)), "min": -1.0, "max": 1.0}
     d.update(extra)
-    return problem_from_dict(d, name)
+    return d
 
 
 def _soak_config(seed: int):

@@ -137,6 +137,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 
     check_headroom(cfg)
     api = capi.fixed_api(nm, cfg, state_of(cfg), OVF)
+    api.split = "s = M11 v"
     method = cfg.get("method", "admm")
     n, nw = int(cfg["n"]), int(cfg["nw"])
     if nw + 1 > n:
@@ -160,7 +161,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 {emit.helpers(cfg["rounding"], "clip", "dot", "shift_by")}
 {_proj(False)}"""
     body = f"""\
-    int64_t w[NW + 1], gw[N], z[N], nu[N], v[N], y[N], q[N];
+    int64_t w[NW + 1], gw[N], z[N], nu[N], v[N], s[N], y[N], q[N];
     /* w = (x, u_prev, r) saturated to its box (SAT), then the constant word 2^b; G~ (w, 1) once per solve */
     for (i = 0; i < NW; i++) {{
         w[i] = mpc_clip(w_in[i], WLO[i], WHI[i]);
@@ -173,8 +174,18 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     for (it = 0; it < ctrl->imax; it++) {{
         for (i = 0; i < N; i++)                         /* v, the method's operand ({method}) */
             v[i] = {sat("v", V_FIXED[method])};
+        if (linstep) {{                                  /* s = M11 v: the caller's (the split) */
+            int r = linstep(user, v, s);
+            if (r < 0)
+                return 0;
+            if (r > 0)
+                f_sum = 1;
+        }} else {{
+            for (i = 0; i < N; i++)
+                s[i] = mpc_dot(M11[i], v, N, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum);
+        }}
         for (i = 0; i < N; i++) {{                       /* y = M11 v + G~ (w, 1);  q = y + nu / rho */
-            y[i] = {sat("y", "mpc_dot(M11[i], v, N, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum) + gw[i]")};
+            y[i] = {sat("y", "s[i] + gw[i]")};
             q[i] = {sat("q", "y[i] + mpc_shift_by(nu[i], -K[i])")};
         }}
         proj(q, z);

@@ -10,6 +10,7 @@ KIND = CoreKind(
     overrides=("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "target", "problems"),
     controllers_fn="mpc_cores.admm.kind:controllers",
     c_fn="mpc_cores.admm.c:write_c",
+    split_fn="mpc_cores.admm.split:write_split",
 )
 
 
@@ -29,7 +30,7 @@ def _method_kind(method: str, title: str) -> CoreKind:
         design_fn=f"mpc_cores.admm.design:design_{method}", report_module="mpc_cores.admm.report",
         testbench="verif.admm.tb", soak=f"mpc_cores.admm.soak:{method.upper()}_SOAK",
         spec_section=KIND.spec_section, overrides=KIND.overrides, controllers_fn="mpc_cores.admm.kind:controllers",
-        c_fn="mpc_cores.admm.c:write_c")
+        c_fn="mpc_cores.admm.c:write_c", split_fn=KIND.split_fn)
 
 
 AMA_KIND = _method_kind("ama", "alternating minimisation algorithm (Tseng; 004) on the ADMM datapath, fixed point")

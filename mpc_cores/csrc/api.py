@@ -22,6 +22,7 @@ class Api:
     ovf: tuple[str, ...] = ()      # fixed point: the saturating datapath words, flags f_<key> in the solve
     state_len: str = "N"           # the size macro (after the prefix) of the state's arrays
     warm_from: str | None = None   # what a warm start starts from (None: the previous solution shifted by one stage)
+    split: str | None = None       # the linear-system step a `_solve_split` takes from its caller (e.g. "s = M11 v")
 
     @property
     def p(self) -> str:
@@ -107,8 +108,32 @@ unsigned {p}_solve({p}_state_t *state,
 {pad}const {api.value_t} w[{P}_NW],
 {pad}{api.value_t} *out,
 {pad}{p}_status_t *status);
-
+{split_header(api) if api.split else ""}
 #endif
+"""
+
+
+def split_header(api: Api) -> str:
+    """The heterogeneous split's declarations: the linear-system step as a function of the caller's, and the solve
+    that calls it instead of computing that step itself."""
+    p, P = api.p, api.P
+    pad = " " * (len(p) + 22)
+    return f"""
+/* The heterogeneous split (004, section 5): the same solve with the linear-system step {api.split} taken from the
+   caller, e.g. from the core's matrix-vector block <module>_linstep on an FPGA (see docs/c.md). Once per iteration
+   `linstep` gets v (N words, W_V bits each) and fills s (N words, W_SUM bits: the block's answer, its adder tree's
+   saturated sums). It returns 1 if a row saturated (the block's tuser bit 0), 0 if none did, or a negative value on
+   a failure of its own: the solve then returns 0 and leaves the state as it was. With equal words from linstep the
+   outputs, the state and the flags are those of {p}_solve. */
+typedef int (*{p}_linstep_fn)(void *user, const int64_t v[{P}_N], int64_t s[{P}_N]);
+
+unsigned {p}_solve_split({p}_state_t *state,
+{pad}const {p}_ctrl_t *ctrl,
+{pad}const {api.value_t} w[{P}_NW],
+{pad}{api.value_t} *out,
+{pad}{p}_status_t *status,
+{pad}{p}_linstep_fn linstep,
+{pad}void *user);
 """
 
 
@@ -154,15 +179,17 @@ def solve_prologue(api: Api) -> str:
     ctrl resolved. The body that follows declares its arrays, leaves the solution in z (and the rest of the state
     under the state's names) and `warm` set."""
     p = api.p
-    pad = " " * (len(p) + 16)
+    fn = f"{p}_solve_split" if api.split else f"{p}_solve"
+    pad = " " * (len(fn) + 10)
+    extra = f",\n{pad}{p}_linstep_fn linstep,\n{pad}void *user" if api.split else ""
     flags = ("int nonfinite = 0;" if api.float_ else
              "uint8_t sat = 0" + "".join(f", f_{k} = 0" for k in api.ovf) + ";")
     return f"""\
-unsigned {p}_solve({p}_state_t *state,
+unsigned {fn}({p}_state_t *state,
 {pad}const {p}_ctrl_t *ctrl,
 {pad}const {api.value_t} w_in[NW],
 {pad}{api.value_t} *out,
-{pad}{p}_status_t *status)
+{pad}{p}_status_t *status{extra})
 {{
     static const {p}_ctrl_t reset = {api.P}_CTRL_RESET;
     int i, warm, nout;
@@ -196,6 +223,22 @@ def solve_epilogue(api: Api) -> str:
         status->warm = (uint8_t)warm;
 {sets_c}    }}
     return (unsigned)nout;
+}}
+{split_wrapper(api) if api.split else ""}"""
+
+
+def split_wrapper(api: Api) -> str:
+    """The all-software solve of a solver with the split: the split solve with the linear-system step in C."""
+    p = api.p
+    pad = " " * (len(p) + 16)
+    return f"""
+unsigned {p}_solve({p}_state_t *state,
+{pad}const {p}_ctrl_t *ctrl,
+{pad}const {api.value_t} w_in[NW],
+{pad}{api.value_t} *out,
+{pad}{p}_status_t *status)
+{{
+    return {p}_solve_split(state, ctrl, w_in, out, status, NULL, NULL);
 }}
 """
 

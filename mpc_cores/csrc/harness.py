@@ -28,13 +28,18 @@ def compile_c(sources, out: Path, *flags: str, cwd=None) -> Path:
     return Path(out)
 
 
-def _shim(file: str, p: str, P: str, float_: bool) -> str:
+def _shim(file: str, p: str, P: str, float_: bool, split: bool = False) -> str:
     io, v = ("double", f"{p}_real_t") if float_ else ("int64_t", f"{p}_word_t")
+    call = (f"linstep ? {p}_solve_split(({p}_state_t *)state, imax < 0 ? NULL : &c, wv, ov, &st, linstep, NULL)\n"
+            f"                : {p}_solve(({p}_state_t *)state, imax < 0 ? NULL : &c, wv, ov, &st)" if split else
+            f"{p}_solve(({p}_state_t *)state, imax < 0 ? NULL : &c, wv, ov, &st)")
+    lin_t = f"{p}_linstep_fn" if split else "void *"
     flags = ("flags[1] = st.nonfinite;" if float_ else
              "flags[1] = st.sat;\n    flags[2] = st.overflow;\n    flags[3] = st.overflow_signals;")
     return f"""\
 #define _POSIX_C_SOURCE 199309L
 #include <stddef.h>
+#include <string.h>
 #include <time.h>
 #include "{file}.h"
 
@@ -44,22 +49,26 @@ size_t shim_state_size(void)
 }}
 
 /* one solve (imax < 0: ctrl NULL, the reset values); flags: warm, then sat, overflow, overflow_signals (fixed) or
-   nonfinite (float); *ns: the solve's nanoseconds by CLOCK_MONOTONIC */
-int shim_solve(void *state, int imax, int warm, int out_all, const {io} *w, {io} *out, int *flags, long long *ns)
+   nonfinite (float); *ns: the solve's nanoseconds by CLOCK_MONOTONIC; linstep (a solver with the split): the
+   linear-system step's function, NULL for the solve in C alone */
+int shim_solve(void *state, int imax, int warm, int out_all, const {io} *w, {io} *out, int *flags, long long *ns,
+               {lin_t} linstep)
 {{
     {p}_ctrl_t c;
     {p}_status_t st;
     {v} wv[{P}_NW], ov[{P}_N];
     struct timespec t0, t1;
     int i, k;
+    memset(&st, 0, sizeof st);
     c.imax = (uint16_t)imax;
     c.warm_start = (uint8_t)warm;
     c.out_all = (uint8_t)out_all;
     for (i = 0; i < {P}_NW; i++)
         wv[i] = ({v})w[i];
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    k = (int){p}_solve(({p}_state_t *)state, imax < 0 ? NULL : &c, wv, ov, &st);
+    k = (int)({call});
     clock_gettime(CLOCK_MONOTONIC, &t1);
+    (void)linstep;
     for (i = 0; i < k; i++)
         out[i] = ov[i];
     flags[0] = st.warm;
@@ -73,6 +82,10 @@ int shim_solve(void *state, int imax, int warm, int out_all, const {io} *w, {io}
 class CSolver:
     """A generated solver (fixed point or float) in a shared library with the shim."""
 
+    # the linear-system step of a split solve: (user, v, s) -> 1 a row saturated, 0 none, < 0 failure
+    LINSTEP = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.POINTER(ctypes.c_int64),
+                               ctypes.POINTER(ctypes.c_int64))
+
     def __init__(self, lib: Path, n: int, nw: int, float_: bool):
         self.lib = ctypes.CDLL(str(lib))
         self.n, self.nw, self.float_ = n, nw, float_
@@ -82,38 +95,57 @@ class CSolver:
         self.lib.shim_solve.restype = ctypes.c_int
         self.lib.shim_solve.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
                                         ctypes.POINTER(ct), ctypes.POINTER(ct), ctypes.POINTER(ctypes.c_int),
-                                        ctypes.POINTER(ctypes.c_longlong)]
+                                        ctypes.POINTER(ctypes.c_longlong), ctypes.c_void_p]
         self._ct = ct
         self._out = np.zeros(n, dtype=self.dtype)
         self._flags = (ctypes.c_int * 4)()
         self._ns = ctypes.c_longlong()
+        self.linstep_error: Exception | None = None   # what the last failing linstep raised
 
     def new_state(self):
         """A zeroed state: the state after reset."""
         return ctypes.create_string_buffer(self.lib.shim_state_size())
 
-    def solve(self, state, w, imax: int | None, warm: bool = True, out_all: bool = False):
+    def solve(self, state, w, imax: int | None, warm: bool = True, out_all: bool = False, linstep=None):
         """(output words or reals, flags (warm, sat, overflow, overflow_signals) or (warm, nonfinite), nanoseconds);
-        imax None: ctrl NULL (the reset values)."""
+        imax None: ctrl NULL (the reset values). linstep (a solver loaded with split=True): the linear-system step,
+        a function of v (int64 words) returning (s words, saturated: bool), or None for a failure; the solve then
+        calls `<p>_solve_split` (0 words back: linstep failed)."""
+        cb = None
+        if linstep is not None:
+            n = self.n
+
+            def step(_user, v, s):
+                try:
+                    r = linstep(np.ctypeslib.as_array(v, shape=(n,)).copy())
+                except Exception as e:          # noqa: BLE001  (a Python error must not pass as an answer)
+                    self.linstep_error = e
+                    return -1
+                if r is None:
+                    return -1
+                np.ctypeslib.as_array(s, shape=(n,))[:] = np.asarray(r[0], dtype=np.int64)
+                return int(bool(r[1]))
+            cb = self.LINSTEP(step)
         w = np.ascontiguousarray(w, dtype=self.dtype)
         assert w.shape == (self.nw,)
         k = self.lib.shim_solve(state, -1 if imax is None else int(imax), int(warm), int(out_all),
                                 w.ctypes.data_as(ctypes.POINTER(self._ct)),
                                 self._out.ctypes.data_as(ctypes.POINTER(self._ct)), self._flags,
-                                ctypes.byref(self._ns))
+                                ctypes.byref(self._ns), ctypes.cast(cb, ctypes.c_void_p) if cb else None)
         flags = tuple(self._flags[: 2 if self.float_ else 4])
         return self._out[:k].copy(), flags, self._ns.value
 
 
-def load(src_dir, nm: Names, cfg: dict, float_: bool = False, build_dir=None) -> CSolver:
+def load(src_dir, nm: Names, cfg: dict, float_: bool = False, build_dir=None, split: bool = False) -> CSolver:
     """Build the solver `nm` generated into src_dir (the float variant with float_) with the shim into build_dir
-    (default src_dir) and load it."""
+    (default src_dir) and load it; split: the solver has `_solve_split` (the ADMM family), reachable through
+    CSolver.solve(..., linstep=...)."""
     src = Path(src_dir).resolve()
     build = Path(build_dir or src).resolve()
     build.mkdir(parents=True, exist_ok=True)
     file = nm.stem + ("_float" if float_ else "")
     p, P = nm.p + ("_f" if float_ else ""), nm.P + ("_F" if float_ else "")
     shim = build / f"{file}_shim.c"
-    shim.write_text(_shim(file, p, P, float_))
+    shim.write_text(_shim(file, p, P, float_, split))
     lib = compile_c([src / f"{file}.c", shim], build / f"lib{file}.so", "-fPIC", "-shared", f"-I{src}")
     return CSolver(lib, int(cfg["n"]), int(cfg["nw"]), float_)
