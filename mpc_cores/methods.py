@@ -50,10 +50,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from mpc_cores.admm.design import kkt_blocks
 from mpc_cores.admm.model import shift_stages
+from mpc_cores.admm.precondition import (RUIZ_SWEEPS, Pow2Scaling, pow2_below, reduced_curvature, round_log2,
+                                         ruiz_pow2, scale_qp)
 from mpc_cores.admm.problem import BOX, AdmmQP, project_soft
 from mpc_cores.closedloop import Controller
 from mpc_cores.dgp.problem import DgpQP
@@ -62,7 +63,6 @@ from mpc_cores.problem import InputRate, MpcProblem
 SPLITTING = ("admm", "ama", "vucondat")
 METHOD_NAMES = {"admm": "ADMM", "ama": "AMA", "vucondat": "Vu-Condat", "dgp": "DGP"}
 ETA = 0.999               # restart factor of Goldstein et al.
-RUIZ_SWEEPS = 25
 RESTART = {"admm": "residual", "ama": "gradient", "vucondat": "residual"}   # the table's restart schemes
 BETA_CAP = 255            # accelerated DGP: k saturates at 255 (the core's beta table)
 
@@ -83,83 +83,12 @@ def splitting_problem(p: MpcProblem) -> MpcProblem:
     return dataclasses.replace(p, input_rate=rate)
 
 
-def reduced_curvature(qp: AdmmQP) -> float:
-    """mu = lambda_min(Z'HZ), Z an orthonormal basis of Ker F: the strong convexity of the y-step's function."""
-    Z = scipy.linalg.null_space(qp.F)
-    return float(np.linalg.eigvalsh(Z.T @ qp.H @ Z)[0])
-
-
-def pow2_below(x: float) -> float:
-    """The largest power of two strictly below x > 0."""
-    k = math.floor(math.log2(x))
-    return 2.0 ** (k - 1 if 2.0 ** k >= x else k)
-
-
 def project_batch(qp: AdmmQP, Q: np.ndarray) -> np.ndarray:
     """pi_K row by row (mpc_cores.admm.problem.project_K on a batch)."""
     Z = np.where(qp.kind == BOX, np.clip(Q, qp.lo, qp.hi), Q)
     if qp.ns:
         Z[..., qp.soft_x], Z[..., qp.soft_d] = project_soft(Q[..., qp.soft_x], Q[..., qp.soft_d], qp.soft_c, qp.soft_r)
     return Z
-
-
-# --------------------------------------------------------------------------
-# power-of-two Ruiz equilibration
-
-
-def _round_log2(s: np.ndarray) -> np.ndarray:
-    return np.round(np.log2(s)).astype(np.int64)
-
-
-@dataclass(frozen=True, eq=False)
-class Pow2Scaling:
-    """z = D z~ (D = 2^d), rows of F scaled by E = 2^e, cost by 2^c."""
-    d: np.ndarray
-    e: np.ndarray
-    c: int
-
-    @property
-    def D(self) -> np.ndarray:
-        return np.ldexp(1.0, self.d)
-
-    @property
-    def E(self) -> np.ndarray:
-        return np.ldexp(1.0, self.e)
-
-    @property
-    def cost(self) -> float:
-        return 2.0 ** self.c
-
-
-def ruiz_pow2(qp: AdmmQP, sweeps: int = RUIZ_SWEEPS) -> Pow2Scaling:
-    """Ruiz equilibration of the KKT matrix [[H, F'], [F, 0]], soft pairs tied, factors rounded to powers of two;
-    then the cost scale 1 / (mean infinity norm of the nonzero columns of D H D), rounded likewise."""
-    n, m = qp.n, qp.F.shape[0]
-    K = np.abs(np.block([[qp.H, qp.F.T], [qp.F, np.zeros((m, m))]]))
-    s = np.ones(n + m)
-    for _ in range(sweeps):
-        r = (s[:, None] * K * s[None, :]).max(axis=1)
-        t = 1.0 / np.sqrt(np.where(r > 0, r, 1.0))
-        if qp.ns:
-            g = np.sqrt(t[qp.soft_x] * t[qp.soft_d])
-            t[qp.soft_x] = t[qp.soft_d] = g
-        s *= t
-    d, e = _round_log2(s[:n]), _round_log2(s[n:])
-    D = np.ldexp(1.0, d)
-    cols = np.abs(D[:, None] * qp.H * D[None, :]).max(axis=0)
-    cols = cols[cols > 0]
-    c = -int(np.round(np.log2(cols.mean()))) if cols.size else 0
-    return Pow2Scaling(d=d, e=e, c=c)
-
-
-def scale_qp(qp: AdmmQP, sc: Pow2Scaling) -> AdmmQP:
-    """The QP in z~ = D^-1 z (same optimum after unscaling, see the module docstring)."""
-    D, E, c = sc.D, sc.E, sc.cost
-    Dx = D[qp.soft_x]
-    return dataclasses.replace(
-        qp, H=c * D[:, None] * qp.H * D[None, :], h_w=c * D[:, None] * qp.h_w, h0=c * D * qp.h0,
-        F=E[:, None] * qp.F * D[None, :], b_w=E[:, None] * qp.b_w, lo=qp.lo / D, hi=qp.hi / D,
-        soft_c=qp.soft_c / Dx, soft_r=qp.soft_r / Dx)
 
 
 # --------------------------------------------------------------------------
@@ -395,7 +324,7 @@ def dgp_precondition(qp: DgpQP, sweeps: int = RUIZ_SWEEPS) -> tuple[DgpQP, np.nd
     for _ in range(sweeps):
         r = (s[:, None] * A * s[None, :]).max(axis=1)
         s *= 1.0 / np.sqrt(np.where(r > 0, r, 1.0))
-    e = _round_log2(s)
+    e = round_log2(s)
     E = np.ldexp(1.0, e)
     G = E[:, None] * qp.G
     L = 2.0 * float(np.linalg.eigvalsh(G @ np.linalg.solve(qp.Q, G.T))[-1])

@@ -198,7 +198,7 @@ def study_example(p0: MpcProblem, cfg: Config, log=sys.stderr) -> dict:
                 with np.errstate(all="ignore"):
                     split_run(st, W, cfg.cap, acc, track=tr, restart=cfg.restart_of(method))
                 cost = loops(lambda imax: SplitController(st, imax, acc, restart=cfg.restart_of(method)))  # noqa: B023
-                hard = "float only" if acc else ("core" if not pre else "core, scaled data")
+                hard = "float only" if acc else ("core" if not pre else "core, precondition: true")
                 add(method, acc, pre, st.step_label, tr, cost, opt, None if acc else hw["cycles"],
                     None if acc else hw["multipliers"], hard, time.perf_counter() - t0)
 
@@ -221,7 +221,7 @@ def study_example(p0: MpcProblem, cfg: Config, log=sys.stderr) -> dict:
                 # warm start as the DGP core's default for the form (plain: cold, accelerated: warm)
                 cost = loops(lambda imax: DgpFloatController(q, imax, acc, warm=hd[acc]["warm"]))  # noqa: B023
                 add("dgp", acc, pre, "L = 1", tr, cost, dopt, hd[acc]["cycles"], hd[acc]["multipliers"],
-                    "core" if not pre else "core, scaled data", time.perf_counter() - t0)
+                    "core" if not pre else "core, precondition: true", time.perf_counter() - t0)
     return {"info": info, "rows": rows}
 
 

@@ -199,6 +199,7 @@ SOLVER = {
     "sizing_seed": Int(0),
     "sizing_solves": Int(1, 100000),
     "method": Choice(("admm", "ama", "vucondat")),
+    "precondition": Bool(),
     # minres
     "minres_P": Int(0, 64, " (0: eq. (15) of 001)"),
     "minres_iterations": Int(0, 65535, " (0: the default N)"),

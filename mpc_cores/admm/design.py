@@ -27,6 +27,10 @@ Methods (`method`, the splitting family of 004 on the same datapath; only v and 
             M11 from H_A + D, the datapath's shifts are those of sigma_j = rho_j / 2 (q = y + nu/sigma,
             nu += sigma (y - z)) and v = sigma (y + z) - nu, y the last primal iterate (tau sigma = 1/2 < 1).
 Assumption 2 of 002 is that of ADMM's iteration; it is checked for method admm only.
+Preconditioning (`precondition: true`, 004): the power-of-two Ruiz equilibration of mpc_cores.admm.precondition
+(z = D z~, cost times c). Every method iterates on the scaled QP exactly as on the original one with the steps
+rho_j / (c D_j^2), so the design flow folds it into the shifts k_j: the same core, other shifts (AMA: rho_j below
+2 mu of the scaled QP, then changed likewise).
 Integer bits: IV-C2 of 002 gives no analytic bound for the multipliers, so the dynamic signals are sized from
 the largest magnitudes seen by the bit-exact model on random and corner parameters (cold and warm-started
 sequences) times a safety factor; the static ones (coefficients, w, G~ w) are bounded analytically.
@@ -40,6 +44,7 @@ import numpy as np
 import scipy.linalg
 
 from mpc_cores.admm.model import ESTIMATED, AdmmFixed, wide_widths
+from mpc_cores.admm.precondition import Pow2Scaling, ruiz_pow2, scale_qp
 from mpc_cores.admm.problem import BOX, AdmmQP, build_admm_qp
 from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix,
                                    problems_option, run_options, solver_opt, target_option)
@@ -83,7 +88,8 @@ class AdmmDesign(FixedPointDesign):
     estimated: tuple = ESTIMATED
     problems: int = 1          # K_p, problems interleaved on the row units (mpc_cores.interleave)
     method: str = "admm"       # admm, ama or vucondat (the splitting family of 004)
-    mu: float | None = None    # ama: lambda_min of H_A on Ker F (the dual step bound 2 mu)
+    mu: float | None = None    # ama: lambda_min of H_A on Ker F (the dual step bound 2 mu), of the scaled QP if any
+    scaling: Pow2Scaling | None = None   # the power-of-two preconditioner folded into the steps (precondition)
 
     def label(self) -> str:
         """the design in a table row (make demo)"""
@@ -182,7 +188,7 @@ def check_assumption2(qp: AdmmQP, M11_hat: np.ndarray, rho_vec: np.ndarray) -> d
 def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     """Build the ADMM core description. Keyword overrides take precedence over the spec's `solver:` section:
     frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, rho, soft_scale, du_scale, safety,
-    sizing_solves (random parameters per sizing run), sizing_seed, problems, method."""
+    sizing_solves (random parameters per sizing run), sizing_seed, problems, method, precondition."""
     opt = lambda k, d: solver_opt(problem, overrides, k, d)  # noqa: E731
     # nearest by default: truncating each of the n_A products of a row biases every y by about -n_A/2 LSB per
     # iteration and the multiplier update integrates it (measured in tests/test_admm_model.py)
@@ -212,10 +218,14 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
         if overrides.get(key) is not None:
             return overrides[key]
         return problem.solver.get(key, default) if problem.solver.get("method", "admm") == method else default
+    # the power-of-two Ruiz preconditioner: a change of the steps to rho_j / (c D_j^2) (mpc_cores.admm.precondition);
+    # AMA's step bound mu is then that of the scaled QP, in whose metric rho_j is chosen
+    scaling = ruiz_pow2(qp) if bool(opt("precondition", False)) else None
+    qs = qp if scaling is None else scale_qp(qp, scaling)
     mu = None
     if method == "ama":
-        Z = scipy.linalg.null_space(qp.F)
-        mu = float(np.linalg.eigvalsh(Z.T @ qp.H @ Z)[0]) if Z.size else float(np.linalg.eigvalsh(qp.H)[0])
+        Z = scipy.linalg.null_space(qs.F)
+        mu = float(np.linalg.eigvalsh(Z.T @ qs.H @ Z)[0]) if Z.size else float(np.linalg.eigvalsh(qs.H)[0])
         if not mu > 1e-9:
             raise DesignError(f"method ama needs H_A positive definite on Ker F (the unaugmented step): its smallest "
                               f"eigenvalue there is {mu:.3g}; use method admm or vucondat")
@@ -235,6 +245,9 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     if method == "ama" and not rho_vec.max() < 2 * mu:
         raise DesignError(f"method ama needs every rho_j < 2 mu = {2 * mu:.6g} (mu = lambda_min of H_A on Ker F): "
                           f"got max rho_j = {rho_vec.max():g}; lower rho, soft_scale or du_scale")
+    if scaling is not None:
+        shift = shift - scaling.c - 2 * scaling.d
+        rho_vec = np.ldexp(1.0, shift)
     if method == "vucondat":
         shift = shift - 1                  # the datapath's shifts: sigma_j = rho_j / 2
     if shift.min() < -b:
@@ -271,7 +284,7 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
                    iterations=iterations, warm_start=warm_start, target=target, rho_log2=k, shift=shift, M11f=M11f, Gf=Gf,
                    M11=M11, G=G, kind=qp.kind.copy(), lo=lo, hi=hi, soft_c=soft_c, soft_r=soft_r, wlo=wlo, whi=whi,
                    safety=safety, output_all=output_all, assumption2=a2, problems=problems_option(problem, overrides),
-                   method=method, mu=mu)
+                   method=method, mu=mu, scaling=scaling)
     _size_words(d, int(opt("sizing_solves", 48)), int(opt("sizing_seed", 0)))
     apply_target(d, lat_mul, d.products())
     return d

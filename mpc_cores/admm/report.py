@@ -71,17 +71,31 @@ def interleave_fields(d: AdmmDesign, hw: dict) -> dict:
     return fields
 
 
+def _precondition_line(d: AdmmDesign) -> list[str]:
+    """the power-of-two preconditioner folded into the shifts, if the design has one"""
+    if d.scaling is None:
+        return []
+    dv, n = d.scaling.d, len(d.scaling.d)
+    counts = ", ".join(f"2^{int(k)} on {int((dv == k).sum())}" for k in sorted(set(dv.tolist())))
+    return [f"  Preconditioned (power-of-two Ruiz): D = {counts} of {n} components, cost x 2^{d.scaling.c}; "
+            f"folded into the steps rho_j / (c D_j^2) (the shifts below)"]
+
+
 def _method_lines(d: AdmmDesign) -> list[str]:
     """the method (004) and its step sizes; Assumption 2 of 002 for ADMM"""
+    return _precondition_line(d) + _method_core_lines(d)
+
+
+def _method_core_lines(d: AdmmDesign) -> list[str]:
     ks = sorted(set(int(k) for k in d.shift))
     if d.method == "ama":
         return [f"  Method: AMA (v = -nu, M11 of the unaugmented KKT matrix); rho_j = 2^k_j, k_j in {ks}, below 2 mu = "
-                f"{2 * d.mu:.4g} (mu = lambda_min of H_A on Ker F)"]
+                f"{2 * d.mu:.4g} (mu = lambda_min of H_A on Ker F{', scaled QP' if d.scaling is not None else ''})"]
     if d.method == "vucondat":
         return [f"  Method: Vu-Condat (Chambolle-Pock, L = I): tau = 1/rho, sigma = rho/2; rho = 2^{d.rho_log2}, "
                 f"sigma_j = 2^k_j with k_j in {ks} (the datapath's shifts), v = sigma (y + z) - nu"]
     a2 = d.assumption2
-    return [f"  rho = 2^{d.rho_log2}, shifts k_j in {ks} (soft pairs, du scaled)",
+    return [f"  rho = 2^{d.rho_log2}, shifts k_j in {ks} (soft pairs, du scaled{', preconditioned' if d.scaling is not None else ''})",
             f"  Assumption 2 (002) on the quantised M11: eig on Ker F in [{a2['kernel_min']:.4g}, {a2['kernel_max']:.6f}] "
             f"(inside (0, 1)), spectral radius {a2['spectral_radius']:.6f} (< 1)"]
 
