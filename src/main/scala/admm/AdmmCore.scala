@@ -57,8 +57,10 @@ class AdmmCore(val p: AdmmParams) extends Module {
   regs.busy := ctl.running || ctl.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
-  val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true)))
-  val bndRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_bnd$u", K, 2, p.zW, p.boundInit(u), outReg = true)))
+  val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true,
+    ecp5 = p.target == dsp.Target.Ecp5)))
+  val bndRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_bnd$u", K, 2, p.zW, p.boundInit(u), outReg = true,
+    ecp5 = p.target == dsp.Target.Ecp5)))
   // G~ (w, 1) per row, of each problem (rows of problem j from j 2^ceil(log2 K) on)
   val gwKW   = math.max(1, log2Ceil(K))
   val gwRam  = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_gw$u", if (Kp == 1) K else (1 << sW) << gwKW,

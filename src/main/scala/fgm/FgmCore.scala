@@ -52,10 +52,12 @@ class FgmCore(val p: FgmParams) extends Module {
 
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map { u =>
-    Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true))
+    Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true,
+      ecp5 = p.target == dsp.Target.Ecp5))
   }
   val bndRam = (0 until P).map { u =>
-    Module(new InitRam(s"${p.moduleName}_ubox$u", K, 2, p.zW, p.boundInit(u), outReg = true))
+    Module(new InitRam(s"${p.moduleName}_ubox$u", K, 2, p.zW, p.boundInit(u), outReg = true,
+      ecp5 = p.target == dsp.Target.Ecp5))
   }
   val betaRam = Module(new InitRam(s"${p.moduleName}_beta", 1, 2, p.betaW, Seq(Seq(p.beta, p.onePlusBeta))))
   for (r <- matRam ++ bndRam :+ betaRam) {

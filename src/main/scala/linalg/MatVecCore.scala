@@ -72,7 +72,8 @@ class MatVecCore(val p: MatVecParams) extends Module {
   val kWrite = ShiftRegister(kRead, 2 + p.dp.latency)
 
   val outRam = (0 until P).map { u =>
-    val mat  = Module(new InitRam(s"${p.moduleName}_mat$u", K, n, p.coefW, p.matInit(u), outReg = true))
+    val mat  = Module(new InitRam(s"${p.moduleName}_mat$u", K, n, p.coefW, p.matInit(u), outReg = true,
+      ecp5 = p.target == dsp.Target.Ecp5))
     val res  = Module(new InitRam(s"${p.moduleName}_res$u", K, 1, p.sumW + 1, Seq()))
     val tree = Module(new DotProductTree(p.dp))
     mat.io.clock := clock

@@ -12,6 +12,8 @@ import chisel3.util._
   * @param laneW  bits per lane
   * @param init   init(row)(lane), signed; rows beyond init.length start at zero
   * @param outReg register the read data once more (read latency 2; maps to the block RAM output register)
+  * @param ecp5   with outReg and at most 1024 rows: DP16KD primitives with their output register for synthesis
+  *               (Ecp5BlockRam), the same behavioural model for simulation
   */
 class InitRam(
     val ramName: String,
@@ -19,7 +21,8 @@ class InitRam(
     val lanes: Int,
     val laneW: Int,
     init: Seq[Seq[BigInt]],
-    val outReg: Boolean = false)
+    val outReg: Boolean = false,
+    val ecp5: Boolean = false)
     extends BlackBox
     with HasBlackBoxInline {
   require(depth >= 1 && lanes >= 1 && laneW >= 1, s"InitRam $ramName: depth, lanes, laneW must be >= 1")
@@ -54,7 +57,57 @@ class InitRam(
     if (init.length < depth) Seq(s"    for (i = ${init.length}; i < $depth; i = i + 1) mem[i] = {$rowW{1'b0}};")
     else Seq()
 
-  setInline(
+  /** the rows as unsigned row words (lane i in bits [i laneW, (i + 1) laneW)) */
+  private def rowBits(row: Seq[BigInt]): BigInt = {
+    val mask = (BigInt(1) << laneW) - 1
+    row.zipWithIndex.foldLeft(BigInt(0)) { case (acc, (v, i)) => acc | ((v & mask) << (i * laneW)) }
+  }
+  val primitive: Boolean = ecp5 && outReg && Ecp5BlockRam.fits(depth)
+
+  if (primitive) setInline(
+    s"$ramName.sv",
+    s"""// Initialised RAM: 1 synchronous read port (read-first), 1 lane-masked write port, read latency 2; on ECP5
+       |// DP16KD block RAMs with their output register (mem.Ecp5BlockRam), in simulation a behavioural model. The
+       |// write port is registered (a write lands a cycle later): the block RAM inputs start at registers too.
+       |module $ramName (
+       |  input                  clock,
+       |  input      [${addrW - 1}:0] raddr,
+       |  output     [${rowW - 1}:0] rdata,
+       |  input                  wen,
+       |  input      [${addrW - 1}:0] waddr,
+       |  input      [${lanes - 1}:0] wmask,
+       |  input      [${rowW - 1}:0] wdata
+       |);
+       |  reg wen_q = 1'b0;
+       |  reg [${addrW - 1}:0] waddr_q;
+       |  reg [${lanes - 1}:0] wmask_q;
+       |  reg [${rowW - 1}:0] wdata_q;
+       |  always @(posedge clock) begin
+       |    wen_q <= wen;
+       |    waddr_q <= waddr;
+       |    wmask_q <= wmask;
+       |    wdata_q <= wdata;
+       |  end
+       |`ifdef SYNTHESIS
+       |${Ecp5BlockRam.primitives(addrW, lanes, laneW, init.map(rowBits), depth)}
+       |`else
+       |  reg [${rowW - 1}:0] mem [0:${depth - 1}];
+       |  reg [${rowW - 1}:0] rd, rq;
+       |  integer i;
+       |  initial begin
+       |${(initLines ++ zeroLines).mkString("\n")}
+       |  end
+       |  always @(posedge clock) begin
+       |    for (i = 0; i < $lanes; i = i + 1)
+       |      if (wen_q && wmask_q[i]) mem[waddr_q][i*$laneW +: $laneW] <= wdata_q[i*$laneW +: $laneW];
+       |    rd <= mem[raddr];
+       |    rq <= rd;
+       |  end
+       |  assign rdata = rq;
+       |`endif
+       |endmodule
+       |""".stripMargin
+  ) else setInline(
     s"$ramName.sv",
     s"""// Initialised RAM: 1 synchronous read port (read-first), 1 lane-masked write port.
        |module $ramName (
