@@ -155,6 +155,9 @@ ADMM_CASES = {
     # - nu) with soft pairs and K_p = 2; AMA (v = -nu, the unaugmented KKT matrix) on the ECP5 target
     "rand_soft_n19_p3_k2_vucondat": (lambda: random_problem("rv19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
                                      dict(P=3, frac_bits=16, problems=2, method="vucondat"), 10),
+    # fast AMA (accelerated: momentum lanes, gradient restart) with soft pairs, both momentum lanes in use
+    "rand_soft_n19_p3_ama_acc": (lambda: random_problem("rma19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
+                                 dict(P=3, frac_bits=16, method="ama", accelerated=True, iterations=30), 12),
     "rand_rate_n19_p2_ecp5_ama": (lambda: random_problem("rm19", 3, 1, 4, 1, 7, input_rate=RATE),
                                   dict(P=2, frac_bits=15, target="ecp5", method="ama"), 12),
 }

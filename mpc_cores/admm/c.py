@@ -62,6 +62,9 @@ def check_headroom(cfg: dict) -> None:
         "y + nu / rho": max(wb("y"), wb("nu") + down) + 1,
         "projection": max(wb("q"), max(soft).bit_length()) + 4,
         "nu + rho (y - z)": max(wb("nu"), wb("d") + up, wb("y") + 1, wb("z") + 1) + 1,
+        **({"d (nu - prev)": wb("d") + wb("nu") + 2, "mom (nu - prev)": b + 2 + wb("nu") + 2,
+            "gradient test sum": wb("d") + wb("nu") + 2 - b + math.ceil(math.log2(int(cfg["n"]) + 1))}
+           if cfg.get("accelerated") else {}),
     })
 
 
@@ -132,6 +135,42 @@ def _data(cfg_or: dict, real: bool) -> str:
             + emit.array("WARM_SRC", warm_source(cfg_or), ctype="int"))
 
 
+# Fast AMA (cfg["accelerated"], mpc_cores.admm.model.AdmmFixed): nu holds nu^, prev the last iteration's nu,
+# dd the iteration's d, idx the momentum index
+ACC_DECL = "\n    int64_t prev[N], dd[N], cand[N];\n    int idx = 0;"
+ACC_KEEP_D = "\n            dd[i] = d;"
+ACC_START = "    for (i = 0; i < N; i++)\n        prev[i] = nu[i];\n"
+
+
+def _momentum(cfg: dict) -> str:
+    if not cfg.get("accelerated"):
+        return ""
+    return (f"#define NMOM {len(cfg['momentum'])}\n/* fast AMA: the momentum words (a_i - 1) / a_(i+1) */\n"
+            + emit.array("MOM", cfg["momentum"]))
+
+
+def acc_step(sat) -> str:
+    """After the nu update: the gradient test, the candidates nu + mom (nu - prev), and after every iteration but
+    the last the next nu^ (the candidate, or nu on a restart) and the momentum index."""
+    return f"""
+        {{                                              /* fast AMA: gradient test and momentum */
+            int64_t test = 0;
+            for (i = 0; i < N; i++) {{
+                int64_t diff = nu[i] - prev[i];
+                test += mpc_floor_shift(dd[i] * diff, FRAC_BITS);
+                cand[i] = {sat("nu", "nu[i] + mpc_rnd(MOM[idx] * diff, FRAC_BITS)")};
+            }}
+            if (it + 1 < ctrl->imax) {{
+                for (i = 0; i < N; i++) {{
+                    prev[i] = nu[i];
+                    if (test >= 0)
+                        nu[i] = cand[i];
+                }}
+                idx = test >= 0 ? (idx + 1 < NMOM ? idx + 1 : idx) : 0;
+            }}
+        }}"""
+
+
 def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     from mpc_cores.admm.model import AdmmFixed
 
@@ -157,11 +196,12 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 /* M11 and G~ words (G~'s last column multiplies the word 2^b), rho_j = 2^K[j], the box of parameter words */
 {emit.array("M11", M, ctype="COEF_T")}{emit.array("G", G, ctype="COEF_T")}\
 {emit.array("K", cfg["shift"], ctype="int8_t")}{emit.array("WLO", cfg["wlo"])}{emit.array("WHI", cfg["whi"])}\
-{_data(cfg, False)}
+{_data(cfg, False)}{_momentum(cfg)}
 {emit.helpers(cfg["rounding"], "clip", "dot", "shift_by")}
 {_proj(False)}"""
+    acc = bool(cfg.get("accelerated"))
     body = f"""\
-    int64_t w[NW + 1], gw[N], z[N], nu[N], v[N], s[N], y[N], q[N];
+    int64_t w[NW + 1], gw[N], z[N], nu[N], v[N], s[N], y[N], q[N];{ACC_DECL if acc else ""}
     /* w = (x, u_prev, r) saturated to its box (SAT), then the constant word 2^b; G~ (w, 1) once per solve */
     for (i = 0; i < NW; i++) {{
         w[i] = mpc_clip(w_in[i], WLO[i], WHI[i]);
@@ -170,7 +210,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     w[NW] = INT64_C(1) << FRAC_BITS;
     for (i = 0; i < N; i++)
         gw[i] = mpc_dot(G[i], w, NW + 1, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum);
-{start(cfg)}\
+{start(cfg)}{ACC_START if acc else ""}\
     for (it = 0; it < ctrl->imax; it++) {{
         for (i = 0; i < N; i++)                         /* v, the method's operand ({method}) */
             v[i] = {sat("v", V_FIXED[method])};
@@ -193,8 +233,8 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
             int64_t d;
             z[i] = {sat("z", "z[i]")};
             d = {sat("d", "y[i] - z[i]")};
-            nu[i] = {sat("nu", "nu[i] + mpc_shift_by(d, K[i])")};
-        }}
+            nu[i] = {sat("nu", "nu[i] + mpc_shift_by(d, K[i])")};{ACC_KEEP_D if acc else ""}
+        }}{acc_step(sat) if acc else ""}
     }}
 """
     vectors = capi.selftest_vectors(model, model.wlo, model.whi, int(cfg["widths"]["stream"]), cfg)

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from mpc_cores.admm.model import ESTIMATED, AdmmFixed, wide_widths
+from mpc_cores.admm.model import ESTIMATED, AdmmFixed, momentum_words, wide_widths
 from mpc_cores.admm.precondition import Pow2Scaling, ruiz_pow2, scale_qp
 from mpc_cores.admm.problem import BOX, AdmmQP, build_admm_qp
 from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix,
@@ -90,6 +90,7 @@ class AdmmDesign(FixedPointDesign):
     method: str = "admm"       # admm, ama or vucondat (the splitting family of 004)
     mu: float | None = None    # ama: lambda_min of H_A on Ker F (the dual step bound 2 mu), of the scaled QP if any
     scaling: Pow2Scaling | None = None   # the power-of-two preconditioner folded into the steps (precondition)
+    accelerated: bool = False  # ama: fast AMA with the gradient restart (mpc_cores.admm.model.AdmmFixed)
 
     def label(self) -> str:
         """the design in a table row (make demo)"""
@@ -125,14 +126,16 @@ class AdmmDesign(FixedPointDesign):
     # ---- cycle contract and resources of 002
     @property
     def cycles_per_iteration(self) -> int:
-        """L_A of eq. (24)."""
+        """L_A of eq. (24) (accelerated: plus the momentum lanes' 1 + l_M)."""
         d = math.ceil(math.log2(self.n)) if self.n > 1 else 0
-        return -(-self.n // self.P) + self.lat_add * d + self.lat_mul + 6 * self.lat_add + 2
+        return (-(-self.n // self.P) + self.lat_add * d + self.lat_mul + 6 * self.lat_add + 2
+                + (1 + self.lat_mul if self.accelerated else 0))
 
     @property
     def multipliers(self) -> int:
-        """Table I of 002: P n_A (the rho shifts need none)."""
-        return self.P * self.n
+        """Table I of 002: P n_A (the rho shifts need none); accelerated: two per momentum lane (one lane per
+        unit, two with soft pairs)."""
+        return self.P * self.n + (2 * self.P * (2 if self.qp.ns else 1) if self.accelerated else 0)
 
     def config(self) -> dict:
         """What an ADMM core generator needs, analogous to FgmDesign.config()."""
@@ -149,6 +152,7 @@ class AdmmDesign(FixedPointDesign):
             "soft_c": self.soft_c.tolist(), "soft_r": self.soft_r.tolist(),
             "wlo": self.wlo.tolist(), "whi": self.whi.tolist(),
             "safety": self.safety, "estimated": list(self.estimated), "method": self.method,
+            **({"accelerated": True, "momentum": momentum_words(self.b).tolist()} if self.accelerated else {}),
             **({"problems": self.problems} if self.problems > 1 else {}),
         }
 
@@ -188,7 +192,7 @@ def check_assumption2(qp: AdmmQP, M11_hat: np.ndarray, rho_vec: np.ndarray) -> d
 def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     """Build the ADMM core description. Keyword overrides take precedence over the spec's `solver:` section:
     frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, rho, soft_scale, du_scale, safety,
-    sizing_solves (random parameters per sizing run), sizing_seed, problems, method, precondition."""
+    sizing_solves (random parameters per sizing run), sizing_seed, problems, method, precondition, accelerated."""
     opt = lambda k, d: solver_opt(problem, overrides, k, d)  # noqa: E731
     # nearest by default: truncating each of the n_A products of a row biases every y by about -n_A/2 LSB per
     # iteration and the multiplier update integrates it (measured in tests/test_admm_model.py)
@@ -211,6 +215,12 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     method = str(opt("method", "admm"))
     if method not in METHODS:
         raise DesignError(f"method must be one of {', '.join(METHODS)}: got {method!r}")
+    accelerated = bool(opt("accelerated", False))
+    if accelerated and method != "ama":
+        raise DesignError(f"accelerated is built for method ama (fast AMA with the gradient restart): got method "
+                          f"{method} (accelerated ADMM and Vu-Condat are in `make methods` only, docs/methods.md)")
+    if accelerated and problems_option(problem, overrides) > 1:
+        raise DesignError("accelerated needs problems = 1 (its momentum state is kept for one problem)")
 
     def opt_m(key, default):
         """a penalty option: the override, else the spec's when the spec is written for this method, else the
@@ -284,7 +294,7 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
                    iterations=iterations, warm_start=warm_start, target=target, rho_log2=k, shift=shift, M11f=M11f, Gf=Gf,
                    M11=M11, G=G, kind=qp.kind.copy(), lo=lo, hi=hi, soft_c=soft_c, soft_r=soft_r, wlo=wlo, whi=whi,
                    safety=safety, output_all=output_all, assumption2=a2, problems=problems_option(problem, overrides),
-                   method=method, mu=mu, scaling=scaling)
+                   method=method, mu=mu, scaling=scaling, accelerated=accelerated)
     _size_words(d, int(opt("sizing_solves", 48)), int(opt("sizing_seed", 0)))
     apply_target(d, lat_mul, d.products())
     return d

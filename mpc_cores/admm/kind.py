@@ -6,7 +6,7 @@ KIND = CoreKind(
     title="ADMM with input-rate and soft state constraints (Algorithm 2 of 002), fixed point",
     model_fn="mpc_cores.admm.model:AdmmFixed",
     spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all", "target",
-                  "safety", "rho", "soft_scale", "du_scale", "sizing_seed", "sizing_solves", "problems", "method", "precondition"),
+                  "safety", "rho", "soft_scale", "du_scale", "sizing_seed", "sizing_solves", "problems", "method", "precondition", "accelerated"),
     overrides=("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "target", "problems"),
     controllers_fn="mpc_cores.admm.kind:controllers",
     c_fn="mpc_cores.admm.c:write_c",

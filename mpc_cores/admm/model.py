@@ -97,6 +97,19 @@ class AdmmSolveResult:
     y: np.ndarray | None = None   # vucondat: the last y (part of the warm start)
 
 
+MOM_TABLE = 256       # accelerated AMA: momentum words (a_i - 1) / a_(i+1), i = iterations since the (re)start
+
+
+def momentum_words(b: int, rounding: str = "nearest") -> np.ndarray:
+    """Nesterov's momentum of fast AMA as b-bit words: a_0 = 1, a_(i+1) = (1 + sqrt(1 + 4 a_i^2)) / 2,
+    mom_i = (a_i - 1) / a_(i+1) (mom_0 = 0); the index saturates at MOM_TABLE - 1."""
+    a = [1.0]
+    for _ in range(MOM_TABLE):
+        a.append(0.5 * (1.0 + np.sqrt(1.0 + 4.0 * a[-1] ** 2)))
+    return np.array([int(np.floor((a[i] - 1.0) / a[i + 1] * (1 << b) + 0.5)) for i in range(MOM_TABLE)],
+                    dtype=np.int64)
+
+
 @dataclass
 class AdmmBatchResult:
     z: np.ndarray               # (S, n)
@@ -107,6 +120,7 @@ class AdmmBatchResult:
     peaks: dict                 # largest |word| per signal over the batch and all iterations
     iterates: list | None = None
     y: np.ndarray | None = None  # vucondat: the last y
+    restarts: np.ndarray | None = None  # accelerated: per row, the iterations whose gradient test restarted
 
 
 class AdmmFixed:
@@ -135,6 +149,9 @@ class AdmmFixed:
         self.wlo = np.array(cfg["wlo"], dtype=np.int64)
         self.whi = np.array(cfg["whi"], dtype=np.int64)
         self.method = cfg.get("method", "admm")
+        # fast AMA with the gradient restart of O'Donoghue and Candes (method ama only)
+        self.accelerated = bool(cfg.get("accelerated", False))
+        self.mom = np.array(cfg["momentum"], dtype=np.int64) if self.accelerated else None
         self.prev: tuple | None = None       # (z, nu[, y]) of the last solve; None: no valid warm start
 
     def reset(self) -> None:
@@ -195,7 +212,9 @@ class AdmmFixed:
                 peaks[key] = max(peaks[key], int(np.abs(val).max()))
             return val
 
-        for _ in range(imax):
+        if self.accelerated:            # nu holds nu^, what an iteration reads; prev the last iteration's nu
+            prev, idx, restarts = nu.copy(), np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64)
+        for it in range(imax):
             if self.method == "ama":
                 v = step("v", -nu)
             elif self.method == "vucondat":
@@ -208,12 +227,26 @@ class AdmmFixed:
             y = step("y", s + gw)
             q = step("q", y + shift_by(nu, -k, rnd))
             z = step("z", self.proj(q))
-            nu = step("nu", nu + shift_by(step("d", y - z), k, rnd))
+            d = step("d", y - z)
+            nu = step("nu", nu + shift_by(d, k, rnd))
+            if self.accelerated:
+                # the gradient test <nu - nu^, nu - prev>_(1/rho) >= 0 as sum_j floor(d_j (nu_j - prev_j) / 2^b),
+                # the candidate nu + mom_idx (nu - prev); after every iteration but the last the next nu^ is the
+                # candidate (test held) or nu itself (restart: the momentum index back to 0)
+                diff = nu - prev
+                ok = ((d * diff) >> self.b).sum(axis=1) >= 0
+                cand = step("nu", nu + shift_round(self.mom[idx][:, None] * diff, self.b, rnd))
+                if it < imax - 1:
+                    prev = nu
+                    nu = np.where(ok[:, None], cand, nu)
+                    idx = np.where(ok, np.minimum(idx + 1, len(self.mom) - 1), 0)
+                    restarts += ~ok
             if record:
                 its.append(z.copy())
         overflow = np.full(S, any(flags.values()))
         return AdmmBatchResult(z=z, nu=nu, sat=sat, overflow=overflow, flags=flags, peaks=peaks, iterates=its,
-                               y=y if self.method == "vucondat" else None)
+                               y=y if self.method == "vucondat" else None,
+                               restarts=restarts if self.accelerated else None)
 
     def solve(self, w_words, imax: int | None = None, warm: bool | None = None, record: bool = False) -> AdmmSolveResult:
         warm = self.warm_start if warm is None else bool(warm)

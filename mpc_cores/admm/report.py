@@ -14,8 +14,11 @@ _WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (x, u_prev, r) aft
 
 def core_json(d: AdmmDesign, hw: dict) -> dict:
     """Metadata of a generated ADMM core: the Python design and the generator's hw.json, checked against 002."""
-    if hw["cycles_per_iteration"] > hw["cycles_eq24"]:
-        raise RuntimeError(f"L_A = {hw['cycles_per_iteration']} exceeds eq. (24) of 002: {hw['cycles_eq24']}")
+    mom = hw.get("momentum_cycles", 0)     # accelerated: the momentum lanes after the write stage
+    if hw["cycles_per_iteration"] - mom > hw["cycles_eq24"]:
+        raise RuntimeError(f"L_A = {hw['cycles_per_iteration']} - {mom} exceeds eq. (24) of 002: {hw['cycles_eq24']}")
+    if bool(hw.get("accelerated", False)) != d.accelerated:
+        raise RuntimeError(f"generator and front end disagree on accelerated: {hw.get('accelerated')}")
     if hw["multipliers"] != d.P * max(d.n, d.nw + 1):
         raise RuntimeError(f"generator and front end disagree on multipliers: {hw['multipliers']}")
     b = d.b
@@ -29,6 +32,8 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
     return {
         "core": d.method,            # the kind: admm, or a splitting method on its datapath (ama, vucondat)
         "method": d.method,
+        "accelerated": d.accelerated,
+        "momentum_cycles": mom,
         "name": d.name,
         "module": hw["module"],
         "sv": f"{hw['module']}.sv",
@@ -89,8 +94,11 @@ def _method_lines(d: AdmmDesign) -> list[str]:
 def _method_core_lines(d: AdmmDesign) -> list[str]:
     ks = sorted(set(int(k) for k in d.shift))
     if d.method == "ama":
+        fast = ([f"  Accelerated (fast AMA): Nesterov momentum on nu, restart when <nu - nu^, nu - nu_prev>_(1/rho) < 0 "
+                 f"(O'Donoghue-Candes gradient scheme); {len(d.config()['momentum'])} momentum words, "
+                 f"{1 + d.lat_mul} cycles more per iteration"] if d.accelerated else [])
         return [f"  Method: AMA (v = -nu, M11 of the unaugmented KKT matrix); rho_j = 2^k_j, k_j in {ks}, below 2 mu = "
-                f"{2 * d.mu:.4g} (mu = lambda_min of H_A on Ker F{', scaled QP' if d.scaling is not None else ''})"]
+                f"{2 * d.mu:.4g} (mu = lambda_min of H_A on Ker F{', scaled QP' if d.scaling is not None else ''})"] + fast
     if d.method == "vucondat":
         return [f"  Method: Vu-Condat (Chambolle-Pock, L = I): tau = 1/rho, sigma = rho/2; rho = 2^{d.rho_log2}, "
                 f"sigma_j = 2^k_j with k_j in {ks} (the datapath's shifts), v = sigma (y + z) - nu"]

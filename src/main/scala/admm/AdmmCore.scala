@@ -112,6 +112,20 @@ class AdmmCore(val p: AdmmParams) extends Module {
   })
   val vPad = VecInit((0 until m).map(j => if (j < n) vReg(j).pad(p.opW) else 0.S(p.opW.W)))
 
+  // accelerated (fast AMA): the last iteration's nu, the candidates nu + mom (nu - prev), the momentum index and
+  // word, the gradient test's sum (MomentumLane; one problem)
+  val acc      = p.accelerated
+  val prevReg  = if (acc) Reg(Vec(n, SInt(p.nuW.W))) else null
+  val candReg  = if (acc) Reg(Vec(n, SInt(p.nuW.W))) else null
+  val momIdx   = RegInit(0.U(log2Ceil(p.momentum.length.max(2)).W))
+  val momReg   = RegInit(0.S(p.momW.W))
+  val testSum  = RegInit(0.S(p.accW.W))
+  val tokM1    = tokAt(p.stageW + p.momLat - 1)
+  val enM      = RowToken.enables(tokM1, tokM1.valid && !tokM1.pass0, K)
+  val termsNow = Wire(Vec(P, SInt(p.accW.W)))
+  val ovfMom   = Wire(Vec(P, Bool()))
+  val candA    = Wire(Vec(P, SInt(p.nuW.W)))
+  val candB    = Wire(Vec(P, SInt(p.nuW.W)))
   val ovfNow = Wire(Vec(P, Bool()))
   val codeW  = math.max(1, log2Ceil(p.shifts.length))
   class Lane extends Bundle {
@@ -224,6 +238,37 @@ class AdmmCore(val p: AdmmParams) extends Module {
     laneA(u).y  := ShiftRegister(ShiftRegister(Mux(tokZ.pass0, zA.pad(yRegW), yZ.pad(yRegW)), p.latAdd), p.latAdd)
     laneB(u).y  := ShiftRegister(ShiftRegister(Mux(tokZ.pass0, zB.pad(yRegW), yZB.pad(yRegW)), p.latAdd), p.latAdd)
 
+    // Fast AMA: the momentum lanes take the row's (and its soft partner's) new nu at the write stage.
+    if (acc) {
+      val tokW1u = tokAt(p.stageW - 1)
+      def prevOf(sel: Int => Option[Int]) =
+        RegNext(VecInit((0 until K).map(k => sel(k).map(j => prevReg(j)).getOrElse(0.S(p.nuW.W))))(tokW1u.k))
+      val compA = (k: Int) => p.rows(u)(k).filter(j => p.kind(j) != SoftX)
+      val compB = (k: Int) => p.rows(u)(k).filter(j => p.kind(j) == SoftD).map(p.partnerOf)
+      val lanes = Seq((laneA(u).nu, prevOf(compA), ShiftRegister(dAN, p.latAdd), compA),
+        (laneB(u).nu, prevOf(compB), ShiftRegister(dBN, p.latAdd), compB))
+      val outs = lanes.take(if (p.hasSoft) 2 else 1).map { case (cur, prev, d, comp) =>
+        val m = Module(new MomentumLane(p))
+        m.io.cur  := cur
+        m.io.prev := prev
+        m.io.d    := d
+        m.io.mom  := momReg
+        val live = VecInit((0 until K).map(k => comp(k).nonEmpty.B))(tokAt(p.stageW + p.momLat).k)
+        (m.io.cand, Mux(live, m.io.term, 0.S), live && m.io.candOvf)
+      }
+      val tokMv = tokAt(p.stageW + p.momLat)
+      val on    = tokMv.valid && !tokMv.pass0
+      candA(u)    := outs.head._1
+      candB(u)    := outs.last._1
+      termsNow(u) := Mux(on, outs.map(_._2.pad(p.accW)).reduce(_ +& _)(p.accW - 1, 0).asSInt, 0.S)
+      ovfMom(u)   := on && outs.map(_._3).reduce(_ || _)
+    } else {
+      candA(u) := 0.S
+      candB(u) := 0.S
+      termsNow(u) := 0.S
+      ovfMom(u) := false.B
+    }
+
     // Saturation in a live row of an iteration sets the sticky overflow flag (the first pass: the tree only).
     val kindZs = kindZ
     val liveA  = kindZs =/= SoftX.U // a state row of a soft pair finishes in its slack's slot
@@ -231,7 +276,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val ofYQ   = tokSum.valid && !tokSum.pass0 && ofY || tokQ.valid && !tokQ.pass0 && ofQ
     val ofZD   = tokZ.valid && !tokZ.pass0 && (ofZ || liveA && ofDA || kindZs === SoftD.U && ofDB)
     val ofN    = tokNu.valid && !tokNu.pass0 && (kindN =/= SoftX.U && ofNA || kindN === SoftD.U && ofNB)
-    ovfNow(u) := ofTree || ofYQ || ofZD || ofN
+    ovfNow(u) := ofTree || ofYQ || ofZD || ofN || ovfMom(u)
   }
 
   // ------------------------------------------------------------------ register writes
@@ -280,8 +325,39 @@ class AdmmCore(val p: AdmmParams) extends Module {
       RowToken.enables(tokW1, tokW1.valid && mine(tokW1, q) && !(tokW1.pass0 && ctl.warmOf(q)), K))
     turn0 && !tok0.pass0
   }
+  // Fast AMA: the candidates land at their rows' momentum stage; at the operand copy after an iteration the next
+  // nu^ is the candidate (the test sum >= 0) or nu itself (restart), prev takes nu, the momentum index advances or
+  // returns to 0 (the copy after the first pass starts the sequence: nu^ = nu, index 0).
+  val firstCopy = RegInit(false.B)
+  val testOk    = !testSum(p.accW - 1)
+  val useCand   = !firstCopy && testOk
+  def nuNext(j: Int): SInt = if (acc) Mux(useCand, candReg(j), nuReg(0)(j)) else ofSlot(nuReg.map(_(j)), tok0.slot)
+  if (acc) {
+    for (j <- 0 until n) {
+      val (slot, c) = if (p.kind(j) == SoftX) (p.slotOf(j) + 1, candB(p.unitOf(j))) else (p.slotOf(j), candA(p.unitOf(j)))
+      when(enM(slot)) { candReg(j) := c }
+    }
+    val momRom = VecInit(p.momentum.map(_.S(p.momW.W)))
+    val last   = (p.momentum.length - 1).U
+    testSum := testSum + termsNow.reduce(_ +& _)(p.accW - 1, 0).asSInt
+    when(ctl.take) {
+      firstCopy := true.B
+      testSum   := 0.S
+    }
+    when(vNow) {
+      for (j <- 0 until n) {
+        nuReg(0)(j) := nuNext(j)
+        prevReg(j)  := nuReg(0)(j)
+      }
+      val next = Mux(firstCopy || !testOk, 0.U, Mux(momIdx === last, momIdx, momIdx + 1.U))
+      momIdx    := next
+      momReg    := momRom(next)
+      testSum   := 0.S
+      firstCopy := false.B
+    }
+  }
   for (j <- 0 until n) {
-    val (v, of) = vOf(ofSlot(zReg.map(_(j)), tok0.slot), ofSlot(nuReg.map(_(j)), tok0.slot),
+    val (v, of) = vOf(ofSlot(zReg.map(_(j)), tok0.slot), nuNext(j),
       if (vc) Some(ofSlot(yReg.map(_(j)), tok0.slot)) else None, j)
     ofV(j) := of
     when(vNow) { vReg(j) := v }

@@ -23,6 +23,8 @@ object AdmmMain extends App {
       "tree_inputs" -> p.m,
       "tree_depth" -> p.depth,
       "cycles_per_iteration" -> p.cyclesPerIteration,
+      "accelerated" -> p.accelerated,
+      "momentum_cycles" -> p.momLat,
       "cycles_eq24" -> p.cyclesEq24,
       "solve_overhead_cycles" -> p.solveOverhead,
       "cycles_per_solve" -> p.cyclesPerSolve(p.imaxDefault),

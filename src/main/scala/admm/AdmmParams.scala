@@ -44,8 +44,13 @@ case class AdmmParams(
     softC: Seq[BigInt],
     softR: Seq[BigInt],
     wlo: Seq[BigInt],
-    whi: Seq[BigInt]) {
+    whi: Seq[BigInt],
+    /** fast AMA with the gradient restart (method ama, one problem): AdmmCore's momentum lanes */
+    accelerated: Boolean = false,
+    /** accelerated: the momentum words (a_i - 1) / a_(i+1), i = iterations since the (re)start (the last repeats) */
+    momentum: Seq[BigInt] = Seq()) {
   import AdmmParams._
+  require(!accelerated || method == "ama" && Kp == 1, s"accelerated needs method ama and problems = 1")
 
   require(n >= 1, s"n_A must be >= 1, got $n")
   require(nu >= 1 && N >= 1 && N * nu < n, s"need nu >= 1, N >= 1 and N*nu < n_A: got nu=$nu, N=$N, n_A=$n")
@@ -115,8 +120,17 @@ case class AdmmParams(
   val stageZ: Int   = stageP + projLat
   val stageN: Int   = stageZ + latAdd
   val stageW: Int   = stageN + latAdd
-  /** Cycles per iteration: the last row's write, then the operand update v = rho z - nu in the next cycle. */
-  val cyclesPerIteration: Int = K + stageW
+  /** accelerated: the momentum lanes after the write stage (a register, l_M of the multipliers) */
+  val momLat: Int = if (accelerated) 1 + latMul else 0
+  /** Cycles per iteration: the last row's write (accelerated: its momentum lane), then the operand update
+    * v = rho z - nu in the next cycle. */
+  val cyclesPerIteration: Int = K + stageW + momLat
+  require(!accelerated || momentum.nonEmpty, "accelerated needs the momentum words")
+  require(momentum.forall(w => w >= 0 && w <= (BigInt(1) << fracBits)), "momentum words must be in [0, 2^frac_bits]")
+  val momW: Int = fracBits + 2
+  /** the gradient-test term floor(d (nu - prev) / 2^b) and the sum of n of them */
+  val termW: Int = math.max(2, dW + nuW + 1 - fracBits)
+  val accW: Int  = termW + log2Ceil(n + 1) + 1
   /** L_A of eq. (24) of 002. */
   val cyclesEq24: Int = (n + P - 1) / P + latAdd * log2Ceil(n) + latMul + 6 * latAdd + 2
   /** From the handshake of the last input word to the first output word: 2 + (Imax + 1) L (the first pass,
@@ -209,6 +223,8 @@ object AdmmParams {
       P = j("P").num.toInt,
       Kp = j.obj.get("problems").map(_.num.toInt).getOrElse(1),
       method = j.obj.get("method").map(_.str).getOrElse("admm"),
+      accelerated = j.obj.get("accelerated").exists(_.bool),
+      momentum = j.obj.get("momentum").map(ints).getOrElse(Seq()),
       fracBits = j("frac_bits").num.toInt,
       latAdd = j("lat_add").num.toInt,
       latMul = j("lat_mul").num.toInt,
