@@ -44,10 +44,14 @@ def _with_method(method: str) -> SoakSpace:
         d = dict(c.design, method=method)
         if method == "ama":
             d.pop("rho")               # AMA's step comes from the problem (below 2 mu)
+            if d.get("problems", 1) == 1 and rng.random() < 0.5:
+                d["accelerated"] = True   # fast AMA (one problem)
         return Config(c.spec, d)
     return SoakSpace(draw=draw_m, test=SOAK.test, count_knob=SOAK.count_knob, measured=SOAK.measured,
                      cycles_per_solve=SOAK.cycles_per_solve, solves_per_config=SOAK.solves_per_config,
-                     space=SOAK.space[:2] + (SOAK.space[2] + f"; method {method}",) + SOAK.space[3:])
+                     space=SOAK.space[:2] + (SOAK.space[2] + f"; method {method}" + (
+                         "; accelerated (fast AMA) in half the one-problem designs" if method == "ama" else ""),)
+                     + SOAK.space[3:])
 
 
 AMA_SOAK = _with_method("ama")
