@@ -62,7 +62,7 @@ from mpc_cores.problem import InputRate, MpcProblem
 
 SPLITTING = ("admm", "ama", "vucondat")
 METHOD_NAMES = {"admm": "ADMM", "ama": "AMA", "vucondat": "Vu-Condat", "dgp": "DGP"}
-ETA = 0.999               # restart factor of Goldstein et al.
+ETA_SHIFT = 10            # restart factor of Goldstein et al., eta = 1 - 2^-10 (the cores' words: AdmmFixed)
 RESTART = {"admm": "residual", "ama": "gradient", "vucondat": "residual"}   # the table's restart schemes
 BETA_CAP = 255            # accelerated DGP: k saturates at 255 (the core's beta table)
 
@@ -247,15 +247,15 @@ def split_run(st: SplitSetup, W, imax: int, accelerated: bool, start: SplitState
     hat = dict(cur)
     prev = dict(cur)
     a = np.ones(S)
-    cprev = np.full(S, np.inf)
+    thr = np.full(S, np.inf)        # residual restart: c must stay below eta c_prev (grown by 1 + 2^-10 on a restart)
     for _ in range(imax):
         y, z, nu = T(hat["y"], hat["z"], hat["nu"])
         cur = {"y": y, "z": z, "nu": nu}
         if restart.startswith("residual"):
             # combined residual of Goldstein et al. (their Algorithms 8 and 9): ||x - x^||^2 in the metric
             c = sum(np.sum(wt * (cur[k] - hat[k]) ** 2, axis=1) for k, wt in zip(comps, wts))
-            ok = c < ETA * cprev
-            cprev = np.where(ok, c, cprev / ETA)
+            ok = c < thr
+            thr = np.where(ok, c * (1.0 - 2.0 ** -ETA_SHIFT), thr * (1.0 + 2.0 ** -ETA_SHIFT))
             back = ~ok if restart == "residual-back" else np.zeros(S, dtype=bool)
         elif restart == "gradient":
             # O'Donoghue and Candes: the step of the map opposes the momentum

@@ -120,10 +120,11 @@ def _fmt_it(s: dict) -> str:
 def _hardware_admm(p: MpcProblem, cfg: Config) -> dict:
     kw = {} if cfg.design_sizing is None else {"sizing_solves": cfg.design_sizing}
     d = design_admm(p, **kw)
-    a = design_admm(p, method="ama", accelerated=True, **kw)
+    acc = {m: design_admm(p, method=m, accelerated=True, **kw) for m in SPLITTING}
     return {"cycles": int(d.cycles_per_iteration), "multipliers": int(d.multipliers), "rho_vec": d.rho_vec,
             "label": f"design_admm: n_A = {d.n}, P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}",
-            "ama_acc": {"cycles": int(a.cycles_per_iteration), "multipliers": int(a.multipliers)}}
+            "acc": {m: {"cycles": int(a.cycles_per_iteration), "multipliers": int(a.multipliers)}
+                    for m, a in acc.items()}}
 
 
 def _hardware_dgp(p: MpcProblem) -> dict:
@@ -200,11 +201,12 @@ def study_example(p0: MpcProblem, cfg: Config, log=sys.stderr) -> dict:
                 with np.errstate(all="ignore"):
                     split_run(st, W, cfg.cap, acc, track=tr, restart=cfg.restart_of(method))
                 cost = loops(lambda imax: SplitController(st, imax, acc, restart=cfg.restart_of(method)))  # noqa: B023
-                # on the core: every plain variant; accelerated, AMA with the gradient restart (accelerated: true)
-                core_acc = acc and method == "ama" and cfg.restart_of(method) == "gradient"
+                # on the core: every plain variant, and the accelerated ones with the core's restart scheme
+                # (accelerated: true; AMA gradient, ADMM and Vu-Condat residual)
+                core_acc = acc and cfg.restart_of(method) == RESTART[method]
                 hard = ("float only" if acc and not core_acc else
                         "core" + (", accelerated: true" if acc else "") + (", precondition: true" if pre else ""))
-                hws = hw["ama_acc"] if core_acc else hw
+                hws = hw["acc"][method] if core_acc else hw
                 add(method, acc, pre, st.step_label, tr, cost, opt, hws["cycles"] if hard != "float only" else None,
                     hws["multipliers"] if hard != "float only" else None, hard, time.perf_counter() - t0)
 

@@ -158,6 +158,12 @@ ADMM_CASES = {
     # fast AMA (accelerated: momentum lanes, gradient restart) with soft pairs, both momentum lanes in use
     "rand_soft_n19_p3_ama_acc": (lambda: random_problem("rma19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
                                  dict(P=3, frac_bits=16, method="ama", accelerated=True, iterations=30), 12),
+    # fast ADMM and fast Vu-Condat (residual restart; z, nu and y, z, nu extrapolated) with soft pairs
+    "rand_soft_n19_p3_admm_acc": (lambda: random_problem("rma19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
+                                  dict(P=3, frac_bits=16, accelerated=True, iterations=30), 12),
+    "rand_soft_n19_p3_vucondat_acc": (lambda: random_problem("rma19", 2, 1, 3, 1, 5, input_rate=RATE,
+                                                             soft_states=SOFT1),
+                                      dict(P=3, frac_bits=16, method="vucondat", accelerated=True, iterations=30), 12),
     "rand_rate_n19_p2_ecp5_ama": (lambda: random_problem("rm19", 3, 1, 4, 1, 7, input_rate=RATE),
                                   dict(P=2, frac_bits=15, target="ecp5", method="ama"), 12),
 }

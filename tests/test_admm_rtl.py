@@ -41,14 +41,18 @@ def test_rtl_matches_golden_model(cid, admm_cores, request):
 
 
 def test_contract_in_core_json(admm_cores):
-    """core.json: L_A within eq. (24) of 002, multipliers at most P n_A (Table I), every component placed once, a
+    """core.json: L_A within eq. (24) of 002, multipliers at most P n_A (Table I; accelerated: plus the momentum
+    lanes'), every component placed once, a
     soft pair's state directly before its slack on one unit."""
     for cid, out in admm_cores.items():
         core = json.loads((out / "core.json").read_text())
         cfg = json.loads((out / "config.json").read_text())
         n, P = core["n"], core["P"]
         assert core["cycles_per_iteration"] - core["momentum_cycles"] <= core["cycles_eq24"], cid
-        assert core["multipliers"] <= P * n, cid
+        # Table I (P n_A), plus the momentum lanes of an accelerated core: two per extrapolated state and lane
+        lanes = 2 if cfg["soft_x"] else 1
+        states = {"ama": 1, "admm": 2, "vucondat": 3}[core["method"]]
+        assert core["multipliers"] <= P * n + (2 * states * P * lanes if core["accelerated"] else 0), cid
         placed = [j for unit in core["row_units"] for j in unit if j is not None]
         assert sorted(placed) == list(range(n)), cid
         slot = {j: (u, k) for u, unit in enumerate(core["row_units"]) for k, j in enumerate(unit) if j is not None}

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpc_cores.admm.model import shift_stages
+from mpc_cores.admm.model import ACC_STATES, ETA_SHIFT, shift_stages
 from mpc_cores.admm.problem import BOX
 from mpc_cores.csrc import api as capi
 from mpc_cores.csrc import emit
@@ -62,10 +62,22 @@ def check_headroom(cfg: dict) -> None:
         "y + nu / rho": max(wb("y"), wb("nu") + down) + 1,
         "projection": max(wb("q"), max(soft).bit_length()) + 4,
         "nu + rho (y - z)": max(wb("nu"), wb("d") + up, wb("y") + 1, wb("z") + 1) + 1,
-        **({"d (nu - prev)": wb("d") + wb("nu") + 2, "mom (nu - prev)": b + 2 + wb("nu") + 2,
-            "gradient test sum": wb("d") + wb("nu") + 2 - b + math.ceil(math.log2(int(cfg["n"]) + 1))}
-           if cfg.get("accelerated") else {}),
+        **(_acc_headroom(cfg, wb, b, up, down) if cfg.get("accelerated") else {}),
     })
+
+
+def _acc_headroom(cfg: dict, wb, b: int, up: int, down: int) -> dict:
+    """accelerated: the momentum products, the restart test's products and sum"""
+    cur = {"y": max(wb("y"), wb("z")), "z": wb("z"), "nu": wb("nu")}
+    ks = ACC_STATES[cfg.get("method", "admm")]
+    logn = math.ceil(math.log2(3 * int(cfg["n"]) + 1))
+    out = {f"mom ({k} - prev)": b + 2 + cur[k] + 2 for k in ks}
+    if ks == ("nu",):
+        out.update({"d (nu - prev)": wb("d") + wb("nu") + 2, "gradient test sum": wb("d") + wb("nu") + 2 - b + logn})
+    else:
+        sq = max(2 * (cur[k] + 1) for k in ks)
+        out.update({"(x - x^)^2": sq + 1, "residual test sum": sq - b + max(up, down) + logn + 1})
+    return out
 
 
 def _proj(real: bool) -> str:
@@ -135,38 +147,74 @@ def _data(cfg_or: dict, real: bool) -> str:
             + emit.array("WARM_SRC", warm_source(cfg_or), ctype="int"))
 
 
-# Fast AMA (cfg["accelerated"], mpc_cores.admm.model.AdmmFixed): nu holds nu^, prev the last iteration's nu,
-# dd the iteration's d, idx the momentum index
-ACC_DECL = "\n    int64_t prev[N], dd[N], cand[N];\n    int idx = 0;"
+# Accelerated (cfg["accelerated"], mpc_cores.admm.model.AdmmFixed): the states hold x^, prev_x the last iteration's
+# x, hat_x the x an iteration read (the residual test), dd the iteration's d (AMA's gradient test), idx the momentum
+# index, thr the residual test's threshold (-1: none yet)
+def _keys(cfg: dict) -> tuple[str, ...]:
+    return ACC_STATES[cfg.get("method", "admm")]
+
+
+def acc_decl(cfg: dict) -> str:
+    ks = _keys(cfg)
+    arrays = [f"prev_{k}[N], cand_{k}[N]" for k in ks] + (["dd[N]"] if ks == ("nu",) else
+                                                          [f"hat_{k}[N]" for k in ks])
+    thr = "" if ks == ("nu",) else ", thr = -1"
+    return f"\n    int64_t {', '.join(arrays)}{thr};\n    int idx = 0;"
+
+
+def acc_start(cfg: dict) -> str:
+    return "    for (i = 0; i < N; i++) {\n" + "".join(f"        prev_{k}[i] = {k}[i];\n" for k in _keys(cfg)) + "    }\n"
+
+
+def acc_hat(cfg: dict) -> str:
+    if _keys(cfg) == ("nu",):
+        return ""
+    return ("        for (i = 0; i < N; i++) {                       /* x^, what this iteration reads */\n"
+            + "".join(f"            hat_{k}[i] = {k}[i];\n" for k in _keys(cfg)) + "        }\n")
+
+
 ACC_KEEP_D = "\n            dd[i] = d;"
-ACC_START = "    for (i = 0; i < N; i++)\n        prev[i] = nu[i];\n"
 
 
 def _momentum(cfg: dict) -> str:
     if not cfg.get("accelerated"):
         return ""
-    return (f"#define NMOM {len(cfg['momentum'])}\n/* fast AMA: the momentum words (a_i - 1) / a_(i+1) */\n"
-            + emit.array("MOM", cfg["momentum"]))
+    return (f"#define NMOM {len(cfg['momentum'])}\n#define ETA_SHIFT {ETA_SHIFT}\n"
+            "/* accelerated: the momentum words (a_i - 1) / a_(i+1) */\n" + emit.array("MOM", cfg["momentum"]))
 
 
-def acc_step(sat) -> str:
-    """After the nu update: the gradient test, the candidates nu + mom (nu - prev), and after every iteration but
-    the last the next nu^ (the candidate, or nu on a restart) and the momentum index."""
+def acc_step(cfg: dict, sat) -> str:
+    """After the nu update: the restart test (AMA: gradient; ADMM, Vu-Condat: the combined residual against the
+    threshold), the candidates x + mom (x - prev), and after every iteration but the last the next x^ (the
+    candidate, or x on a restart) and the momentum index."""
+    ks = _keys(cfg)
+    cands = "".join(f"""
+                cand_{k}[i] = {sat(k, f"{k}[i] + mpc_rnd(MOM[idx] * ({k}[i] - prev_{k}[i]), FRAC_BITS)")};""" for k in ks)
+    if ks == ("nu",):
+        terms = "\n                test += mpc_floor_shift(dd[i] * (nu[i] - prev_nu[i]), FRAC_BITS);"
+        ok = "test >= 0"
+        thr = ""
+    else:
+        terms = "".join(f"""
+                dx = mpc_floor_shift(({k}[i] - hat_{k}[i]) * ({k}[i] - hat_{k}[i]), FRAC_BITS);
+                test += {"-K[i]" if k == "nu" else "K[i]"} >= 0 ? dx * (INT64_C(1) << ({"-K[i]" if k == "nu" else "K[i]"})) : mpc_floor_shift(dx, {"K[i]" if k == "nu" else "-K[i]"});""" for k in ks)
+        ok = "thr < 0 || test < thr"
+        thr = "\n            thr = ok ? test - mpc_floor_shift(test, ETA_SHIFT) : thr + mpc_floor_shift(thr, ETA_SHIFT);"
+    moves = "".join(f"""
+                    prev_{k}[i] = {k}[i];
+                    if (ok)
+                        {k}[i] = cand_{k}[i];""" for k in ks)
     return f"""
-        {{                                              /* fast AMA: gradient test and momentum */
-            int64_t test = 0;
-            for (i = 0; i < N; i++) {{
-                int64_t diff = nu[i] - prev[i];
-                test += mpc_floor_shift(dd[i] * diff, FRAC_BITS);
-                cand[i] = {sat("nu", "nu[i] + mpc_rnd(MOM[idx] * diff, FRAC_BITS)")};
+        {{                                              /* accelerated: restart test and momentum */
+            int64_t test = 0{", dx" if ks != ("nu",) else ""};
+            int ok;
+            for (i = 0; i < N; i++) {{{terms}{cands}
             }}
+            ok = {ok};{thr}
             if (it + 1 < ctrl->imax) {{
-                for (i = 0; i < N; i++) {{
-                    prev[i] = nu[i];
-                    if (test >= 0)
-                        nu[i] = cand[i];
+                for (i = 0; i < N; i++) {{{moves}
                 }}
-                idx = test >= 0 ? (idx + 1 < NMOM ? idx + 1 : idx) : 0;
+                idx = ok ? (idx + 1 < NMOM ? idx + 1 : idx) : 0;
             }}
         }}"""
 
@@ -201,7 +249,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 {_proj(False)}"""
     acc = bool(cfg.get("accelerated"))
     body = f"""\
-    int64_t w[NW + 1], gw[N], z[N], nu[N], v[N], s[N], y[N], q[N];{ACC_DECL if acc else ""}
+    int64_t w[NW + 1], gw[N], z[N], nu[N], v[N], s[N], y[N], q[N];{acc_decl(cfg) if acc else ""}
     /* w = (x, u_prev, r) saturated to its box (SAT), then the constant word 2^b; G~ (w, 1) once per solve */
     for (i = 0; i < NW; i++) {{
         w[i] = mpc_clip(w_in[i], WLO[i], WHI[i]);
@@ -210,8 +258,9 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     w[NW] = INT64_C(1) << FRAC_BITS;
     for (i = 0; i < N; i++)
         gw[i] = mpc_dot(G[i], w, NW + 1, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum);
-{start(cfg)}{ACC_START if acc else ""}\
+{start(cfg)}{acc_start(cfg) if acc else ""}\
     for (it = 0; it < ctrl->imax; it++) {{
+{acc_hat(cfg) if acc else ""}\
         for (i = 0; i < N; i++)                         /* v, the method's operand ({method}) */
             v[i] = {sat("v", V_FIXED[method])};
         if (linstep) {{                                  /* s = M11 v: the caller's (the split) */
@@ -233,8 +282,8 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
             int64_t d;
             z[i] = {sat("z", "z[i]")};
             d = {sat("d", "y[i] - z[i]")};
-            nu[i] = {sat("nu", "nu[i] + mpc_shift_by(d, K[i])")};{ACC_KEEP_D if acc else ""}
-        }}{acc_step(sat) if acc else ""}
+            nu[i] = {sat("nu", "nu[i] + mpc_shift_by(d, K[i])")};{ACC_KEEP_D if acc and _keys(cfg) == ("nu",) else ""}
+        }}{acc_step(cfg, sat) if acc else ""}
     }}
 """
     vectors = capi.selftest_vectors(model, model.wlo, model.whi, int(cfg["widths"]["stream"]), cfg)

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from mpc_cores.admm.model import ESTIMATED, AdmmFixed, momentum_words, wide_widths
+from mpc_cores.admm.model import ACC_STATES, ESTIMATED, AdmmFixed, momentum_words, wide_widths
 from mpc_cores.admm.precondition import Pow2Scaling, ruiz_pow2, scale_qp
 from mpc_cores.admm.problem import BOX, AdmmQP, build_admm_qp
 from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix,
@@ -119,9 +119,16 @@ class AdmmDesign(FixedPointDesign):
         return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{kp}{m}{module_suffix(self.target)}"
 
     def products(self) -> list[tuple[int, int]]:
-        """(a, b) bit widths of the multipliers (AdmmCore): the row dot products, coefficient x operand."""
+        """(a, b) bit widths of the multipliers (AdmmCore): the row dot products, coefficient x operand; accelerated:
+        the momentum lanes' (mom x (x - prev), and d x (nu - prev) or the squares of x - x^)."""
         w = self.widths
-        return [(w["coef"], max(w["v"], w["w"]))]
+        out = [(w["coef"], max(w["v"], w["w"]))]
+        if self.accelerated:
+            cur = {"y": max(w["y"], w["z"]), "z": w["z"], "nu": w["nu"]}
+            for k in ACC_STATES[self.method]:
+                out.append((self.b + 2, cur[k] + 1))
+                out.append((w["d"], cur[k] + 1) if self.method == "ama" else (cur[k] + 1, cur[k] + 1))
+        return out
 
     # ---- cycle contract and resources of 002
     @property
@@ -133,9 +140,10 @@ class AdmmDesign(FixedPointDesign):
 
     @property
     def multipliers(self) -> int:
-        """Table I of 002: P n_A (the rho shifts need none); accelerated: two per momentum lane (one lane per
-        unit, two with soft pairs)."""
-        return self.P * self.n + (2 * self.P * (2 if self.qp.ns else 1) if self.accelerated else 0)
+        """Table I of 002: P n_A (the rho shifts need none); accelerated: per momentum lane (one per unit, two with
+        soft pairs) two per extrapolated state (AMA: two)."""
+        per_lane = 2 * len(ACC_STATES[self.method])
+        return self.P * self.n + (per_lane * self.P * (2 if self.qp.ns else 1) if self.accelerated else 0)
 
     def config(self) -> dict:
         """What an ADMM core generator needs, analogous to FgmDesign.config()."""
@@ -216,9 +224,6 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     if method not in METHODS:
         raise DesignError(f"method must be one of {', '.join(METHODS)}: got {method!r}")
     accelerated = bool(opt("accelerated", False))
-    if accelerated and method != "ama":
-        raise DesignError(f"accelerated is built for method ama (fast AMA with the gradient restart): got method "
-                          f"{method} (accelerated ADMM and Vu-Condat are in `make methods` only, docs/methods.md)")
     if accelerated and problems_option(problem, overrides) > 1:
         raise DesignError("accelerated needs problems = 1 (its momentum state is kept for one problem)")
 

@@ -97,7 +97,17 @@ class AdmmSolveResult:
     y: np.ndarray | None = None   # vucondat: the last y (part of the warm start)
 
 
-MOM_TABLE = 256       # accelerated AMA: momentum words (a_i - 1) / a_(i+1), i = iterations since the (re)start
+MOM_TABLE = 256       # accelerated: momentum words (a_i - 1) / a_(i+1), i = iterations since the (re)start
+# accelerated: the states each method extrapolates (Goldstein et al.; docs/methods.md), and the residual test's
+# factor eta = 1 - 2^-ETA_SHIFT (ADMM, Vu-Condat: restart unless c < eta c_prev; after a restart the threshold grows
+# by 1 + 2^-ETA_SHIFT)
+ACC_STATES = {"ama": ("nu",), "admm": ("z", "nu"), "vucondat": ("y", "z", "nu")}
+ETA_SHIFT = 10
+
+
+def _rho_weighted(a: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """a 2^k for non-negative a: a left shift, or a floor right shift"""
+    return np.where(k >= 0, a << np.maximum(k, 0), a >> np.maximum(-k, 0))
 
 
 def momentum_words(b: int, rounding: str = "nearest") -> np.ndarray:
@@ -212,9 +222,13 @@ class AdmmFixed:
                 peaks[key] = max(peaks[key], int(np.abs(val).max()))
             return val
 
-        if self.accelerated:            # nu holds nu^, what an iteration reads; prev the last iteration's nu
-            prev, idx, restarts = nu.copy(), np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64)
+        if self.accelerated:            # the states hold x^, what an iteration reads; prev the last iteration's x
+            keys = ACC_STATES[self.method]
+            prev = {"y": y.copy(), "z": z.copy(), "nu": nu.copy()}
+            idx, restarts = np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64)
+            thr = np.full(S, -1, dtype=np.int64)          # the residual test's threshold (-1: none yet)
         for it in range(imax):
+            hat = {"y": y, "z": z, "nu": nu}
             if self.method == "ama":
                 v = step("v", -nu)
             elif self.method == "vucondat":
@@ -230,15 +244,25 @@ class AdmmFixed:
             d = step("d", y - z)
             nu = step("nu", nu + shift_by(d, k, rnd))
             if self.accelerated:
-                # the gradient test <nu - nu^, nu - prev>_(1/rho) >= 0 as sum_j floor(d_j (nu_j - prev_j) / 2^b),
-                # the candidate nu + mom_idx (nu - prev); after every iteration but the last the next nu^ is the
-                # candidate (test held) or nu itself (restart: the momentum index back to 0)
-                diff = nu - prev
-                ok = ((d * diff) >> self.b).sum(axis=1) >= 0
-                cand = step("nu", nu + shift_round(self.mom[idx][:, None] * diff, self.b, rnd))
+                cur = {"y": y, "z": z, "nu": nu}
+                diff = {key: cur[key] - prev[key] for key in keys}
+                cand = {key: step(key, cur[key] + shift_round(self.mom[idx][:, None] * diff[key], self.b, rnd))
+                        for key in keys}
+                if self.method == "ama":
+                    # the gradient test <nu - nu^, nu - prev>_(1/rho) >= 0, nu - nu^ = rho d
+                    ok = ((d * diff["nu"]) >> self.b).sum(axis=1) >= 0
+                else:
+                    # the combined residual sum_j rho_j |x_j - x^_j|^2 (nu: 1 / rho_j), below the threshold
+                    c = sum(_rho_weighted((cur[key] - hat[key]) ** 2 >> self.b, -k if key == "nu" else k)
+                            for key in keys).sum(axis=1)
+                    ok = (thr < 0) | (c < thr)
+                    thr = np.where(ok, c - (c >> ETA_SHIFT), thr + (thr >> ETA_SHIFT))
                 if it < imax - 1:
-                    prev = nu
-                    nu = np.where(ok[:, None], cand, nu)
+                    # the next x^: the candidate x + mom_idx (x - prev) when the test held, else x (restart, the
+                    # momentum index back to 0)
+                    prev = cur
+                    nxt = {key: np.where(ok[:, None], cand[key], cur[key]) for key in keys}
+                    y, z, nu = nxt.get("y", y), nxt.get("z", z), nxt.get("nu", nu)
                     idx = np.where(ok, np.minimum(idx + 1, len(self.mom) - 1), 0)
                     restarts += ~ok
             if record:

@@ -19,7 +19,7 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
         raise RuntimeError(f"L_A = {hw['cycles_per_iteration']} - {mom} exceeds eq. (24) of 002: {hw['cycles_eq24']}")
     if bool(hw.get("accelerated", False)) != d.accelerated:
         raise RuntimeError(f"generator and front end disagree on accelerated: {hw.get('accelerated')}")
-    if hw["multipliers"] != d.P * max(d.n, d.nw + 1):
+    if hw["multipliers"] != d.P * max(d.n, d.nw + 1) + d.multipliers - d.P * d.n:
         raise RuntimeError(f"generator and front end disagree on multipliers: {hw['multipliers']}")
     b = d.b
     one = 1 << b

@@ -112,11 +112,12 @@ class AdmmCore(val p: AdmmParams) extends Module {
   })
   val vPad = VecInit((0 until m).map(j => if (j < n) vReg(j).pad(p.opW) else 0.S(p.opW.W)))
 
-  // accelerated (fast AMA): the last iteration's nu, the candidates nu + mom (nu - prev), the momentum index and
-  // word, the gradient test's sum (MomentumLane; one problem)
+  // accelerated (fast AMA, fast ADMM, fast Vu-Condat): per extrapolated state x the last iteration's x and the
+  // candidates x + mom (x - prev), the momentum index and word, the restart test's sum (MomentumLane; one problem)
   val acc      = p.accelerated
-  val prevReg  = if (acc) Reg(Vec(n, SInt(p.nuW.W))) else null
-  val candReg  = if (acc) Reg(Vec(n, SInt(p.nuW.W))) else null
+  val keys     = if (acc) p.accStates else Seq()
+  val prevReg  = keys.map(k => k -> Reg(Vec(n, SInt(p.accCurW(k).W)))).toMap
+  val candReg  = keys.map(k => k -> Reg(Vec(n, SInt(p.accW0(k).W)))).toMap
   val momIdx   = RegInit(0.U(log2Ceil(p.momentum.length.max(2)).W))
   val momReg   = RegInit(0.S(p.momW.W))
   val testSum  = RegInit(0.S(p.accW.W))
@@ -124,8 +125,9 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val enM      = RowToken.enables(tokM1, tokM1.valid && !tokM1.pass0, K)
   val termsNow = Wire(Vec(P, SInt(p.accW.W)))
   val ovfMom   = Wire(Vec(P, Bool()))
-  val candA    = Wire(Vec(P, SInt(p.nuW.W)))
-  val candB    = Wire(Vec(P, SInt(p.nuW.W)))
+  /** per unit, the candidates of lane A (the row) and lane B (a soft pair's state, in its slack's slot) */
+  val candA    = keys.map(k => k -> Wire(Vec(P, SInt(p.accW0(k).W)))).toMap
+  val candB    = keys.map(k => k -> Wire(Vec(P, SInt(p.accW0(k).W)))).toMap
   val ovfNow = Wire(Vec(P, Bool()))
   val codeW  = math.max(1, log2Ceil(p.shifts.length))
   class Lane extends Bundle {
@@ -238,33 +240,44 @@ class AdmmCore(val p: AdmmParams) extends Module {
     laneA(u).y  := ShiftRegister(ShiftRegister(Mux(tokZ.pass0, zA.pad(yRegW), yZ.pad(yRegW)), p.latAdd), p.latAdd)
     laneB(u).y  := ShiftRegister(ShiftRegister(Mux(tokZ.pass0, zB.pad(yRegW), yZB.pad(yRegW)), p.latAdd), p.latAdd)
 
-    // Fast AMA: the momentum lanes take the row's (and its soft partner's) new nu at the write stage.
+    // Accelerated: the momentum lanes take the row's (and its soft partner's) new x at the write stage, with the
+    // x the iteration read (the register, before the write) and the last iteration's.
     if (acc) {
       val tokW1u = tokAt(p.stageW - 1)
-      def prevOf(sel: Int => Option[Int]) =
-        RegNext(VecInit((0 until K).map(k => sel(k).map(j => prevReg(j)).getOrElse(0.S(p.nuW.W))))(tokW1u.k))
+      def stateReg(k: String, j: Int): SInt = k match {
+        case "y" => yReg(0)(j)
+        case "z" => zReg(0)(j)
+        case _   => nuReg(0)(j)
+      }
+      def atSlot(sel: Int => Option[Int], k: String, regOf: Int => SInt) =
+        RegNext(VecInit((0 until K).map(kk => sel(kk).map(regOf).getOrElse(0.S(p.accCurW(k).W))))(tokW1u.k))
       val compA = (k: Int) => p.rows(u)(k).filter(j => p.kind(j) != SoftX)
       val compB = (k: Int) => p.rows(u)(k).filter(j => p.kind(j) == SoftD).map(p.partnerOf)
-      val lanes = Seq((laneA(u).nu, prevOf(compA), ShiftRegister(dAN, p.latAdd), compA),
-        (laneB(u).nu, prevOf(compB), ShiftRegister(dBN, p.latAdd), compB))
-      val outs = lanes.take(if (p.hasSoft) 2 else 1).map { case (cur, prev, d, comp) =>
+      def curOf(l: Lane, k: String): SInt = k match { case "y" => l.y; case "z" => l.z; case _ => l.nu }
+      val lanes = Seq((laneA(u), ShiftRegister(dAN, p.latAdd), compA), (laneB(u), ShiftRegister(dBN, p.latAdd), compB))
+      val codeW1 = ShiftRegister(codeN, p.latAdd)
+      val tokMv  = tokAt(p.stageW + p.momLat)
+      val outs = lanes.take(if (p.hasSoft) 2 else 1).map { case (lane, d, comp) =>
         val m = Module(new MomentumLane(p))
-        m.io.cur  := cur
-        m.io.prev := prev
+        for ((k, i) <- keys.zipWithIndex) {
+          m.io.cur(i)  := curOf(lane, k)
+          m.io.prev(i) := atSlot(comp, k, j => prevReg(k)(j))
+          m.io.hat(i)  := atSlot(comp, k, j => stateReg(k, j))
+        }
         m.io.d    := d
+        m.io.code := codeW1
         m.io.mom  := momReg
-        val live = VecInit((0 until K).map(k => comp(k).nonEmpty.B))(tokAt(p.stageW + p.momLat).k)
+        val live = VecInit((0 until K).map(kk => comp(kk).nonEmpty.B))(tokMv.k)
         (m.io.cand, Mux(live, m.io.term, 0.S), live && m.io.candOvf)
       }
-      val tokMv = tokAt(p.stageW + p.momLat)
-      val on    = tokMv.valid && !tokMv.pass0
-      candA(u)    := outs.head._1
-      candB(u)    := outs.last._1
+      val on = tokMv.valid && !tokMv.pass0
+      for ((k, i) <- keys.zipWithIndex) {
+        candA(k)(u) := outs.head._1(i)
+        candB(k)(u) := outs.last._1(i)
+      }
       termsNow(u) := Mux(on, outs.map(_._2.pad(p.accW)).reduce(_ +& _)(p.accW - 1, 0).asSInt, 0.S)
       ovfMom(u)   := on && outs.map(_._3).reduce(_ || _)
     } else {
-      candA(u) := 0.S
-      candB(u) := 0.S
       termsNow(u) := 0.S
       ovfMom(u) := false.B
     }
@@ -325,17 +338,25 @@ class AdmmCore(val p: AdmmParams) extends Module {
       RowToken.enables(tokW1, tokW1.valid && mine(tokW1, q) && !(tokW1.pass0 && ctl.warmOf(q)), K))
     turn0 && !tok0.pass0
   }
-  // Fast AMA: the candidates land at their rows' momentum stage; at the operand copy after an iteration the next
-  // nu^ is the candidate (the test sum >= 0) or nu itself (restart), prev takes nu, the momentum index advances or
-  // returns to 0 (the copy after the first pass starts the sequence: nu^ = nu, index 0).
+  // Accelerated: the candidates land at their rows' momentum stage. At the operand copy after an iteration the
+  // next x^ is the candidate (the test held) or x itself (restart), prev takes x, the momentum index advances or
+  // returns to 0 (the copy after the first pass starts the sequence: x^ = x, index 0). The test: AMA the gradient
+  // sum >= 0; ADMM, Vu-Condat the residual below the threshold, which then becomes c - c / 2^10 (restart: the
+  // threshold grows by 1 / 2^10; none before the first test of a solve).
   val firstCopy = RegInit(false.B)
-  val testOk    = !testSum(p.accW - 1)
+  val thr       = RegInit(0.S((p.accW + 1).W))  // below 2^(accW - 1) (1 + 2^-10): one bit more than the sum
+  val thrValid  = RegInit(false.B)
+  val testOk    = if (p.method == "ama") !testSum(p.accW - 1) else !thrValid || testSum < thr
   val useCand   = !firstCopy && testOk
-  def nuNext(j: Int): SInt = if (acc) Mux(useCand, candReg(j), nuReg(0)(j)) else ofSlot(nuReg.map(_(j)), tok0.slot)
+  def next(k: String, j: Int, now: SInt): SInt = if (keys.contains(k)) Mux(useCand, candReg(k)(j), now) else now
+  def nuNext(j: Int): SInt = next("nu", j, ofSlot(nuReg.map(_(j)), tok0.slot))
+  def zNext(j: Int): SInt  = next("z", j, ofSlot(zReg.map(_(j)), tok0.slot))
+  def yNext(j: Int): SInt  = next("y", j, ofSlot(yReg.map(_(j)), tok0.slot))
   if (acc) {
-    for (j <- 0 until n) {
-      val (slot, c) = if (p.kind(j) == SoftX) (p.slotOf(j) + 1, candB(p.unitOf(j))) else (p.slotOf(j), candA(p.unitOf(j)))
-      when(enM(slot)) { candReg(j) := c }
+    for (k <- keys; j <- 0 until n) {
+      val u = p.unitOf(j)
+      val (slot, c) = if (p.kind(j) == SoftX) (p.slotOf(j) + 1, candB(k)(u)) else (p.slotOf(j), candA(k)(u))
+      when(enM(slot)) { candReg(k)(j) := c }
     }
     val momRom = VecInit(p.momentum.map(_.S(p.momW.W)))
     val last   = (p.momentum.length - 1).U
@@ -343,22 +364,28 @@ class AdmmCore(val p: AdmmParams) extends Module {
     when(ctl.take) {
       firstCopy := true.B
       testSum   := 0.S
+      thrValid  := false.B
     }
     when(vNow) {
       for (j <- 0 until n) {
-        nuReg(0)(j) := nuNext(j)
-        prevReg(j)  := nuReg(0)(j)
+        if (keys.contains("nu")) { nuReg(0)(j) := nuNext(j); prevReg("nu")(j) := nuReg(0)(j) }
+        if (keys.contains("z")) { zReg(0)(j) := zNext(j); prevReg("z")(j) := zReg(0)(j) }
+        if (keys.contains("y")) { yReg(0)(j) := yNext(j); prevReg("y")(j) := yReg(0)(j) }
       }
-      val next = Mux(firstCopy || !testOk, 0.U, Mux(momIdx === last, momIdx, momIdx + 1.U))
-      momIdx    := next
-      momReg    := momRom(next)
+      val nextIdx = Mux(firstCopy || !testOk, 0.U, Mux(momIdx === last, momIdx, momIdx + 1.U))
+      momIdx    := nextIdx
+      momReg    := momRom(nextIdx)
       testSum   := 0.S
       firstCopy := false.B
+      if (p.method != "ama") when(!firstCopy) {
+        thr      := Mux(testOk, (testSum - (testSum >> EtaShift)).pad(p.accW + 1), thr + (thr >> EtaShift))
+        thrValid := true.B
+      }
     }
   }
   for (j <- 0 until n) {
-    val (v, of) = vOf(ofSlot(zReg.map(_(j)), tok0.slot), nuNext(j),
-      if (vc) Some(ofSlot(yReg.map(_(j)), tok0.slot)) else None, j)
+    val (v, of) = vOf(zNext(j), nuNext(j),
+      if (vc) Some(yNext(j)) else None, j)
     ofV(j) := of
     when(vNow) { vReg(j) := v }
   }

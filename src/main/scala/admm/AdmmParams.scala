@@ -50,7 +50,7 @@ case class AdmmParams(
     /** accelerated: the momentum words (a_i - 1) / a_(i+1), i = iterations since the (re)start (the last repeats) */
     momentum: Seq[BigInt] = Seq()) {
   import AdmmParams._
-  require(!accelerated || method == "ama" && Kp == 1, s"accelerated needs method ama and problems = 1")
+  require(!accelerated || Kp == 1, s"accelerated needs problems = 1")
 
   require(n >= 1, s"n_A must be >= 1, got $n")
   require(nu >= 1 && N >= 1 && N * nu < n, s"need nu >= 1, N >= 1 and N*nu < n_A: got nu=$nu, N=$N, n_A=$n")
@@ -128,8 +128,15 @@ case class AdmmParams(
   require(!accelerated || momentum.nonEmpty, "accelerated needs the momentum words")
   require(momentum.forall(w => w >= 0 && w <= (BigInt(1) << fracBits)), "momentum words must be in [0, 2^frac_bits]")
   val momW: Int = fracBits + 2
-  /** the gradient-test term floor(d (nu - prev) / 2^b) and the sum of n of them */
-  val termW: Int = math.max(2, dW + nuW + 1 - fracBits)
+  /** accelerated: the states the method extrapolates (mpc_cores.admm.model.ACC_STATES), their words, the width of
+    * their new value in the row pipeline (y: the y register's, which holds z after a cold start) */
+  val accStates: Seq[String] = method match { case "ama" => Seq("nu"); case "admm" => Seq("z", "nu"); case _ => Seq("y", "z", "nu") }
+  def accW0(k: String): Int = k match { case "y" => yW; case "z" => zW; case _ => nuW }
+  def accCurW(k: String): Int = if (k == "y") math.max(yW, zW) else accW0(k)
+  /** the restart test's term per component and the sum over all n components and lanes */
+  val termW: Int =
+    if (method == "ama") math.max(2, dW + nuW + 1 - fracBits)
+    else 2 * (accStates.map(accCurW).max + 1) - fracBits + shift.map(math.abs).max + 3
   val accW: Int  = termW + log2Ceil(n + 1) + 1
   /** L_A of eq. (24) of 002. */
   val cyclesEq24: Int = (n + P - 1) / P + latAdd * log2Ceil(n) + latMul + 6 * latAdd + 2
@@ -141,7 +148,8 @@ case class AdmmParams(
   val periodCycles: Int = if (Kp == 1) cyclesPerIteration else math.max(cyclesPerIteration, Kp * K)
   val solveOverhead: Int = if (Kp == 1) 2 + cyclesPerIteration else 3 + cyclesPerIteration + 2
   def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * periodCycles
-  val multipliers: Int = P * m
+  /** P m for the row products; accelerated: two per extrapolated state and momentum lane (two lanes with soft pairs) */
+  val multipliers: Int = P * m + (if (accelerated) 2 * accStates.length * P * (if (hasSoft) 2 else 1) else 0)
 
   require(Seq("admm", "ama", "vucondat").contains(method), s"method must be admm, ama or vucondat: got $method")
   val moduleName: String =
@@ -183,6 +191,8 @@ case class AdmmParams(
 object AdmmParams {
   import gen.ConfigJson.{ints, mat, small}
 
+  /** accelerated ADMM and Vu-Condat: the residual restart's eta = 1 - 2^-EtaShift (mpc_cores.admm.model.ETA_SHIFT) */
+  val EtaShift = 10
   val Free = 0
   val Box = 1
   val SoftX = 2
