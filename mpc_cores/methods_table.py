@@ -119,7 +119,8 @@ def _fmt_it(s: dict) -> str:
 
 def _hardware_admm(p: MpcProblem, cfg: Config) -> dict:
     kw = {} if cfg.design_sizing is None else {"sizing_solves": cfg.design_sizing}
-    d = design_admm(p, **kw)
+    # (explicit: a spec written for the DGP, masses_state, sets `accelerated: true` for its own core)
+    d = design_admm(p, accelerated=False, **kw)
     acc = {m: design_admm(p, method=m, accelerated=True, **kw) for m in SPLITTING}
     return {"cycles": int(d.cycles_per_iteration), "multipliers": int(d.multipliers), "rho_vec": d.rho_vec,
             "label": f"design_admm: n_A = {d.n}, P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}",
