@@ -138,7 +138,8 @@ class SplitSetup:
         return "rho = " + ", ".join(f"2^{v}" for v in k)
 
 
-def split_setup(qp: AdmmQP, method: str, rho_vec: np.ndarray, precondition: bool = False) -> SplitSetup:
+def split_setup(qp: AdmmQP, method: str, rho_vec: np.ndarray, precondition: bool = False,
+                accelerated: bool = False) -> SplitSetup:
     """The data of one method: ADMM and Vu-Condat take rho_vec (the design's rho_j); AMA its uniform step from mu."""
     if method not in SPLITTING:
         raise ValueError(f"unknown splitting method {method!r} (expected one of {SPLITTING})")
@@ -149,7 +150,8 @@ def split_setup(qp: AdmmQP, method: str, rho_vec: np.ndarray, precondition: bool
         mu = reduced_curvature(q)
         if not mu > 0:
             raise ValueError(f"AMA needs H positive definite on Ker F: lambda_min(Z'HZ) = {mu:.3g}")
-        rho = np.full(qp.n, pow2_below(2.0 * mu))
+        # Tseng's bound 2 mu; fast AMA (accelerated) mu, the dual gradient's 1 / Lipschitz constant
+        rho = np.full(qp.n, pow2_below(mu if accelerated else 2.0 * mu))
         M11, G = kkt_blocks(q, np.zeros(qp.n))
     else:
         rho = np.asarray(rho_vec, dtype=float)

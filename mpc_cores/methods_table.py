@@ -195,8 +195,8 @@ def study_example(p0: MpcProblem, cfg: Config, log=sys.stderr) -> dict:
 
     for method in SPLITTING:
         for pre in (False, True):
-            st = split_setup(qp, method, hw["rho_vec"], precondition=pre)
             for acc in (False, True):
+                st = split_setup(qp, method, hw["rho_vec"], precondition=pre, accelerated=acc)
                 t0 = time.perf_counter()
                 tr = Tracker(Zs, TOLS)
                 with np.errstate(all="ignore"):

@@ -244,7 +244,10 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
         if not mu > 1e-9:
             raise DesignError(f"method ama needs H_A positive definite on Ker F (the unaugmented step): its smallest "
                               f"eigenvalue there is {mu:.3g}; use method admm or vucondat")
-        kdef = math.floor(math.log2(2 * mu)) - (1 if 2.0 ** math.floor(math.log2(2 * mu)) >= 2 * mu else 0)
+        # the step bound: 2 mu for AMA (Tseng), mu for fast AMA (a gradient method on the dual, whose gradient is
+        # 1/mu-Lipschitz: Nesterov's momentum needs the step 1/L; measured, steps in [mu, 2 mu) diverge)
+        bound = mu if accelerated else 2 * mu
+        kdef = math.floor(math.log2(bound)) - (1 if 2.0 ** math.floor(math.log2(bound)) >= bound else 0)
         k = _pow2_exponent(opt_m("rho", 2.0 ** kdef), "rho")
         s_soft = _pow2_exponent(opt_m("soft_scale", 1.0), "soft_scale")
         s_du = _pow2_exponent(opt_m("du_scale", 1.0), "du_scale")
@@ -257,9 +260,11 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     shift[qp.soft_d] += s_soft
     shift[: qp.N * qp.nu] += s_du
     rho_vec = np.ldexp(1.0, shift)
-    if method == "ama" and not rho_vec.max() < 2 * mu:
-        raise DesignError(f"method ama needs every rho_j < 2 mu = {2 * mu:.6g} (mu = lambda_min of H_A on Ker F): "
-                          f"got max rho_j = {rho_vec.max():g}; lower rho, soft_scale or du_scale")
+    if method == "ama" and not rho_vec.max() < bound:
+        what = "mu" if accelerated else "2 mu"
+        raise DesignError(f"method ama{' accelerated' if accelerated else ''} needs every rho_j < {what} = {bound:.6g} "
+                          f"(mu = lambda_min of H_A on Ker F): got max rho_j = {rho_vec.max():g}; lower rho, "
+                          f"soft_scale or du_scale")
     if scaling is not None:
         shift = shift - scaling.c - 2 * scaling.d
         rho_vec = np.ldexp(1.0, shift)
