@@ -6,7 +6,7 @@ from mpc_cores.soak.space import (Config, SoakSpace, fixed_point_solve_cycles, p
                                   target_latency)
 
 
-def draw(rng) -> Config:
+def _draw(rng) -> Config:
     nx, nu, N = int(rng.integers(1, 5)), int(rng.integers(1, 3)), int(rng.integers(2, 6))
     soft = int(rng.integers(0, min(nx, 2) + 1)) if rng.random() < 0.5 else 0
     hard = int(rng.integers(1, nx - soft + 1)) if nx > soft and rng.random() < 0.4 else 0
@@ -19,6 +19,14 @@ def draw(rng) -> Config:
                              output_all=bool(rng.random() < 0.3), problems=problems(rng)))
 
 
+def draw(rng) -> Config:
+    """_draw, with the accelerated method (momentum lanes, restart) in half the one-problem designs"""
+    c = _draw(rng)
+    if c.design.get("problems", 1) == 1 and rng.random() < 0.5:
+        return Config(c.spec, dict(c.design, accelerated=True))
+    return c
+
+
 SOAK = SoakSpace(
     draw=draw, test="bitexact_random", count_knob="CORE_RANDOM", measured="cases",
     cycles_per_solve=fixed_point_solve_cycles, solves_per_config=400,
@@ -29,7 +37,7 @@ SOAK = SoakSpace(
            "to the remaining states (40 %); box of accepted states; 0 to min(nx, nu) tracked states",
            "design: P in [1, 6], frac_bits in [14, 20], lat_add in [0, 3], target generic (50 %, lat_mul in "
            "[0, 3]), ecp5 or xilinx7 (lat_mul the target's minimum or in [4, 6]), rounding truncate or nearest, Imax in [10, 40], rho in {1, 2, 4}, warm start (80 %), full output (30 %), K_p = 1 (60 %) or in [2, 4] problems "
-           "interleaved",
+           "interleaved; accelerated (momentum lanes, restart) in half the one-problem designs",
            "solves (verif/tb.py bitexact_random): random parameters, 5 % of words outside the box, random warm or "
            "cold start and Imax, random idle and backpressure on both streams; interleaving cores: batches of up "
            "to 2 K_p frames for random problem ids, all in flight"),
@@ -43,15 +51,11 @@ def _with_method(method: str) -> SoakSpace:
         c = draw(rng)
         d = dict(c.design, method=method)
         if method == "ama":
-            d.pop("rho")               # AMA's step comes from the problem (below 2 mu)
-            if d.get("problems", 1) == 1 and rng.random() < 0.5:
-                d["accelerated"] = True   # fast AMA (one problem)
+            d.pop("rho")               # AMA's step comes from the problem (below 2 mu; accelerated: below mu)
         return Config(c.spec, d)
     return SoakSpace(draw=draw_m, test=SOAK.test, count_knob=SOAK.count_knob, measured=SOAK.measured,
                      cycles_per_solve=SOAK.cycles_per_solve, solves_per_config=SOAK.solves_per_config,
-                     space=SOAK.space[:2] + (SOAK.space[2] + f"; method {method}" + (
-                         "; accelerated (fast AMA) in half the one-problem designs" if method == "ama" else ""),)
-                     + SOAK.space[3:])
+                     space=SOAK.space[:2] + (SOAK.space[2] + f"; method {method}",) + SOAK.space[3:])
 
 
 AMA_SOAK = _with_method("ama")
