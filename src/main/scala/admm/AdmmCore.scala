@@ -243,14 +243,16 @@ class AdmmCore(val p: AdmmParams) extends Module {
     // Accelerated: the momentum lanes take the row's (and its soft partner's) new x at the write stage, with the
     // x the iteration read (the register, before the write) and the last iteration's.
     if (acc) {
-      val tokW1u = tokAt(p.stageW - 1)
+      // read at the write stage itself: the row's own write lands at its end, and the operand copy of the last
+      // iteration has landed even when the pipeline is a single stage (W = 1)
+      val tokWu = tokAt(p.stageW)
       def stateReg(k: String, j: Int): SInt = k match {
         case "y" => yReg(0)(j)
         case "z" => zReg(0)(j)
         case _   => nuReg(0)(j)
       }
       def atSlot(sel: Int => Option[Int], k: String, regOf: Int => SInt) =
-        RegNext(VecInit((0 until K).map(kk => sel(kk).map(regOf).getOrElse(0.S(p.accCurW(k).W))))(tokW1u.k))
+        VecInit((0 until K).map(kk => sel(kk).map(regOf).getOrElse(0.S(p.accCurW(k).W))))(tokWu.k)
       val compA = (k: Int) => p.rows(u)(k).filter(j => p.kind(j) != SoftX)
       val compB = (k: Int) => p.rows(u)(k).filter(j => p.kind(j) == SoftD).map(p.partnerOf)
       def curOf(l: Lane, k: String): SInt = k match { case "y" => l.y; case "z" => l.z; case _ => l.nu }
