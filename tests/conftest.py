@@ -158,9 +158,11 @@ ADMM_CASES = {
     # fast AMA (accelerated: momentum lanes, gradient restart) with soft pairs, both momentum lanes in use
     "rand_soft_n19_p3_ama_acc": (lambda: random_problem("rma19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
                                  dict(P=3, frac_bits=16, method="ama", accelerated=True, iterations=30), 12),
-    # fast ADMM and fast Vu-Condat (residual restart; z, nu and y, z, nu extrapolated) with soft pairs
+    # fast ADMM and fast Vu-Condat (residual restart; z, nu and y, z, nu extrapolated) with soft pairs; ADMM with a
+    # one-stage pipeline (l_A = l_M = 0: the next iteration's first row reads the momentum state in the cycle after
+    # the operand copy)
     "rand_soft_n19_p3_admm_acc": (lambda: random_problem("rma19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
-                                  dict(P=3, frac_bits=16, accelerated=True, iterations=30), 12),
+                                  dict(P=3, frac_bits=16, accelerated=True, iterations=30, lat_add=0, lat_mul=0), 12),
     "rand_soft_n19_p3_vucondat_acc": (lambda: random_problem("rma19", 2, 1, 3, 1, 5, input_rate=RATE,
                                                              soft_states=SOFT1),
                                       dict(P=3, frac_bits=16, method="vucondat", accelerated=True, iterations=30), 12),
