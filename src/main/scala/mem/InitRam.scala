@@ -78,7 +78,7 @@ class InitRam(
        |  input      [${lanes - 1}:0] wmask,
        |  input      [${rowW - 1}:0] wdata
        |);
-       |  reg wen_q = 1'b0;
+       |  reg wen_q;
        |  reg [${addrW - 1}:0] waddr_q;
        |  reg [${lanes - 1}:0] wmask_q;
        |  reg [${rowW - 1}:0] wdata_q;
