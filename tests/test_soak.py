@@ -42,7 +42,12 @@ def soaked(tmp_path_factory):
 SOAKED = [n for n in registry.names() if registry.get(n).generator_main != "admm.AdmmMain" or n == "admm"]
 
 
-@pytest.mark.parametrize("name", SOAKED)
+# `make test` soaks the two fixed-point datapaths; the float cores' (MINRES, the interior-point core) and the DGP's
+# short soaks, whose RTL their own suites check word for word, run with `make test-slow` (and `make soak`)
+SLOW = {"minres", "ipm", "dgp"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in SOAKED])
 def test_short_soak(name, soaked):
     s, out = soaked(name)
     t = totals(s)
