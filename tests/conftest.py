@@ -111,6 +111,16 @@ def _certified_masses(tol: float):
     return design_for_tolerance(load_spec(REPO / "examples/masses.yaml"), tol)[0]
 
 
+# RTL cases of the example problems at full size: `make test-slow` (their blocks run in the small cases of make test:
+# K = 1 in rand_n4_p4_b10, soft pairs and round to nearest in the random ADMM cases)
+SLOW_CASES = {"masses_p40_b14_l23", "masses_soft_p4_b18"}
+
+
+def case_params(ids):
+    """The case ids as pytest parameters, those of SLOW_CASES marked slow."""
+    return [pytest.param(c, marks=pytest.mark.slow) if c in SLOW_CASES else c for c in ids]
+
+
 # Cores with a certified design (make design TOL=...), for the guarantee checks on the RTL.
 CERTIFIED = {"masses_tol1e-2": lambda: _certified_masses(1e-2)}
 

@@ -10,7 +10,7 @@ import json
 
 import pytest
 
-from conftest import ADMM_CASES
+from conftest import ADMM_CASES, case_params
 from mpc_cores.flow import GeneratorError, run_generator
 from mpc_cores.sim import run_cocotb
 
@@ -20,7 +20,7 @@ SCENARIOS = 9  # cocotb tests in verif/admm/tb.py
 PLAIN = [c for c in ADMM_CASES if not c.endswith("_acc")]
 
 
-@pytest.mark.parametrize("cid", PLAIN)
+@pytest.mark.parametrize("cid", case_params(PLAIN))
 def test_rtl_matches_golden_model(cid, admm_cores, request):
     out = admm_cores[cid]
     core = json.loads((out / "core.json").read_text())

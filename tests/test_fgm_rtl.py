@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 import pytest
 
-from conftest import CASES
+from conftest import CASES, case_params
 from mpc_cores.flow import GeneratorError, run_generator
 from mpc_cores.sim import run_cocotb
 
@@ -18,7 +18,7 @@ SEEDS = {"soak_11000017_n6_p5_k4": 11000017}
 
 
 
-@pytest.mark.parametrize("cid", list(CASES))
+@pytest.mark.parametrize("cid", case_params(CASES))
 def test_rtl_matches_golden_model(cid, cores, request):
     out = cores[cid]
     core = json.loads((out / "core.json").read_text())

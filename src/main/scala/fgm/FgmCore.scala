@@ -98,7 +98,11 @@ class FgmCore(val p: FgmParams) extends Module {
   val tokSum  = tokAt(p.stageSum)
   val tokT    = tokAt(p.stageT)
   val tokZ    = tokAt(p.stageZ)
-  val tokBnd  = tokAt(p.stageT - 2)
+  // The bounds reach the projection a cycle after the block RAM's output register, through a fabric register,
+  // where the pipeline is deep enough to address them a cycle earlier: the DP16KD's clock-to-output delay then
+  // stays off the projection's comparators.
+  val bndRegd = p.stageT >= 2
+  val tokBnd  = tokAt(p.stageT - (if (bndRegd) 3 else 2))
   val tokYsub = tokAt(p.stageZ + p.latMul)
   // The FIFOs' controls, per problem, each the registered condition on the token a stage earlier: they fan out to
   // every register of the FIFOs, so they come straight from flip-flops (tok1 is tok0 registered; stageZ >= 1)
@@ -139,9 +143,13 @@ class FgmCore(val p: FgmParams) extends Module {
       hFifo(j)(u)(K - 1) := Mux(tokSum.pass0, tree.io.sum, hFifo(j)(u)(0))
     }
 
-    // Cold start z0 = proj(0), from this row's bounds during the first pass.
-    val lo1 = bndRam(u).io.rdata(p.zW - 1, 0).asSInt
-    val hi1 = bndRam(u).io.rdata(2 * p.zW - 1, p.zW).asSInt
+    // The bounds of the row reaching the projection (stage T), and the cold start z0 = proj(0) from this row's
+    // bounds during the first pass: with one problem straight from the memory, addressed by tokN; with several
+    // at the projection stage, as the iteration rows.
+    val bnd = if (bndRegd) RegNext(bndRam(u).io.rdata) else bndRam(u).io.rdata
+    val bndCold = if (Kp == 1) bndRam(u).io.rdata else bnd
+    val lo1 = bndCold(p.zW - 1, 0).asSInt
+    val hi1 = bndCold(2 * p.zW - 1, p.zW).asSInt
     // registered: it fans out to the rows of the unit across the chip (written a cycle later, weCold)
     unitCold(u) := RegNext(Mux(!lo1(p.zW - 1) && lo1 =/= 0.S, lo1, Mux(hi1(p.zW - 1), hi1, 0.S)))
 
@@ -151,8 +159,8 @@ class FgmCore(val p: FgmParams) extends Module {
     // z+ = proj(t) on [lo, hi] of this row
     val proj = Module(new BoxProjection(p.tW, p.zW, p.latAdd))
     proj.io.in := tD
-    proj.io.lo := bndRam(u).io.rdata(p.zW - 1, 0).asSInt
-    proj.io.hi := bndRam(u).io.rdata(2 * p.zW - 1, p.zW).asSInt
+    proj.io.lo := bnd(p.zW - 1, 0).asSInt
+    proj.io.hi := bnd(2 * p.zW - 1, p.zW).asSInt
     val z = proj.io.out
     // y+ = (1 + beta) z+ - beta z, z the previous iterate of the same row: the head of the z FIFO, which the
     // first iteration loads from the z0 registers (rows u, u+P, ...) as it reads it.
