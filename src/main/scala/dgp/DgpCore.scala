@@ -124,7 +124,7 @@ class DgpCore(val p: DgpParams) extends Module {
   // a frame's saturation belongs to its solve (the frame may arrive while the previous one runs)
   val frameSat = RegInit(false.B)
   when(frameIn.io.sat) { frameSat := true.B }
-  when(take) { solveSat := frameSat; frameSat := false.B }
+  when(take) { solveSat := frameSat || frameIn.io.sat; frameSat := false.B } // the last word's pulse may come with take
   when(st =/= St.idle && st =/= St.out) { cycles := cycles + 1.U }
 
   val issuing   = st === St.issue

@@ -3,7 +3,6 @@ package shell
 import chisel3._
 import chisel3.util._
 import bus.AxiStreamIO
-import fixed.FixedOps
 import mem.InitRam
 
 /** Input frame of a solver core: `words` signed words on s_axis, each saturated to its box [lo_j, hi_j] (held in
@@ -34,7 +33,7 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
     val frame = Output(Vec(words, SInt(wordW.W)))
     /** some words of a frame have arrived */
     val partial = Output(Bool())
-    /** pulses: a word saturated; a tlast was misplaced */
+    /** pulses: a word saturated (a cycle after its handshake); a tlast was misplaced */
     val sat      = Output(Bool())
     val tlastErr = Output(Bool())
     /** box rewrite: word j, bound hi (else lo) */
@@ -66,7 +65,19 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   boxRam.io.raddr := Mux(fire, cntNext, cnt)
   val lo = boxRam.io.rdata(wordW - 1, 0).asSInt
   val hi = boxRam.io.rdata(2 * wordW - 1, wordW).asSInt
-  val (v, clamped) = FixedOps.clamp(io.s_axis.tdata.asSInt, lo, hi)
+  // A word's comparisons against its box end in registers in the cycle of its handshake; the clamped word is
+  // written a cycle later. The last word of a frame reaches io.frame through a bypass in that cycle, so the frame
+  // is whole when `full` rises (the cores take it from then on; they read no word of a partial frame).
+  val x       = io.s_axis.tdata.asSInt
+  val pend    = RegNext(fire, false.B)
+  val pendEnd = RegNext(fire && last, false.B)
+  val pendIdx = RegEnable(cnt, fire)
+  val pendX   = RegEnable(x(wordW - 1, 0).asSInt, fire) // the word itself is taken only when it is in its box
+  val below   = RegEnable(x < lo, fire)
+  val above   = RegEnable(x > hi, fire)
+  val pendLo  = RegEnable(lo, fire)
+  val pendHi  = RegEnable(hi, fire)
+  val v       = Mux(below, pendLo, Mux(above, pendHi, pendX))
   // the problem id: the first word's tuser, saturated to the problems there are
   val idReg = RegInit(0.U(idW.W))
   val idSat = io.s_axis.tuser.map(u => u >= ids.U && atZero).getOrElse(false.B)
@@ -74,10 +85,10 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
     when(fire && atZero) { idReg := Mux(u >= ids.U, (ids - 1).U, u) }
   }
   io.id := idReg
-  io.sat      := fire && (clamped || idSat)
+  io.sat      := pend && (below || above || RegNext(idSat))
   io.tlastErr := fire && (io.s_axis.tlast =/= last)
+  when(pend) { buf(pendIdx) := v }
   when(fire) {
-    buf(cnt) := v(wordW - 1, 0).asSInt
     cnt      := cntNext
     cntNext  := Mux(cntNext === (words - 1).U, 0.U, cntNext + 1.U)
     last     := cntNext === (words - 1).U
@@ -87,6 +98,6 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   when(io.take) { full := false.B }
   bus.Protocol.noOverflow("input frame", fire, !full)
   io.full    := full
-  io.frame   := buf
+  io.frame   := VecInit(buf.init :+ Mux(pendEnd, v, buf.last))
   io.partial := !atZero
 }
