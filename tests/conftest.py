@@ -111,9 +111,10 @@ def _certified_masses(tol: float):
     return design_for_tolerance(load_spec(REPO / "examples/masses.yaml"), tol)[0]
 
 
-# RTL cases of the example problems at full size: `make test-slow` (their blocks run in the small cases of make test:
-# K = 1 in rand_n4_p4_b10, soft pairs and round to nearest in the random ADMM cases)
-SLOW_CASES = {"masses_p40_b14_l23", "masses_soft_p4_b18"}
+# RTL cases of the example problems at full size beyond masses_p1_b16: `make test-slow` (their blocks run in the
+# small cases of make test: K = 1 in rand_n4_p4_b10, round to nearest in rand_n7_p2_b14_nearest_x7, K_p = 3 in
+# rand_n4_p1_b12_k3, the ecp5 target in afm_p2_b16_ecp5; soft pairs and round to nearest in the random ADMM cases)
+SLOW_CASES = {"masses_p40_b14_l23", "masses_p3_b12_nearest", "masses_p3_b14_k3_ecp5", "masses_soft_p4_b18"}
 
 
 def case_params(ids):
