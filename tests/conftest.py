@@ -117,9 +117,9 @@ def _certified_masses(tol: float):
 SLOW_CASES = {"masses_p40_b14_l23", "masses_p3_b12_nearest", "masses_p3_b14_k3_ecp5", "masses_soft_p4_b18"}
 
 
-def case_params(ids):
-    """The case ids as pytest parameters, those of SLOW_CASES marked slow."""
-    return [pytest.param(c, marks=pytest.mark.slow) if c in SLOW_CASES else c for c in ids]
+def case_params(ids, slow=SLOW_CASES):
+    """The ids as pytest parameters, those in `slow` (by default SLOW_CASES) marked slow."""
+    return [pytest.param(c, marks=pytest.mark.slow) if c in slow else c for c in ids]
 
 
 # Cores with a certified design (make design TOL=...), for the guarantee checks on the RTL.

@@ -12,6 +12,7 @@ import json
 import numpy as np
 import pytest
 
+from conftest import case_params
 from mpc_cores import registry
 from mpc_cores.errors import DesignError, SpecError
 from mpc_cores.flow import REPO
@@ -47,7 +48,7 @@ SOAKED = [n for n in registry.names() if registry.get(n).generator_main != "admm
 SLOW = {"minres", "ipm", "dgp", "admm"}
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in SOAKED])
+@pytest.mark.parametrize("name", case_params(SOAKED, SLOW))
 def test_short_soak(name, soaked):
     s, out = soaked(name)
     t = totals(s)

@@ -154,6 +154,9 @@ object FixedOps {
   def clamp(x: SInt, lo: SInt, hi: SInt): (SInt, Bool) = {
     val below = x < lo
     val above = x > hi
-    (Mux(below, lo, Mux(above, hi, x)), below || above)
+    (clampSelect(below, above, x, lo, hi), below || above)
   }
+
+  /** The select of `clamp` from its two comparisons (a pipeline may register them in between). */
+  def clampSelect(below: Bool, above: Bool, x: SInt, lo: SInt, hi: SInt): SInt = Mux(below, lo, Mux(above, hi, x))
 }

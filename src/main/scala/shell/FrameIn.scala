@@ -3,6 +3,7 @@ package shell
 import chisel3._
 import chisel3.util._
 import bus.AxiStreamIO
+import fixed.FixedOps
 import mem.InitRam
 
 /** Input frame of a solver core: `words` signed words on s_axis, each saturated to its box [lo_j, hi_j] (held in
@@ -77,7 +78,7 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   val above   = RegEnable(x > hi, fire)
   val pendLo  = RegEnable(lo, fire)
   val pendHi  = RegEnable(hi, fire)
-  val v       = Mux(below, pendLo, Mux(above, pendHi, pendX))
+  val v       = FixedOps.clampSelect(below, above, pendX, pendLo, pendHi)
   // the problem id: the first word's tuser, saturated to the problems there are
   val idReg = RegInit(0.U(idW.W))
   val idSat = io.s_axis.tuser.map(u => u >= ids.U && atZero).getOrElse(false.B)
