@@ -17,7 +17,7 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
   override def desiredName = s"FDiv_${fmt.tag}_l$latency"
 
   private val qW = FDiv.quotientBits(fmt)
-  val stages = Stages(latency, FDiv.steps(fmt))
+  val stages = Stages(latency, FDiv.weights(fmt))
 
   // ---- step 0: classify and specials
   val s0 = Wire(new Bundle {
@@ -91,7 +91,10 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
 object FDiv {
   /** A quotient in (1/2, 2): manW+1 kept bits, a guard bit, and one more for the case quotient < 1. */
   def quotientBits(fmt: FloatFormat): Int = fmt.manW + 3
-  def steps(fmt: FloatFormat): Int        = 2 + quotientBits(fmt) + RoundPack.steps
+  /** Step weights (Stages): classify, normalise, one per quotient bit (a subtracter and a select), then RoundPack's. */
+  def weights(fmt: FloatFormat): Seq[Int] =
+    Seq(3, 8) ++ Seq.fill(quotientBits(fmt))(3) ++ RoundPack.weights(fmt, quotientBits(fmt), maxLz = 1)
+  def steps(fmt: FloatFormat): Int        = weights(fmt).length
   /** About two quotient bits per cycle. */
-  def defaultLatency(fmt: FloatFormat): Int = (steps(fmt) + 1) / 2
+  def defaultLatency(fmt: FloatFormat): Int = (quotientBits(fmt) + 7) / 2
 }

@@ -5,10 +5,12 @@ import chisel3.util._
 
 /** a * b rounded to nearest even, in `latency` cycles, with its own rounding path (not RoundPack).
   *
-  * Steps: 0 classify, normalise the subnormal operand; 1 exponent (a register after it lands on the multiplier's
-  * inputs); 2 the significand product, cut to its top manW + 3 bits and a sticky bit; 3 the 1-bit
-  * normalisation and the shift into the subnormal range, both as one right shift that drops its bits into the
-  * sticky bit; 4 round to nearest even; 5 exponent field with the rounding carry, overflow; 6 specials and flags.
+  * Steps (`FMul.weights`): classify and pick the operand to normalise; its leading-zero normalisation, two
+  * levels a step; the exponent as the right shift needs it (a register after it lands on the multiplier's
+  * inputs); the significand product (wider than 18 x 18: registered partial products, then their sum); the
+  * product cut to its top manW + 3 bits and a sticky bit; the 1-bit normalisation and the shift into the
+  * subnormal range, both as one right shift that drops its bits into the sticky bit (wide levels, then narrow
+  * ones); round to nearest even; exponent field with the rounding carry, overflow; specials and flags.
   *
   * Why it is exact: one normaliser suffices. If exactly one operand is subnormal, it is normalised (its leading
   * one moved to the hidden bit), and the product of two [1, 2) significands lies in [1, 4): its MSB or the bit
@@ -27,7 +29,7 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
 
   override def desiredName = s"FMul_${fmt.tag}_l$latency"
 
-  val stages = Stages(latency, FMul.steps)
+  val stages = Stages(latency, FMul.weights(fmt))
   private val m      = fmt.manW
   private val w      = fmt.sigW
   private val winW   = m + 3                 // product bits kept past step 2: significand, guard, one below
@@ -56,33 +58,42 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
     val base   = UInt(fieldW.W)  // beP - 2 (mod 2^fieldW)
   }
 
-  // ---- step 0: classify, normalise the subnormal operand (a if subnormal, else b), exponent fields
-  val s0 = Wire(new Bundle {
+  private var step = 0
+  private def cut[T <: Data](x: T): T = { val r = stages.cut(step, x); step += 1; r }
+
+  // ---- classify, pick the subnormal operand (a if subnormal, else b) to normalise, exponent fields
+  class Norm extends Bundle {
     val x    = UInt(w.W)
     val y    = UInt(w.W)
     val lz   = UInt(log2Ceil(w).W)
     val eSum = SInt(pW.W) // beP + lz
     val spc  = new Special
-  })
+  }
   private val ua   = Unpack(fmt, a)
   private val ub   = Unpack(fmt, b)
   private val aSub = !ua.sig(m)
-  private val (xn, lz) = Shift.normalise(Mux(aSub, ua.sig, ub.sig))
   private def expField(u: UInt) = { val e = u(fmt.width - 2, m); Mux(e === 0.U, 1.U, e) } // subnormal: 1
   private val zeroTimesInf = (ua.isZero && ub.isInf) || (ua.isInf && ub.isZero)
-  s0.x           := xn
+  val s0 = Wire(new Norm)
+  s0.x           := Mux(aSub, ua.sig, ub.sig)
   s0.y           := Mux(aSub, ub.sig, ua.sig)
-  s0.lz          := lz
+  s0.lz          := 0.U
   s0.eSum        := ((expField(a) +& expField(b)).zext.pad(pW) - (fmt.bias - 1).S)(pW - 1, 0).asSInt
   s0.spc.sign    := ua.sign ^ ub.sign
   s0.spc.isNaN   := ua.isNaN || ub.isNaN || zeroTimesInf
   s0.spc.isInf   := ua.isInf || ub.isInf
   s0.spc.isZero  := ua.isZero || ub.isZero
   s0.spc.invalid := ua.isSNaN || ub.isSNaN || zeroTimesInf
-  val r0 = stages.cut(0, s0)
+  private val norm = Shift.groups(FMul.levels(fmt)).foldLeft(cut(s0)) { (r, ks) =>
+    val s = Wire(new Norm)
+    val (v, _, bits) = Shift.normaliseLevels(r.x, true.B, None, ks)
+    s    := r
+    s.x  := v
+    s.lz := ks.zip(bits).map { case (k, b) => b.asUInt << k }.foldLeft(r.lz)(_ | _)
+    cut(s)
+  }
 
-  // ---- step 1: the exponent as the right shift needs it (a register after this step lands on the
-  // multiplier's inputs)
+  // ---- the exponent as the right shift needs it (a register after this step lands on the multiplier's inputs)
   val s1 = Wire(new Bundle {
     val x   = UInt(w.W)
     val y   = UInt(w.W)
@@ -90,52 +101,110 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
     val spc = new Special
   })
   private val beP = Wire(SInt(pW.W))
-  beP := (r0.eSum - r0.lz.zext)(pW - 1, 0).asSInt
-  s1.x        := r0.x
-  s1.y        := r0.y
+  beP := (norm.eSum - norm.lz.zext)(pW - 1, 0).asSInt
+  s1.x        := norm.x
+  s1.y        := norm.y
   s1.e.low    := beP <= 0.S
   s1.e.edge   := beP === 1.S
   s1.e.shTiny := Mux(beP <= (2 - winW).S, winW.U, (2.S - beP).asUInt(shW - 1, 0))
   s1.e.base   := (beP - 2.S).asUInt(fieldW - 1, 0)
-  s1.spc      := r0.spc
-  val r1 = stages.cut(1, s1)
+  s1.spc      := norm.spc
+  val r1 = cut(s1)
 
-  // ---- step 2: the product, cut to its top winW bits and the OR of the rest
+  // ---- the product (2 w bits); wider than 18 x 18, as registered partial products of 18-bit high limbs, summed
+  // in a step of their own
+  class Prod extends Bundle {
+    val prod = UInt((2 * w).W)
+    val e    = new Expo
+    val spc  = new Special
+  }
+  private val prod: Prod = if (w <= FMul.dspW) {
+    val s = Wire(new Prod)
+    s.prod := r1.x * r1.y
+    s.e    := r1.e
+    s.spc  := r1.spc
+    cut(s)
+  } else {
+    val l  = w - FMul.dspW // low limb bits
+    class Parts extends Bundle {
+      val hh  = UInt((2 * FMul.dspW).W)
+      val hl  = UInt((FMul.dspW + l).W)
+      val lh  = UInt((FMul.dspW + l).W)
+      val ll  = UInt((2 * l).W)
+      val e   = new Expo
+      val spc = new Special
+    }
+    val (xh, xl, yh, yl) = (r1.x(w - 1, l), r1.x(l - 1, 0), r1.y(w - 1, l), r1.y(l - 1, 0))
+    val pp = Wire(new Parts)
+    pp.hh  := xh * yh
+    pp.hl  := xh * yl
+    pp.lh  := xl * yh
+    pp.ll  := xl * yl
+    pp.e   := r1.e
+    pp.spc := r1.spc
+    val rp = cut(pp)
+    val s = Wire(new Prod)
+    s.prod := ((rp.hh ## rp.ll) + ((rp.hl +& rp.lh) << l))(2 * w - 1, 0)
+    s.e    := rp.e
+    s.spc  := rp.spc
+    cut(s)
+  }
+
+  // ---- the product cut to its top winW bits and the OR of the rest
   val s2 = Wire(new Bundle {
     val win    = UInt(winW.W)
     val sticky = Bool()
     val e      = new Expo
     val spc    = new Special
   })
-  private val prod = r1.x * r1.y // 2 w bits
-  s2.win    := prod(2 * w - 1, 2 * w - winW)
-  s2.sticky := (if (2 * w > winW) prod(2 * w - winW - 1, 0).orR else false.B)
-  s2.e      := r1.e
-  s2.spc    := r1.spc
-  val r2 = stages.cut(2, s2)
+  s2.win    := prod.prod(2 * w - 1, 2 * w - winW)
+  s2.sticky := (if (2 * w > winW) prod.prod(2 * w - winW - 1, 0).orR else false.B)
+  s2.e      := prod.e
+  s2.spc    := prod.spc
+  val r2 = cut(s2)
 
-  // ---- step 3: one right shift normalises by one bit or moves into the subnormal range
+  // ---- one right shift normalises by one bit or moves into the subnormal range: its wide levels, then the
+  // narrow ones
+  class Shifting extends Bundle {
+    val v      = UInt(winW.W)
+    val shift  = UInt(shW.W)
+    val sticky = Bool()
+    val tiny   = Bool()
+    val fieldM = UInt(fieldW.W) // exponent field - 1 of a normal result, 0 for a tiny one
+    val spc    = new Special
+  }
+  private val (wide, narrow) = (0 until shW).reverse.splitAt((shW + 1) / 2)
+  private val top   = r2.win(winW - 1)
+  private val tiny  = r2.e.low || (r2.e.edge && !top)
+  private val shift = Mux(r2.e.low, r2.e.shTiny, (r2.e.edge || top).asUInt)
+  private val (shA, dropA) = Shift.rightStickyLevels(r2.win, shift, wide, r2.sticky)
+  val sa = Wire(new Shifting)
+  sa.v      := shA
+  sa.shift  := shift
+  sa.sticky := dropA
+  sa.tiny   := tiny
+  sa.fieldM := Mux(tiny, 0.U, r2.e.base + top)
+  sa.spc    := r2.spc
+  val ra = cut(sa)
+
   val s3 = Wire(new Bundle {
     val kept   = UInt(w.W)
     val guard  = Bool()
     val sticky = Bool()
     val tiny   = Bool()
-    val fieldM = UInt(fieldW.W) // exponent field - 1 of a normal result, 0 for a tiny one
+    val fieldM = UInt(fieldW.W)
     val spc    = new Special
   })
-  private val top   = r2.win(winW - 1)
-  private val tiny  = r2.e.low || (r2.e.edge && !top)
-  private val shift = Mux(r2.e.low, r2.e.shTiny, (r2.e.edge || top).asUInt)
-  private val (sh, dropped) = Shift.rightSticky(r2.win, shift)
+  private val (sh, dropped) = Shift.rightStickyLevels(ra.v, ra.shift, narrow, ra.sticky)
   s3.kept   := sh(w, 1)
   s3.guard  := sh(0)
-  s3.sticky := dropped || r2.sticky
-  s3.tiny   := tiny
-  s3.fieldM := Mux(tiny, 0.U, r2.e.base + top)
-  s3.spc    := r2.spc
-  val r3 = stages.cut(3, s3)
+  s3.sticky := dropped
+  s3.tiny   := ra.tiny
+  s3.fieldM := ra.fieldM
+  s3.spc    := ra.spc
+  val r3 = cut(s3)
 
-  // ---- step 4: round to nearest, ties to even
+  // ---- round to nearest, ties to even
   val s4 = Wire(new Bundle {
     val rounded = UInt((w + 1).W)
     val inexact = Bool()
@@ -148,9 +217,9 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
   s4.tiny    := r3.tiny
   s4.fieldM  := r3.fieldM
   s4.spc     := r3.spc
-  val r4 = stages.cut(4, s4)
+  val r4 = cut(s4)
 
-  // ---- step 5: exponent field (a carry out of the significand adds one), overflow to infinity
+  // ---- exponent field (a carry out of the significand adds one), overflow to infinity
   val s5 = Wire(new Bundle {
     val mag      = UInt((fmt.width - 1).W)
     val overflow = Bool()
@@ -164,9 +233,9 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
   s5.inexact  := r4.inexact
   s5.tiny     := r4.tiny
   s5.spc      := r4.spc
-  val r5 = stages.cut(5, s5)
+  val r5 = cut(s5)
 
-  // ---- step 6: specials, sign and flags
+  // ---- specials, sign and flags
   private val spc     = r5.spc
   private val special = spc.isNaN || spc.isInf || spc.isZero
   private val infMag  = (BigInt(fmt.maxExpField) << m).U((fmt.width - 1).W)
@@ -180,12 +249,21 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
   f.overflow  := !special && r5.overflow
   f.underflow := !special && r5.tiny && r5.inexact
   f.inexact   := !special && (r5.inexact || r5.overflow)
-  out       := stages.cut(6, o)
-  flags     := stages.cut(6, f)
+  out       := stages.cut(step, o)
+  flags     := stages.cut(step, f)
+  require(step + 1 == stages.steps, s"FMul: ${step + 1} steps built, ${stages.steps} weighed")
   out_valid := Stages.delayValid(in_valid, latency)
 }
 
 object FMul {
-  val steps = 7
+  /** Operand width of one hard multiplier: wider significands are split into partial products. */
+  val dspW = 18
+  def levels(fmt: FloatFormat): Int = log2Ceil(fmt.sigW)
+  /** Step weights (Stages): classify, the normaliser's groups, the exponent, the product (partial products and
+    * their sum when wider than dspW), the window, the two shift steps, rounding, the field, specials. */
+  def weights(fmt: FloatFormat): Seq[Int] =
+    Seq(4) ++ Shift.groups(levels(fmt)).map(_.length * 2) ++ Seq(4) ++
+      (if (fmt.sigW <= dspW) Seq(6) else Seq(6, 4)) ++ Seq(3, 4, 4, 3, 3, 3)
+  def steps(fmt: FloatFormat): Int = weights(fmt).length
   def defaultLatency(fmt: FloatFormat): Int = 3
 }

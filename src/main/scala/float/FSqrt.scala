@@ -18,7 +18,7 @@ class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
 
   private val n    = FSqrt.rootBits(fmt) // root bits: manW+1 kept and a guard bit
   private val remW = n + 2
-  val stages = Stages(latency, FSqrt.steps(fmt))
+  val stages = Stages(latency, FSqrt.weights(fmt))
 
   // ---- step 0: classify and specials
   val s0 = Wire(new Bundle {
@@ -91,7 +91,10 @@ class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
 
 object FSqrt {
   def rootBits(fmt: FloatFormat): Int     = fmt.manW + 2
-  def steps(fmt: FloatFormat): Int        = 2 + rootBits(fmt) + RoundPack.steps
+  /** Step weights (Stages): classify, normalise, one per root bit (a subtracter and a select), then RoundPack's. */
+  def weights(fmt: FloatFormat): Seq[Int] =
+    Seq(3, 8) ++ Seq.fill(rootBits(fmt))(3) ++ RoundPack.weights(fmt, rootBits(fmt), maxLz = 0)
+  def steps(fmt: FloatFormat): Int        = weights(fmt).length
   /** About two root bits per cycle. */
-  def defaultLatency(fmt: FloatFormat): Int = (steps(fmt) + 1) / 2
+  def defaultLatency(fmt: FloatFormat): Int = (rootBits(fmt) + 7) / 2
 }

@@ -1,14 +1,15 @@
 package float
 
 /** Generator entry point:
-  * `runMain float.FloatMain <op> <expW> <manW> <latency|default> <outDir> [... more groups of five]`.
+  * `runMain float.FloatMain <op> <expW> <manW> <latency|default|steps> <outDir> [... more groups of five]`.
+  * `steps`: one register after every step, the fully pipelined operator (its highest clock rate).
   * Writes <outDir>/<module>.sv (a FloatTop test wrapper around the operator) and <outDir>/float.json
   * (module, format, latency, port layout) per group. Each group is checked on its own: a refusal prints
   * `REFUSED <group>: <rule and values>` and the others still build; the exit code is 1 if any was refused.
   */
 object FloatMain extends App {
   require(args.length >= 5 && args.length % 5 == 0,
-    "usage: float.FloatMain <op> <expW> <manW> <latency|default> <outDir> [...groups of five]")
+    "usage: float.FloatMain <op> <expW> <manW> <latency|default|steps> <outDir> [...groups of five]")
 
   val refused = args.grouped(5).toSeq.flatMap { case Array(op, e, m, l, out) =>
     val what = s"$op $e $m $l"
@@ -17,7 +18,11 @@ object FloatMain extends App {
       def int(nm: String, s: String) =
         s.toIntOption.getOrElse(throw new IllegalArgumentException(s"$nm must be an integer: got '$s'"))
       val fmt = FloatFormat(int("expW", e), int("manW", m))
-      val lat = if (l == "default") FloatOp.defaultLatency(op, fmt) else int("latency", l)
+      val lat = l match {
+        case "default" => FloatOp.defaultLatency(op, fmt)
+        case "steps"   => FloatOp.steps(op, fmt)
+        case _         => int("latency", l)
+      }
       require(lat >= 0, s"latency must be >= 0: got latency=$lat")
       val name = s"FloatTop_${op}_${fmt.tag}_l$lat"
       gen.Emit.systemVerilog(new FloatTop(op, fmt, lat), out, name)

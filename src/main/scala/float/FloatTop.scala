@@ -11,8 +11,8 @@ object FloatOp {
     require(names.contains(op), s"operator must be one of ${names.mkString(", ")}: got '$op'")
 
   def steps(op: String, fmt: FloatFormat): Int = op match {
-    case "add"  => FAdd.steps
-    case "mul"  => FMul.steps
+    case "add"  => FAdd.steps(fmt)
+    case "mul"  => FMul.steps(fmt)
     case "div"  => FDiv.steps(fmt)
     case "sqrt" => FSqrt.steps(fmt)
     case "cmp"  => FCompare.steps

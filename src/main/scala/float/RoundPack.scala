@@ -34,11 +34,14 @@ class RawFloat(fmt: FloatFormat, val sigW: Int) extends Bundle {
   val divByZero = Bool()
 }
 
-/** Normalise, round to nearest even and pack: the last four steps of every arithmetic operator but the multiplier
-  * (FMul has its own). Step 0: leading-zero normalisation (level by level, Shift.normalise). Step 1: the kept
-  * bits, a guard bit and the sticky rest, after a right shift into the subnormal range. Step 2: rounding
-  * increment. Step 3: packing (the rounding carry ripples into the exponent), overflow to infinity, specials.
-  * `regs(i)` registers follow step i (from the operator's Stages).
+/** Normalise, round to nearest even and pack: the last steps of every arithmetic operator but the multiplier
+  * (FMul has its own). Steps (`RoundPack.weights`, `regs(i)` registers after step i, from the operator's Stages):
+  *  - normalise: the leading-zero shift, level by level (Shift.normaliseLevels), two levels a step;
+  *  - the exponent of the normalised significand; for a tinyExact operator also the kept bits, the guard bit and
+  *    the sticky rest. Otherwise two more steps: the right shift into the subnormal range, its wide levels, then
+  *    its narrow ones with the kept bits;
+  *  - the rounding increment;
+  *  - packing (the rounding carry ripples into the exponent field), overflow to infinity, specials.
   *
   * Left normalisation is exact only if bits inserted below the LSB are not needed: an operator passing a
   * nonzero sticky must have at most (sig.getWidth - manW - 2) leading zeros, so that the guard bit is a
@@ -46,93 +49,154 @@ class RawFloat(fmt: FloatFormat, val sigW: Int) extends Bundle {
   *
   * `maxLz`: the most leading zeros a nonzero `sig` can have (FDiv 1, FSqrt 0): fewer normalisation levels.
   * `tinyExact`: every tiny result is exact and the MSB of `sig` weighs at least 2^emin (sums: FAdd). The left
-  * shift then stops at the smallest normal exponent (Shift.normalise with a cap), which leaves a tiny result
-  * subnormal already: no right shift.
+  * shift then stops at the smallest normal exponent (Shift.normalise with the cap `cap` = exp + bias - 1, which
+  * the operator supplies, so that no adder precedes the shifter), which leaves a tiny result subnormal already:
+  * no right shift.
   */
 class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.MaxValue, tinyExact: Boolean = false)
     extends Module {
-  require(regs.length == RoundPack.steps,
-    s"RoundPack has ${RoundPack.steps} steps: got ${regs.length} register counts")
+  private val nSteps = RoundPack.weights(fmt, sigW, maxLz, tinyExact).length
+  require(regs.length == nSteps, s"RoundPack has $nSteps steps: got ${regs.length} register counts")
   val in  = IO(Input(new RawFloat(fmt, sigW)))
+  /** tinyExact only: in.exp + bias - 1 (>= 0), the normaliser's cap. */
+  val cap = if (tinyExact) Some(IO(Input(UInt(fmt.expW.W)))) else None
   val out = IO(Output(UInt(fmt.width.W)))
   val flags = IO(Output(new FloatFlags))
 
   override def desiredName = s"RoundPack_${fmt.tag}_s$sigW" + (if (tinyExact) "_x" else "") +
     (if (maxLz < sigW - 1) s"_z$maxLz" else "")
 
-  private val m = fmt.manW
-  // at least manW+1 kept bits, a guard bit and one more below it
-  private val w = math.max(sigW, m + 3)
+  private val m      = fmt.manW
+  private val w      = RoundPack.sigNW(fmt, sigW) // at least manW+1 kept bits, a guard bit and one more below
+  private val levels = RoundPack.levels(fmt, sigW, maxLz)
+  private val lzW    = math.max(levels, 1)
+  private val eW     = fmt.expIntW + 1
+  private var step   = 0
+  private def cut[T <: Data](x: T): T = { val r = Stages.delay(x, regs(step)); step += 1; r }
 
-  // ---- step 0: normalise
-  val s0 = Wire(new Bundle {
-    val raw  = new RawFloat(fmt, sigW)
-    val sigN = UInt(w.W)
-    val expB = SInt((fmt.expIntW + 1).W) // biased exponent of the MSB of sigN
-  })
-  private val sigP   = if (w > sigW) Cat(in.sig, 0.U((w - sigW).W)) else in.sig
-  private val expB0  = in.exp +& fmt.bias.S // biased exponent of the MSB of sig
-  private val levels = log2Ceil(math.min(maxLz, w - 1) + 1)
-  private val cap    = if (tinyExact) Some((expB0 - 1.S).asUInt) else None // >= 0 by the caller's promise
-  private val (sigN, lz) = Shift.normalise(sigP, levels, cap)
-  s0.raw  := in
-  s0.sigN := sigN
-  s0.expB := expB0 - lz.zext
-  val r0 = Stages.delay(s0, regs(0))
+  // ---- normalise, two levels a step; the biased exponent and the zero test beside it
+  class Norm extends Bundle {
+    val raw    = new RawFloat(fmt, sigW)
+    val sigN   = UInt(w.W)
+    val lz     = UInt(lzW.W)
+    val free   = Bool()
+    val cap    = UInt(fmt.expW.W)
+    val expB0  = SInt(eW.W) // biased exponent of the MSB of sig
+    val isZero = Bool()
+  }
+  private val n0 = Wire(new Norm)
+  n0.raw    := in
+  n0.sigN   := (if (w > sigW) Cat(in.sig, 0.U((w - sigW).W)) else in.sig)
+  n0.lz     := 0.U
+  n0.cap    := cap.getOrElse(0.U)
+  n0.free   := Shift.capFree(cap, levels)
+  n0.expB0  := in.exp +& fmt.bias.S
+  n0.isZero := in.sig === 0.U && !in.sticky
+  private val norm = Shift.groups(levels).foldLeft(n0) { (r, ks) =>
+    val s = Wire(new Norm)
+    val (v, free, bits) = Shift.normaliseLevels(r.sigN, r.free, cap.map(_ => r.cap), ks)
+    s      := r
+    s.sigN := v
+    s.free := free
+    s.lz   := ks.zip(bits).map { case (k, b) => b.asUInt << k }.foldLeft(r.lz)(_ | _)
+    cut(s)
+  }
 
-  // ---- step 1: shift into the subnormal range; the kept bits, the guard bit and the sticky rest
-  val s1 = Wire(new Bundle {
+  // ---- the exponent of the normalised significand; the kept bits, the guard bit and the sticky rest
+  class Kept extends Bundle {
     val raw    = new RawFloat(fmt, sigW)
     val isZero = Bool()
     val tiny   = Bool()
-    val expEff = SInt((fmt.expIntW + 1).W)
+    val fieldM = UInt(eW.W) // exponent field - 1 before rounding (0 for a tiny result)
     val kept   = UInt((m + 1).W)
     val guard  = Bool()
     val rest   = Bool()
-  })
-  private val top   = r0.sigN(w - 1, w - 2 - m) // kept bits and the guard bit
-  private val below = if (w - 3 - m >= 0) r0.sigN(w - 3 - m, 0).orR || r0.raw.sticky else r0.raw.sticky
-  s1.raw    := r0.raw
-  s1.isZero := r0.sigN === 0.U && !r0.raw.sticky
-  if (tinyExact) {
-    s1.tiny   := !r0.sigN(w - 1)
-    s1.expEff := r0.expB
-    s1.kept   := top(m + 1, 1)
-    s1.guard  := top(0)
-    s1.rest   := below
-  } else {
-    val tiny = r0.expB < 1.S
-    val far  = r0.expB < (1 - (m + 2)).S
-    val rsh  = Mux(far, (m + 2).U, Mux(tiny, (1.S - r0.expB).asUInt, 0.U))(log2Ceil(m + 3) - 1, 0)
-    val (sh, dropped) = Shift.rightSticky(top, rsh)
-    s1.tiny   := tiny
-    s1.expEff := Mux(tiny, 1.S, r0.expB)
-    s1.kept   := sh(m + 1, 1)
-    s1.guard  := sh(0)
-    s1.rest   := dropped || below
   }
-  val r1 = Stages.delay(s1, regs(1))
+  private val top   = norm.sigN(w - 1, w - 2 - m) // kept bits and the guard bit
+  private val below = if (w - 3 - m >= 0) norm.sigN(w - 3 - m, 0).orR || norm.raw.sticky else norm.raw.sticky
+  private val kept: Kept = if (tinyExact) {
+    val s = Wire(new Kept)
+    s.raw    := norm.raw
+    s.isZero := norm.isZero
+    s.tiny   := !norm.sigN(w - 1)
+    s.fieldM := (norm.expB0 - 1.S - norm.lz.zext).asUInt // the capped shift leaves a tiny result at expB 1
+    s.kept   := top(m + 1, 1)
+    s.guard  := top(0)
+    s.rest   := below
+    cut(s)
+  } else {
+    // the exponent, and the right shift into the subnormal range, its wide levels and then its narrow ones
+    val shW = log2Ceil(m + 3)
+    class Sub extends Bundle {
+      val raw    = new RawFloat(fmt, sigW)
+      val isZero = Bool()
+      val expB   = SInt(eW.W)
+      val negB   = SInt(eW.W) // 1 - expB
+      val top    = UInt((m + 2).W)
+      val below  = Bool()
+    }
+    val a = Wire(new Sub)
+    a.raw    := norm.raw
+    a.isZero := norm.isZero
+    a.expB   := norm.expB0 - norm.lz.zext
+    a.negB   := 1.S - norm.expB0 + norm.lz.zext
+    a.top    := top
+    a.below  := below
+    val ra = cut(a)
+    class Shifting extends Bundle {
+      val k    = new Kept
+      val v    = UInt((m + 2).W)
+      val rsh  = UInt(shW.W)
+    }
+    val tiny = ra.expB < 1.S
+    val far  = ra.expB < (1 - (m + 2)).S
+    val rsh  = Mux(far, (m + 2).U, Mux(tiny, ra.negB.asUInt, 0.U))(shW - 1, 0)
+    val (wide, narrow) = (0 until shW).reverse.splitAt((shW + 1) / 2)
+    val (v1, st1) = Shift.rightStickyLevels(ra.top, rsh, wide, ra.below)
+    val b = Wire(new Shifting)
+    b.k.raw    := ra.raw
+    b.k.isZero := ra.isZero
+    b.k.tiny   := tiny
+    b.k.fieldM := Mux(tiny, 0.S, ra.expB - 1.S).asUInt
+    b.k.kept   := DontCare
+    b.k.guard  := DontCare
+    b.k.rest   := st1
+    b.v        := v1
+    b.rsh      := rsh
+    val rb = cut(b)
+    val (v2, st2) = Shift.rightStickyLevels(rb.v, rb.rsh, narrow, rb.k.rest)
+    val c = Wire(new Kept)
+    c       := rb.k
+    c.kept  := v2(m + 1, 1)
+    c.guard := v2(0)
+    c.rest  := st2
+    cut(c)
+  }
 
-  // ---- step 2: round to nearest, ties to even
+  // ---- round to nearest, ties to even
   val s2 = Wire(new Bundle {
     val raw     = new RawFloat(fmt, sigW)
     val isZero  = Bool()
     val tiny    = Bool()
-    val expEff  = SInt((fmt.expIntW + 1).W)
+    val fieldM  = UInt(eW.W)
     val rounded = UInt((m + 2).W)
     val inexact = Bool()
+    val ovf     = Vec(4, Bool()) // field >= maxExpField if the significand adds c to it (c = 3 never occurs)
   })
-  s2.raw     := r1.raw
-  s2.isZero  := r1.isZero
-  s2.tiny    := r1.tiny
-  s2.expEff  := r1.expEff
-  s2.rounded := r1.kept +& (r1.guard && (r1.rest || r1.kept(0)))
-  s2.inexact := r1.guard || r1.rest
-  val r2 = Stages.delay(s2, regs(2))
+  s2.raw     := kept.raw
+  s2.isZero  := kept.isZero
+  s2.tiny    := kept.tiny
+  s2.fieldM  := kept.fieldM
+  s2.rounded := kept.kept +& (kept.guard && (kept.rest || kept.kept(0)))
+  s2.inexact := kept.guard || kept.rest
+  for (c <- 0 until 4) s2.ovf(c) := kept.fieldM >= (fmt.maxExpField - math.min(c, 2)).U
+  val r2 = cut(s2)
 
-  // ---- step 3: pack (a rounding carry out of the significand increments the exponent field)
-  private val field    = (r2.expEff - 1.S).asUInt +& r2.rounded(m + 1, m) // expEff >= 1
-  private val overflow = field >= fmt.maxExpField.U
+  // ---- pack (the significand's top bits, 0 to 2 with a rounding carry, add to the exponent field; the overflow
+  // test was made for each of the three beside the rounding)
+  private val c        = r2.rounded(m + 1, m)
+  private val field    = r2.fieldM + c
+  private val overflow = r2.ovf(c)
   private val raw      = r2.raw
   private val packed   = Cat(field(fmt.expW - 1, 0), r2.rounded(m - 1, 0))
   private val finite   = Mux(overflow, fmt.inf(false).U(fmt.width.W), packed)
@@ -147,10 +211,20 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.Ma
   f.overflow  := !special && overflow
   f.underflow := !special && r2.tiny && r2.inexact
   f.inexact   := !special && (r2.inexact || overflow)
-  out   := Stages.delay(o, regs(3))
-  flags := Stages.delay(f, regs(3))
+  private val last = regs(step)
+  out   := Stages.delay(o, last)
+  flags := Stages.delay(f, last)
+  require(step + 1 == nSteps, s"RoundPack: $step steps built, ${nSteps - 1} expected before the last")
 }
 
 object RoundPack {
-  val steps = 4
+  def sigNW(fmt: FloatFormat, sigW: Int): Int = math.max(sigW, fmt.manW + 3)
+  def levels(fmt: FloatFormat, sigW: Int, maxLz: Int): Int =
+    log2Ceil(math.min(maxLz, sigNW(fmt, sigW) - 1) + 1)
+
+  /** The weights of its steps (Stages): the normaliser's groups, the kept bits (three steps with the subnormal
+    * right shift), rounding, packing. */
+  def weights(fmt: FloatFormat, sigW: Int, maxLz: Int = Int.MaxValue, tinyExact: Boolean = false): Seq[Int] =
+    Shift.groups(levels(fmt, sigW, maxLz)).map(_.length * 2) ++
+      (if (tinyExact) Seq(2) else Seq(3, 4, 4)) ++ Seq(3, 4)
 }

@@ -20,9 +20,23 @@ object Shift {
   def normalise(x: UInt, levels: Int, cap: Option[UInt]): (UInt, UInt) = {
     val w = x.getWidth
     require(levels >= 0 && (1 << levels) < 2 * w, s"Shift.normalise: $levels levels for $w bits")
+    val (v, _, bits) = normaliseLevels(x, capFree(cap, levels), cap, (levels - 1) to 0 by -1)
+    (v, if (bits.isEmpty) 0.U(1.W) else Cat(bits))
+  }
+
+  /** Whether a cap stops binding before the first of `levels` levels (it is >= 2^levels); true without a cap. */
+  def capFree(cap: Option[UInt], levels: Int): Bool =
+    cap.map(c => if (c.getWidth > levels) c >> levels =/= 0.U else false.B).getOrElse(true.B)
+
+  /** The levels `ks` (descending, a contiguous run of normalise's levels) applied to x, the cap's state `free`
+    * before them: (x moved, free after them, the move of each level in the order of ks). A pipelined normaliser
+    * runs its levels in groups (`groups`), its value, `free` and the moves so far registered between them.
+    */
+  def normaliseLevels(x: UInt, free0: Bool, cap: Option[UInt], ks: Seq[Int]): (UInt, Bool, Seq[Bool]) = {
+    val w    = x.getWidth
     var v    = x
-    var free = cap.map(c => if (c.getWidth > levels) c >> levels =/= 0.U else false.B).getOrElse(true.B)
-    val bits = for (k <- levels - 1 to 0 by -1) yield {
+    var free = free0
+    val bits = for (k <- ks) yield {
       val n    = 1 << k // < w
       val zero = v(w - 1, w - n) === 0.U
       val move = cap.map(c => zero && (free || (if (k < c.getWidth) c(k) else false.B))).getOrElse(zero)
@@ -30,8 +44,12 @@ object Shift {
       v = Mux(move, Cat(v(w - n - 1, 0), 0.U(n.W)), v)
       move
     }
-    (v, if (bits.isEmpty) 0.U(1.W) else Cat(bits))
+    (v, free, bits)
   }
+
+  /** The levels of a `levels`-level shifter, widest first, in groups of at most `per` (one pipeline step each:
+    * two levels, a zero test and a 2:1 select each, fit a step at 150 MHz on an ECP5). */
+  def groups(levels: Int, per: Int = 2): Seq[Seq[Int]] = ((levels - 1) to 0 by -1).grouped(per).map(_.toSeq).toSeq
 
   /** normalise(x, every level, no cap). */
   def normalise(x: UInt): (UInt, UInt) = normalise(x, log2Ceil(x.getWidth), None)
@@ -39,11 +57,17 @@ object Shift {
   /** (x >> s, sticky): sticky is the OR of every bit shifted out. Any s is accepted; a level of 2^k >= width
     * clears the value (the caller may cap s to save those levels).
     */
-  def rightSticky(x: UInt, s: UInt): (UInt, Bool) = {
+  def rightSticky(x: UInt, s: UInt): (UInt, Bool) = rightStickyLevels(x, s, 0 until s.getWidth, false.B)
+
+  /** The levels `ks` of rightSticky (any subset, any order: the moves commute and the dropped bits only matter
+    * through their OR), with the sticky bit so far `st0`: (x moved, sticky). A pipelined shifter runs them in
+    * groups, the value, the shift and the sticky bit registered between them.
+    */
+  def rightStickyLevels(x: UInt, s: UInt, ks: Seq[Int], st0: Bool): (UInt, Bool) = {
     val w  = x.getWidth
     var v  = x
-    var st = false.B
-    for (k <- 0 until s.getWidth) {
+    var st = st0
+    for (k <- ks) {
       val n = 1 << k
       val (dropped, moved) =
         if (n >= w) (v.orR, 0.U(w.W)) else (v(n - 1, 0).orR, Cat(0.U(n.W), v(w - 1, n)))
