@@ -19,7 +19,7 @@ from verif.float import corners, rtl, suite
 BUILD = REPO / "build" / "tests" / "float"
 
 DEFAULT_UNITS = [(op, f, "default") for f in suite.FORMATS for op in suite.OPS]
-UNITS = DEFAULT_UNITS + suite.LATENCY_VARIANTS
+UNITS = DEFAULT_UNITS + suite.LATENCY_VARIANTS + suite.PIPELINED
 
 # refused by the generator: (op, expW, manW, latency) -> the rule in the message
 REFUSALS = {
@@ -38,7 +38,8 @@ def _uid(op, f, lat) -> str:
 
 def _vectors(op, f, lat):
     n = suite.N_RANDOM if lat == "default" else suite.N_LATENCY
-    seed = suite.seed_of(f, op) + (0 if lat == "default" else 7 + int(lat))
+    offset = {"default": 0, "steps": 1000}[lat] if isinstance(lat, str) else 7 + lat
+    seed = suite.seed_of(f, op) + offset
     return n, seed
 
 
@@ -90,7 +91,9 @@ def _check(float_session, key):
     got = float_session["results"][k]
     op, f, lat = key
     assert u.op == op and (u.fmt.expW, u.fmt.manW) == (f.expW, f.manW)
-    if lat != "default":
+    if lat == "steps":
+        assert u.latency == u.info["steps"]
+    elif lat != "default":
         assert u.latency == lat
     pos = np.flatnonzero(valid)
     assert len(out) > 0 and len(got) == len(pos), f"{len(got)} results for {len(pos)} valid inputs"
@@ -119,6 +122,14 @@ def test_latency_parameter(float_session, key):
     n, u = _check(float_session, key)
     assert n >= suite.N_LATENCY
     assert u.info["latency"] == key[2] and u.module.endswith(f"_l{key[2]}")
+
+
+@pytest.mark.parametrize("key", suite.PIPELINED, ids=[_uid(*k) for k in suite.PIPELINED])
+def test_fully_pipelined(float_session, key):
+    """Latency `steps`: one register after every step (the operators' highest clock rate, docs/float.md)."""
+    n, u = _check(float_session, key)
+    assert n >= suite.N_LATENCY
+    assert u.latency == u.info["steps"] > u.info["default_latency"] and u.module.endswith(f"_l{u.latency}")
 
 
 @pytest.mark.parametrize("f", [suite.E8M17, suite.BINARY32], ids=lambda f: f.tag)

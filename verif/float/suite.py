@@ -34,6 +34,8 @@ LATENCY_VARIANTS = [
     ("sqrt", BINARY16, 2), ("sqrt", BINARY16, 17),
     ("cmp", BINARY16, 0), ("cmp", BINARY16, 4),
 ]
+# fully pipelined (latency "steps": a register after every step), in the formats the cores use
+PIPELINED = [(op, f, "steps") for f in (E8M17, BINARY32) for op in ("add", "mul", "div", "sqrt")]
 
 
 def exhaustive_operands(f: Format, op: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -3,7 +3,7 @@ package float
 import chisel3._
 
 /** a / b rounded to nearest even, in `latency` cycles: restoring radix-2 digit recurrence, one quotient bit per
-  * step, unrolled. Steps: 0 classify, 1 normalise subnormal operands, 2 .. manW+4 the manW+3 quotient bits
+  * step, unrolled. Steps: 0 classify, then normalise subnormal operands (two levels a step), then the manW+3 quotient bits
   * (the last one also gives the sticky bit from the remainder), then RoundPack.
   */
 class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
@@ -42,32 +42,55 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
   s0.raw.divByZero := ub.isZero && !ua.isZero && !ua.isInf && !ua.isNaN
   val r0 = stages.cut(0, s0)
 
-  // ---- step 1: normalise both significands to [2^manW, 2^(manW+1)); quotient MSB weight 2^(ea - eb)
+  // ---- steps 1 ..: normalise both significands to [2^manW, 2^(manW+1)), two levels a step
+  class Pre extends Bundle {
+    val na  = new Unpack.NormSig(fmt)
+    val nb  = new Unpack.NormSig(fmt)
+    val ea  = SInt(fmt.expIntW.W)
+    val eb  = SInt(fmt.expIntW.W)
+    val raw = new RawFloat(fmt, 1)
+  }
+  private val groups = Unpack.normaliseSteps(fmt)
+  private val pre0 = Wire(new Pre)
+  pre0.na  := Unpack.startNormalise(fmt, r0.ua.sig)
+  pre0.nb  := Unpack.startNormalise(fmt, r0.ub.sig)
+  pre0.ea  := r0.ua.exp
+  pre0.eb  := r0.ub.exp
+  pre0.raw := r0.raw
+  private val pre = groups.zipWithIndex.foldLeft(pre0) { case (r, (ks, g)) =>
+    val s = Wire(new Pre)
+    s    := r
+    s.na := Unpack.normaliseStep(fmt, r.na, ks)
+    s.nb := Unpack.normaliseStep(fmt, r.nb, ks)
+    stages.cut(1 + g, s)
+  }
+
+  // the recurrence's start; the quotient's MSB weighs 2^(ea - eb) (formed beside the first quotient bit)
   class Rec extends Bundle {
     val rem = UInt((fmt.sigW + 1).W)
     val d   = UInt(fmt.sigW.W)
     val q   = UInt(qW.W)
     val raw = new RawFloat(fmt, 1)
   }
-  private val (na, ea) = Unpack.normalise(r0.ua.sig, r0.ua.exp)
-  private val (nb, eb) = Unpack.normalise(r0.ub.sig, r0.ub.exp)
+  private val bit0 = 1 + groups.length
   val s1 = Wire(new Rec)
-  s1.rem     := na
-  s1.d       := nb
+  s1.rem     := pre.na.sig
+  s1.d       := pre.nb.sig
   s1.q       := 0.U
-  s1.raw     := r0.raw
-  s1.raw.exp := ea - eb
-  val r1 = stages.cut(1, s1)
+  s1.raw     := pre.raw
+  s1.raw.exp := (pre.ea - pre.na.lz.zext) - (pre.eb - pre.nb.lz.zext)
+  private val r1 = s1
 
-  // ---- steps 2 ..: one quotient bit each (rem < 2d holds throughout)
+  // ---- then one quotient bit a step (rem < 2d holds throughout)
   private val rec = (0 until qW).foldLeft(r1) { (r, i) =>
     val s  = Wire(new Rec)
-    val ge = r.rem >= r.d
-    s.rem := (Mux(ge, r.rem - r.d, r.rem) << 1)(fmt.sigW, 0)
+    val diff = r.rem.zext - r.d.zext // one subtracter: its sign is the comparison
+    val ge   = !diff(diff.getWidth - 1)
+    s.rem := (Mux(ge, diff.asUInt, r.rem) << 1)(fmt.sigW, 0)
     s.d   := r.d
     s.q   := (r.q << 1)(qW - 1, 0) | ge
     s.raw := r.raw
-    stages.cut(2 + i, s)
+    stages.cut(bit0 + i, s)
   }
 
   val raw = Wire(new RawFloat(fmt, qW))
@@ -81,7 +104,7 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
   raw.invalid   := rec.raw.invalid
   raw.divByZero := rec.raw.divByZero
 
-  val rp = Module(new RoundPack(fmt, qW, stages.from(2 + qW), maxLz = 1)) // quotient in (1/2, 2)
+  val rp = Module(new RoundPack(fmt, qW, stages.from(bit0 + qW), maxLz = 1)) // quotient in (1/2, 2)
   rp.in     := raw
   out       := rp.out
   flags     := rp.flags
@@ -91,9 +114,9 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
 object FDiv {
   /** A quotient in (1/2, 2): manW+1 kept bits, a guard bit, and one more for the case quotient < 1. */
   def quotientBits(fmt: FloatFormat): Int = fmt.manW + 3
-  /** Step weights (Stages): classify, normalise, one per quotient bit (a subtracter and a select), then RoundPack's. */
+  /** Step weights (Stages): classify, the normaliser's steps, one per quotient bit (a subtracter and a select), then RoundPack's. */
   def weights(fmt: FloatFormat): Seq[Int] =
-    Seq(3, 8) ++ Seq.fill(quotientBits(fmt))(3) ++ RoundPack.weights(fmt, quotientBits(fmt), maxLz = 1)
+    Seq(3) ++ Unpack.normaliseSteps(fmt).map(_.length * 2) ++ Seq.fill(quotientBits(fmt))(3) ++ RoundPack.weights(fmt, quotientBits(fmt), maxLz = 1)
   def steps(fmt: FloatFormat): Int        = weights(fmt).length
   /** About two quotient bits per cycle. */
   def defaultLatency(fmt: FloatFormat): Int = (quotientBits(fmt) + 7) / 2

@@ -3,8 +3,9 @@ package float
 import chisel3._
 
 /** sqrt(a) rounded to nearest even, in `latency` cycles: restoring digit recurrence on the integer square root,
-  * one root bit per step, unrolled. Steps: 0 classify, 1 normalise a subnormal operand and make the exponent
-  * even, 2 .. manW+3 the manW+2 root bits (the last gives the sticky bit from the remainder), then RoundPack.
+  * one root bit per step, unrolled. Steps: 0 classify, then normalise a subnormal operand (two levels a step),
+  * make the exponent even, the manW+2 root bits (the last gives the sticky bit from the remainder), then
+  * RoundPack.
   * sqrt(-0) = -0; any other negative operand gives NaN and invalid.
   */
 class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
@@ -39,7 +40,7 @@ class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
   s0.raw.divByZero := false.B
   val r0 = stages.cut(0, s0)
 
-  // ---- step 1: a = X * 2^(E2 - manW) with E2 even and X in [2^manW, 2^(manW+2));
+  // ---- normalise, then a = X * 2^(E2 - manW) with E2 even and X in [2^manW, 2^(manW+2));
   // root of Y = X * 2^n: n bits, MSB weight 2^(E2/2)
   class Rec extends Bundle {
     val y    = UInt((2 * n).W) // radicand bits not yet consumed, two per step, from the top
@@ -47,28 +48,47 @@ class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
     val root = UInt(n.W)
     val raw  = new RawFloat(fmt, 1)
   }
-  private val (na, ea) = Unpack.normalise(r0.ua.sig, r0.ua.exp)
-  private val odd      = ea(0)
-  private val x        = Mux(odd, na ## 0.U(1.W), 0.U(1.W) ## na) // n bits
+  class Pre extends Bundle {
+    val na  = new Unpack.NormSig(fmt)
+    val raw = new RawFloat(fmt, 1)
+    val e   = SInt(fmt.expIntW.W)
+  }
+  private val groups = Unpack.normaliseSteps(fmt)
+  private val pre0 = Wire(new Pre)
+  pre0.na  := Unpack.startNormalise(fmt, r0.ua.sig)
+  pre0.raw := r0.raw
+  pre0.e   := r0.ua.exp
+  private val pre = groups.zipWithIndex.foldLeft(pre0) { case (r, (ks, g)) =>
+    val s = Wire(new Pre)
+    s    := r
+    s.na := Unpack.normaliseStep(fmt, r.na, ks)
+    stages.cut(1 + g, s)
+  }
+  private val bit0 = 1 + groups.length
+  private val na   = pre.na.sig
+  private val ea   = pre.e - pre.na.lz.zext
+  private val odd  = ea(0)
+  private val x    = Mux(odd, na ## 0.U(1.W), 0.U(1.W) ## na) // n bits
   val s1 = Wire(new Rec)
   s1.y       := x ## 0.U(n.W)
   s1.rem     := 0.U
   s1.root    := 0.U
-  s1.raw     := r0.raw
+  s1.raw     := pre.raw
   s1.raw.exp := (ea - odd.zext) >> 1
-  val r1 = stages.cut(1, s1)
+  val r1 = stages.cut(bit0, s1)
 
-  // ---- steps 2 ..: one root bit each
+  // ---- then one root bit a step
   private val rec = (0 until n).foldLeft(r1) { (r, i) =>
     val s     = Wire(new Rec)
     val remT  = r.rem ## r.y(2 * n - 1, 2 * n - 2)
     val trial = r.root ## 1.U(2.W)
-    val ge    = remT >= trial
+    val diff  = remT.zext - trial.zext // one subtracter: its sign is the comparison
+    val ge    = !diff(diff.getWidth - 1)
     s.y    := (r.y << 2)(2 * n - 1, 0)
-    s.rem  := Mux(ge, remT - trial, remT)(remW - 1, 0)
+    s.rem  := Mux(ge, diff.asUInt, remT)(remW - 1, 0)
     s.root := (r.root << 1)(n - 1, 0) | ge
     s.raw  := r.raw
-    stages.cut(2 + i, s)
+    stages.cut(bit0 + 1 + i, s)
   }
 
   val raw = Wire(new RawFloat(fmt, n))
@@ -82,7 +102,7 @@ class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
   raw.invalid   := rec.raw.invalid
   raw.divByZero := false.B
 
-  val rp = Module(new RoundPack(fmt, n, stages.from(2 + n), maxLz = 0)) // root MSB set
+  val rp = Module(new RoundPack(fmt, n, stages.from(bit0 + 1 + n), maxLz = 0)) // root MSB set
   rp.in     := raw
   out       := rp.out
   flags     := rp.flags
@@ -91,9 +111,9 @@ class FSqrt(val fmt: FloatFormat, val latency: Int) extends Module {
 
 object FSqrt {
   def rootBits(fmt: FloatFormat): Int     = fmt.manW + 2
-  /** Step weights (Stages): classify, normalise, one per root bit (a subtracter and a select), then RoundPack's. */
+  /** Step weights (Stages): classify, the normaliser's steps, the even exponent, one per root bit (a subtracter and a select), then RoundPack's. */
   def weights(fmt: FloatFormat): Seq[Int] =
-    Seq(3, 8) ++ Seq.fill(rootBits(fmt))(3) ++ RoundPack.weights(fmt, rootBits(fmt), maxLz = 0)
+    Seq(3) ++ Unpack.normaliseSteps(fmt).map(_.length * 2) ++ Seq(3) ++ Seq.fill(rootBits(fmt))(3) ++ RoundPack.weights(fmt, rootBits(fmt), maxLz = 0)
   def steps(fmt: FloatFormat): Int        = weights(fmt).length
   /** About two root bits per cycle. */
   def defaultLatency(fmt: FloatFormat): Int = (rootBits(fmt) + 7) / 2

@@ -38,8 +38,8 @@ class RawFloat(fmt: FloatFormat, val sigW: Int) extends Bundle {
   * (FMul has its own). Steps (`RoundPack.weights`, `regs(i)` registers after step i, from the operator's Stages):
   *  - normalise: the leading-zero shift, level by level (Shift.normaliseLevels), two levels a step;
   *  - the exponent of the normalised significand; for a tinyExact operator also the kept bits, the guard bit and
-  *    the sticky rest. Otherwise two more steps: the right shift into the subnormal range, its wide levels, then
-  *    its narrow ones with the kept bits;
+  *    the sticky rest. Otherwise three more steps: the right shift into the subnormal range, then the shift, its
+  *    wide levels and then its narrow ones with the kept bits;
   *  - the rounding increment;
   *  - packing (the rounding carry ripples into the exponent field), overflow to infinity, specials.
   *
@@ -125,44 +125,49 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.Ma
     s.rest   := below
     cut(s)
   } else {
-    // the exponent, and the right shift into the subnormal range, its wide levels and then its narrow ones
+    // the exponent and the right shift into the subnormal range; then the shift, its wide levels and then its
+    // narrow ones
     val shW = log2Ceil(m + 3)
     class Sub extends Bundle {
-      val raw    = new RawFloat(fmt, sigW)
-      val isZero = Bool()
-      val expB   = SInt(eW.W)
-      val negB   = SInt(eW.W) // 1 - expB
-      val top    = UInt((m + 2).W)
-      val below  = Bool()
+      val k   = new Kept
+      val v   = UInt((m + 2).W)
+      val rsh = UInt(shW.W)
     }
+    class Exps extends Bundle {
+      val k     = new Kept
+      val v     = UInt((m + 2).W)
+      val expB  = SInt(eW.W)
+      val negB  = SInt(eW.W) // 1 - expB
+      val expBm = SInt(eW.W) // expB - 1
+    }
+    val e = Wire(new Exps)
+    e.k.raw    := norm.raw
+    e.k.isZero := norm.isZero
+    e.k.tiny   := DontCare
+    e.k.fieldM := DontCare
+    e.k.kept   := DontCare
+    e.k.guard  := DontCare
+    e.k.rest   := below
+    e.v        := top
+    e.expB     := norm.expB0 - norm.lz.zext
+    e.negB     := 1.S - norm.expB0 + norm.lz.zext
+    e.expBm    := norm.expB0 - 1.S - norm.lz.zext
+    val re   = cut(e)
+    val tiny = re.expB < 1.S
+    val far  = re.expB < (1 - (m + 2)).S
     val a = Wire(new Sub)
-    a.raw    := norm.raw
-    a.isZero := norm.isZero
-    a.expB   := norm.expB0 - norm.lz.zext
-    a.negB   := 1.S - norm.expB0 + norm.lz.zext
-    a.top    := top
-    a.below  := below
+    a.k        := re.k
+    a.k.tiny   := tiny
+    a.k.fieldM := Mux(tiny, 0.S, re.expBm).asUInt
+    a.v        := re.v
+    a.rsh      := Mux(far, (m + 2).U, Mux(tiny, re.negB.asUInt, 0.U))(shW - 1, 0)
     val ra = cut(a)
-    class Shifting extends Bundle {
-      val k    = new Kept
-      val v    = UInt((m + 2).W)
-      val rsh  = UInt(shW.W)
-    }
-    val tiny = ra.expB < 1.S
-    val far  = ra.expB < (1 - (m + 2)).S
-    val rsh  = Mux(far, (m + 2).U, Mux(tiny, ra.negB.asUInt, 0.U))(shW - 1, 0)
     val (wide, narrow) = (0 until shW).reverse.splitAt((shW + 1) / 2)
-    val (v1, st1) = Shift.rightStickyLevels(ra.top, rsh, wide, ra.below)
-    val b = Wire(new Shifting)
-    b.k.raw    := ra.raw
-    b.k.isZero := ra.isZero
-    b.k.tiny   := tiny
-    b.k.fieldM := Mux(tiny, 0.S, ra.expB - 1.S).asUInt
-    b.k.kept   := DontCare
-    b.k.guard  := DontCare
-    b.k.rest   := st1
-    b.v        := v1
-    b.rsh      := rsh
+    val (v1, st1) = Shift.rightStickyLevels(ra.v, ra.rsh, wide, ra.k.rest)
+    val b = Wire(new Sub)
+    b        := ra
+    b.v      := v1
+    b.k.rest := st1
     val rb = cut(b)
     val (v2, st2) = Shift.rightStickyLevels(rb.v, rb.rsh, narrow, rb.k.rest)
     val c = Wire(new Kept)
@@ -222,9 +227,9 @@ object RoundPack {
   def levels(fmt: FloatFormat, sigW: Int, maxLz: Int): Int =
     log2Ceil(math.min(maxLz, sigNW(fmt, sigW) - 1) + 1)
 
-  /** The weights of its steps (Stages): the normaliser's groups, the kept bits (three steps with the subnormal
-    * right shift), rounding, packing. */
+  /** The weights of its steps (Stages): the normaliser's groups, the exponent and the kept bits (four steps with
+    * the subnormal right shift), rounding, packing. */
   def weights(fmt: FloatFormat, sigW: Int, maxLz: Int = Int.MaxValue, tinyExact: Boolean = false): Seq[Int] =
     Shift.groups(levels(fmt, sigW, maxLz)).map(_.length * 2) ++
-      (if (tinyExact) Seq(2) else Seq(3, 4, 4)) ++ Seq(3, 4)
+      (if (tinyExact) Seq(2) else Seq(2, 3, 3, 3)) ++ Seq(3, 3)
 }

@@ -4,9 +4,9 @@ import chisel3._
 
 /** Where the registers of a fixed-latency pipeline go. An operator is written as combinational steps, each with a
   * weight (its estimated delay, in LUT levels with their routes); `latency` registers are spread over the cuts
-  * after them: with latency <= steps, the k-th register goes after the first step at which the running weight
-  * reaches k / latency of the total (so the last one always registers the output, and with equal weights it is
-  * step ceil(k * steps / latency)); with more, every step gets one and the rest are added at the output.
+  * after them: with latency <= steps, one register after each of `latency` distinct steps, the last one always
+  * the output, chosen so that the heaviest run of steps between two registers is as light as it can be (the
+  * earliest such placement); with more, every step gets one and the rest are added at the output.
   * latency = 0 is purely combinational.
   */
 case class Stages(latency: Int, weights: Seq[Int]) {
@@ -17,10 +17,9 @@ case class Stages(latency: Int, weights: Seq[Int]) {
 
   /** Registers after step i, i in [0, steps). */
   val after: IndexedSeq[Int] = {
-    val a     = Array.fill(steps)(0)
-    val run   = weights.scanLeft(0L)(_ + _).tail // running weight after each step
-    val total = run.last
-    if (latency <= steps) for (k <- 1 to latency) a(run.indexWhere(_ * latency >= k * total)) += 1
+    val a = Array.fill(steps)(0)
+    if (latency == 0) ()
+    else if (latency <= steps) Stages.balanced(weights, latency).foreach(i => a(i) = 1)
     else {
       for (i <- 0 until steps) a(i) = 1
       a(steps - 1) += latency - steps
@@ -39,6 +38,25 @@ case class Stages(latency: Int, weights: Seq[Int]) {
 }
 
 object Stages {
+  /** The steps after which `regs` (1 to weights.length) registers go, the last step among them, minimising the
+    * heaviest run of steps between registers (dynamic programme over the last register's step; ties go to the
+    * earliest cuts).
+    */
+  def balanced(weights: Seq[Int], regs: Int): Seq[Int] = {
+    val n   = weights.length
+    val pre = weights.scanLeft(0L)(_ + _).toIndexedSeq // pre(i) = weight of steps [0, i)
+    def run(from: Int, to: Int): Long = pre(to + 1) - pre(from) // steps from..to
+    // cost(j)(i): the lightest heaviest run with j + 1 registers, the last after step i; prev: the one before it
+    val cost = Array.fill(regs, n)(Long.MaxValue)
+    val prev = Array.fill(regs, n)(-1)
+    for (i <- 0 until n) cost(0)(i) = run(0, i)
+    for (j <- 1 until regs; i <- j until n; k <- j - 1 until i if cost(j - 1)(k) < Long.MaxValue) {
+      val c = math.max(cost(j - 1)(k), run(k + 1, i))
+      if (c < cost(j)(i)) { cost(j)(i) = c; prev(j)(i) = k }
+    }
+    (regs - 1 to 0 by -1).scanLeft(n - 1)((i, j) => prev(j)(i)).take(regs).reverse
+  }
+
   /** Steps of equal weight. */
   def apply(latency: Int, steps: Int): Stages = {
     require(steps >= 1, s"a pipeline needs at least one step: got steps=$steps")

@@ -39,11 +39,31 @@ object Unpack {
     Mux(x === 0.U, w.U, PriorityEncoder(Reverse(x)))
   }
 
-  /** (sig << lz, exp - lz) with lz the leading zeros of a nonzero sig: subnormal operands of divide and square
-    * root become normalised (hidden bit set), with an exponent below the format's minimum.
+  /** A significand on its way through a pipelined normaliser (`normaliseSteps`): the value moved so far and the
+    * moves made (its leading-zero count once every level has run).
     */
-  def normalise(sig: UInt, exp: SInt): (UInt, SInt) = {
-    val (n, lz) = Shift.normalise(sig)
-    (n, exp - lz.zext)
+  class NormSig(fmt: FloatFormat) extends Bundle {
+    val sig = UInt(fmt.sigW.W)
+    val lz  = UInt(log2Ceil(fmt.sigW).W)
+  }
+
+  /** The normaliser's levels of a significand in pipeline steps, two levels a step (Shift.groups). */
+  def normaliseSteps(fmt: FloatFormat): Seq[Seq[Int]] = Shift.groups(log2Ceil(fmt.sigW))
+
+  def startNormalise(fmt: FloatFormat, sig: UInt): NormSig = {
+    val n = Wire(new NormSig(fmt))
+    n.sig := sig
+    n.lz  := 0.U
+    n
+  }
+
+  /** The levels `ks` of one step applied: subnormal operands of divide and square root become normalised (hidden
+    * bit set) after every step; their exponent is exp - lz. */
+  def normaliseStep(fmt: FloatFormat, r: NormSig, ks: Seq[Int]): NormSig = {
+    val (v, _, bits) = Shift.normaliseLevels(r.sig, true.B, None, ks)
+    val n = Wire(new NormSig(fmt))
+    n.sig := v
+    n.lz  := ks.zip(bits).map { case (k, b) => b.asUInt << k }.foldLeft(r.lz)(_ | _)
+    n
   }
 }
