@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpc_bench import section
+from mpc_bench import float_ops, section
 from mpc_bench.baselines_minres import make_systems, merge_times, model_accuracy, time_software
 from mpc_bench.minres_report import float_units, minres_rows, minres_section, summary_table
 from mpc_bench.parsers import ECP5_85F, ecp5_fit, ecp5_resources
@@ -153,6 +153,7 @@ class Section(section.Section):
         self.loads: list = []
         self.sw_seconds: dict = {}
         self.pnr_text = ""
+        self.float_ops: list = []
         super().__init__(run)
 
     def configure(self, a) -> None:
@@ -254,6 +255,13 @@ class Section(section.Section):
                            wave=1))
             if self.xilinx and c.role == "sweep":
                 out.append(Job(300 * c.P, f"{c.tag} xc7", lambda c=c: synth_xc7(c, log), wave=1))
+        # the floating-point operators the MINRES and interior-point cores are built from, placed on their own
+        try:
+            self.float_ops = float_ops.plan(Path(self.run.out).resolve() / "minres" / "float", self.quick)
+            out += float_ops.jobs(self.float_ops, log)
+        except Exception as e:
+            self.error(f"floating-point operators: {e}")
+            self.float_ops = []
         return out
 
     def finish(self) -> None:
@@ -282,7 +290,7 @@ class Section(section.Section):
             return []
         info = {"errors": self.errors, "sw_seconds": self.sw_seconds, "runtime_s": self.elapsed,
                 "pnr_text": self.pnr_text}
-        return minres_section(self.cores, self.rows, self.sw, info)
+        return minres_section(self.cores, self.rows, self.sw, info) + float_ops.section_md(self.float_ops)
 
     def console_summary(self) -> list[str]:
         sweep = [r for r in self.rows if r["role"] == "sweep"]

@@ -1,0 +1,38 @@
+"""The floating-point operators' part of the benchmark (mpc_bench/float_ops.py) on canned data: no sbt, no Yosys,
+no nextpnr."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from mpc_bench import float_ops
+
+
+def test_plan_covers_every_operator_format_and_latency():
+    full = float_ops.plan(Path("build/x"), quick=False)
+    assert {(c.op, c.expW, c.manW, c.latency) for c in full} == {
+        (op, e, m, lat) for op in ("add", "mul", "div", "sqrt") for e, m in ((8, 17), (8, 23))
+        for lat in ("default", "steps")}
+    assert all(c.seeds == (1, 2, 3) for c in full)
+    assert all(c.seeds == (1,) for c in float_ops.plan(Path("build/x"), quick=True))
+    assert len({c.out for c in full}) == len(full)
+
+
+def test_wrapper_registers_every_port():
+    info = {"width": 26, "out_width": 26, "module": "FloatTop_add_e8_m17_l10"}
+    sv = float_ops.wrapper_sv(info)
+    assert "FloatTop_add_e8_m17_l10 u(" in sv
+    assert "input [25:0] ia" in sv and "output reg [25:0] oo" in sv
+    assert "v <= iv; op <= iop; a <= ia; b <= ib; ov <= ovw; oo <= oow; of <= ofw;" in sv
+
+
+def test_table_gives_median_seeds_and_failures():
+    ok = float_ops.OpCore("mul", 8, 23, "steps", Path("a"), info={"latency": 13})
+    ok.ecp5 = {"LUT4": 411, "CCU2C": 87, "FF": 939, "MULT18X18D": 4}
+    ok.pnr = {"fmax_mhz": 176.8, "fmax_seeds": [170.1, 176.8, 180.2],
+              "critical_path": {"signals": ["r1_x", "prod_rp_hh"], "from": "f", "to": "t"}}
+    bad = float_ops.OpCore("div", 8, 17, "default", Path("b"), info={"latency": 13}, error="nextpnr failed (exit 1)")
+    md = "\n".join(float_ops.section_md([ok, bad]))
+    assert "| mul | binary32 | 13 (steps) | 411 | 87 | 939 | 4 | 176.8 | 170.1, 176.8, 180.2 | r1_x -> prod_rp_hh |" in md
+    assert "| div | e8m17 | 13 (default) | | | | | - | | nextpnr failed (exit 1) |" in md
+    assert "seeds 1, 2, 3 (median)" in md
+    assert float_ops.section_md([]) == []
