@@ -63,9 +63,8 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
 
   // ---- classify, pick the subnormal operand (a if subnormal, else b) to normalise, exponent fields
   class Norm extends Bundle {
-    val x    = UInt(w.W)
+    val x    = new Unpack.NormSig(fmt) // the operand being normalised
     val y    = UInt(w.W)
-    val lz   = UInt(log2Ceil(w).W)
     val eSum = SInt(pW.W) // beP + lz
     val spc  = new Special
   }
@@ -75,21 +74,18 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
   private def expField(u: UInt) = { val e = u(fmt.width - 2, m); Mux(e === 0.U, 1.U, e) } // subnormal: 1
   private val zeroTimesInf = (ua.isZero && ub.isInf) || (ua.isInf && ub.isZero)
   val s0 = Wire(new Norm)
-  s0.x           := Mux(aSub, ua.sig, ub.sig)
+  s0.x           := Unpack.startNormalise(fmt, Mux(aSub, ua.sig, ub.sig))
   s0.y           := Mux(aSub, ub.sig, ua.sig)
-  s0.lz          := 0.U
   s0.eSum        := ((expField(a) +& expField(b)).zext.pad(pW) - (fmt.bias - 1).S)(pW - 1, 0).asSInt
   s0.spc.sign    := ua.sign ^ ub.sign
   s0.spc.isNaN   := ua.isNaN || ub.isNaN || zeroTimesInf
   s0.spc.isInf   := ua.isInf || ub.isInf
   s0.spc.isZero  := ua.isZero || ub.isZero
   s0.spc.invalid := ua.isSNaN || ub.isSNaN || zeroTimesInf
-  private val norm = Shift.groups(FMul.levels(fmt)).foldLeft(cut(s0)) { (r, ks) =>
+  private val norm = Unpack.normaliseSteps(fmt).foldLeft(cut(s0)) { (r, ks) =>
     val s = Wire(new Norm)
-    val (v, _, bits) = Shift.normaliseLevels(r.x, true.B, None, ks)
-    s    := r
-    s.x  := v
-    s.lz := ks.zip(bits).map { case (k, b) => b.asUInt << k }.foldLeft(r.lz)(_ | _)
+    s   := r
+    s.x := Unpack.normaliseStep(fmt, r.x, ks)
     cut(s)
   }
 
@@ -101,8 +97,8 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
     val spc = new Special
   })
   private val beP = Wire(SInt(pW.W))
-  beP := (norm.eSum - norm.lz.zext)(pW - 1, 0).asSInt
-  s1.x        := norm.x
+  beP := (norm.eSum - norm.x.lz.zext)(pW - 1, 0).asSInt
+  s1.x        := norm.x.sig
   s1.y        := norm.y
   s1.e.low    := beP <= 0.S
   s1.e.edge   := beP === 1.S
@@ -258,11 +254,10 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
 object FMul {
   /** Operand width of one hard multiplier: wider significands are split into partial products. */
   val dspW = 18
-  def levels(fmt: FloatFormat): Int = log2Ceil(fmt.sigW)
   /** Step weights (Stages): classify, the normaliser's groups, the exponent, the product (partial products and
     * their sum when wider than dspW), the window, the two shift steps, rounding, the field, specials. */
   def weights(fmt: FloatFormat): Seq[Int] =
-    Seq(4) ++ Shift.groups(levels(fmt)).map(_.length * 2) ++ Seq(4) ++
+    Seq(4) ++ Unpack.normaliseSteps(fmt).map(_.length * 2) ++ Seq(4) ++
       (if (fmt.sigW <= dspW) Seq(6) else Seq(6, 4)) ++ Seq(3, 4, 4, 3, 3, 3)
   def steps(fmt: FloatFormat): Int = weights(fmt).length
   def defaultLatency(fmt: FloatFormat): Int = 3

@@ -98,7 +98,7 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.Ma
     s      := r
     s.sigN := v
     s.free := free
-    s.lz   := ks.zip(bits).map { case (k, b) => b.asUInt << k }.foldLeft(r.lz)(_ | _)
+    s.lz   := Shift.addMoves(r.lz, ks, bits)
     cut(s)
   }
 

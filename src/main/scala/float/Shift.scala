@@ -47,6 +47,10 @@ object Shift {
     (v, free, bits)
   }
 
+  /** A leading-zero count so far, `lz`, with the moves of the levels `ks` (from normaliseLevels) set in it. */
+  def addMoves(lz: UInt, ks: Seq[Int], moves: Seq[Bool]): UInt =
+    ks.zip(moves).map { case (k, b) => b.asUInt << k }.foldLeft(lz)(_ | _)
+
   /** The levels of a `levels`-level shifter, widest first, in groups of at most `per` (one pipeline step each:
     * two levels, a zero test and a 2:1 select each, fit a step at 150 MHz on an ECP5). */
   def groups(levels: Int, per: Int = 2): Seq[Seq[Int]] = ((levels - 1) to 0 by -1).grouped(per).map(_.toSeq).toSeq

@@ -63,7 +63,7 @@ object Unpack {
     val (v, _, bits) = Shift.normaliseLevels(r.sig, true.B, None, ks)
     val n = Wire(new NormSig(fmt))
     n.sig := v
-    n.lz  := ks.zip(bits).map { case (k, b) => b.asUInt << k }.foldLeft(r.lz)(_ | _)
+    n.lz  := Shift.addMoves(r.lz, ks, bits)
     n
   }
 }
