@@ -32,7 +32,7 @@ import numpy as np
 OPS = ("ADD", "SUB", "MUL", "DIV", "SQRT", "MOV", "MIN", "MAX", "SELNEG", "ACC", "MINRED", "IN", "OUT")
 SPACES = ("slot", "const")
 MODES = ("vec", "scalar", "gather")
-ISSUE_GAP = 1     # cycles between the last result of an instruction and the first element of the next
+ISSUE_GAP = 2     # cycles an instruction adds to n + latency: the engine's address step and operand register
 
 
 @dataclass(frozen=True)

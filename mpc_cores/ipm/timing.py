@@ -13,9 +13,10 @@ The hand-offs, in cycles (IpmCore, MinresCore):
   earlier than (I_MR + 1) P S cycles after it started the previous batch (when that batch's feed has taken its
   last element: batches overlap), and streams its answers (batch cycles) + 1 cycles later, or the cycle after the
   previous batch's last answer word was taken if that is later;
-  a receive waiting for MINRES is done N + 3 cycles after MINRES starts streaming (its k-th problem N + 2 cycles
-  later each), on the cycle it takes the last word, else after its own cycles, one more from the second problem
-  on (the id word between two problems' words);
+  a receive waiting for MINRES is done N + 2 + ISSUE_GAP cycles after MINRES starts streaming (its k-th problem
+  N + 2 cycles later each), ISSUE_GAP after it takes the last word, else after its own cycles, from the second
+  problem on ID_STALL more (the norm and id words between two problems' solutions, which arrive 3 cycles after
+  the previous problem's last word while the next receive takes its first word ISSUE_GAP + 1 cycles after it);
   an answer's status word leaves 3 cycles after output is done; the sequencer acts 2 cycles later (the next
   problem's update) or decides in its idle state 2 cycles later.
 The model assumes Stage 1 is in its receive when MINRES starts streaming (Stage 1 hidden, see `hidden`) or late
@@ -23,6 +24,9 @@ enough that MINRES waits; the testbench checks both regimes against the RTL.
 """
 from __future__ import annotations
 
+from mpc_cores.ipm.isa import ISSUE_GAP
+
+ID_STALL = max(0, 2 - ISSUE_GAP)
 
 
 def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | None = None,
@@ -75,7 +79,7 @@ def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | 
         o = max(start + 1 + batch, out_free)   # MINRES streams the answers
         done = t + 1
         for k in range(len(chans[g])):
-            done = max(done + C["receive"] + (k > 0), o + N + 3 + k * (N + 2))
+            done = max(done + C["receive"] + (k > 0) * ID_STALL, o + N + 2 + ISSUE_GAP + k * (N + 2))
         out_free = done + 1
         for k, c in enumerate(chans[g]):
             last = k == len(chans[g]) - 1

@@ -9,7 +9,7 @@ import chisel3.util._
   * Interface. `start` (with `prog`, `slot`) runs program `prog` on slot `slot`; it is taken when the engine is
   * idle or on the cycle `done` is high (and ignored for a `prog` beyond the programs; `slot` must be < slots). `busy` is high from the cycle after `start` to `done` included. A
   * program started on cycle s raises `done` on cycle s + cycles(program) with cycles as
-  * mpc_cores.ipm.isa.cycles when the streams do not stall (sum over the instructions of n + latency + 1); its
+  * mpc_cores.ipm.isa.cycles when the streams do not stall (sum over the instructions of n + latency + 2); its
   * last result is written on the cycle after `done`, before any read of a program started on the `done`
   * cycle, so back-to-back programs run as one. IN takes words from `s_axis` (the format's word in the low bits
   * of tdata), OUT writes them to `m_axis` (tlast on an instruction's last word) through a 4-word buffer; both
@@ -19,9 +19,11 @@ import chisel3.util._
   *   T  issue: element index; index-table ROMs read (one per role d, a, b that gathers or scatters)
   *   M  addresses: vec addr + i, scalar addr, gather addr + table[i] (+ the slot's base in slot space);
   *      slot memory and constant ROMs read (one copy per operand a, b)
+  *   R  memory words out; operand select (slot or constant), registered
   *   U  operands ready; into the unit of the op (Stage1Alu), result written latency(op) cycles later.
+  * The R register keeps the block RAM's clock-to-out and the operand select out of the units' first step.
   * An instruction issues its n elements on consecutive cycles (IN: when a word is there; OUT: when the output
-  * buffer has room for the words in flight) and the next one issues latency + 2 cycles after its last element,
+  * buffer has room for the words in flight) and the next one issues latency + 3 cycles after its last element,
   * that is on the cycle its last result is written: its first read is on the cycle after. So instructions run
   * strictly one after another and an instruction never reads a word it writes itself later (the programs keep
   * the write of element i away from the reads of the elements after i: mpc_cores.ipm.isa.stream_hazards).
@@ -50,7 +52,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val maxLat   = Isa.ops.indices.map(p.latency).max
   private val running  = RegInit(false.B)
   private val issuing  = RegInit(false.B)
-  private val gap      = RegInit(0.U(log2Ceil(maxLat + 2).W))
+  private val gap      = RegInit(0.U(log2Ceil(maxLat + Stage1Params.IssueGap + 1).W))
   private val pc       = Reg(UInt(p.pcW.W))
   private val pcEnd    = Reg(UInt(p.pcW.W))
   private val slotBase = Reg(UInt(p.memAddrW.W))
@@ -75,7 +77,8 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val vM      = RegInit(false.B)
   private val vU      = RegInit(false.B)
   private val curOut  = cur.op === OUT.U
-  private val room    = outQ.io.count +& (vM && curOut) +& (vU && curOut) <= 3.U
+  private val vR      = RegInit(false.B)
+  private val room    = outQ.io.count +& (vM && curOut) +& (vR && curOut) +& (vU && curOut) <= 3.U
   private val active  = launch || issuing
   private val issue   = active && Mux(ins.op === IN.U, s_axis.tvalid, Mux(ins.op === OUT.U, room, true.B))
   s_axis.tready := active && ins.op === IN.U
@@ -91,7 +94,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
     i := iT + 1.U
     when(lastT) {
       issuing := false.B
-      gap     := latOf(ins.op) + 1.U
+      gap     := latOf(ins.op) + Stage1Params.IssueGap.U
     }
   }
   when(finish) { running := false.B }
@@ -127,16 +130,23 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val constA = if (p.constA) Rom("Stage1ConstA", p.constWords, w, aOff, clock) else 0.U(w.W)
   private val constB = if (p.constB) Rom("Stage1ConstB", p.constWords, w, bOff, clock) else 0.U(w.W)
 
+  // ---- R: memory words out, operands selected and registered
+  vR := vM
+  private val iR    = RegNext(iM)
+  private val lastR = RegNext(lastM)
+  private val inR   = RegNext(inM)
+  private val addrR = RegNext(slotBase + dOff)
+
   // ---- U: operands, units, write-back (the element in U still belongs to `cur`: a new instruction is
   // loaded into `cur` at the end of its first issue cycle, at the earliest the cycle its predecessor's last
   // element is here)
-  vU := vM
-  private val iU    = RegNext(iM)
-  private val lastU = RegNext(lastM)
-  private val inU   = RegNext(inM)
-  private val addrU = RegNext(slotBase + dOff)
-  private val aU    = Mux(cur.a.inConst, constA, slotA)
-  private val bU    = Mux(cur.b.inConst, constB, slotBw)
+  vU := vR
+  private val iU    = RegNext(iR)
+  private val lastU = RegNext(lastR)
+  private val inU   = RegNext(inR)
+  private val addrU = RegNext(addrR)
+  private val aU    = RegNext(Mux(cur.a.inConst, constA, slotA))
+  private val bU    = RegNext(Mux(cur.b.inConst, constB, slotBw))
 
   private val alu = Module(new Stage1Alu(p))
   alu.io.valid  := vU

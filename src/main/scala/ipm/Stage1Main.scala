@@ -27,7 +27,7 @@ object Stage1Main extends App {
       "latency" -> ujson.Obj("add" -> p.latAdd, "mul" -> p.latMul, "div" -> p.latDiv, "sqrt" -> p.latSqrt,
         "cmp" -> p.latCmp, "acc" -> p.latAcc),
       "op_latency" -> ujson.Obj.from(Isa.ops.zipWithIndex.map { case (op, k) => op -> ujson.Num(p.latency(k)) }),
-      "issue_gap" -> 1,
+      "issue_gap" -> Stage1Params.IssueGap,
       "programs" -> ujson.Arr(progs: _*),
       "memories" -> ujson.Obj(
         "slot_copies" -> (if (p.slotB) 2 else 1),

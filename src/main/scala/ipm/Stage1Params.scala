@@ -58,8 +58,8 @@ case class Stage1Params(
     case IN | OUT             => 0
   }
 
-  /** cycles of an instruction without stream stalls: n elements, the unit's latency, one issue gap */
-  def cycles(i: Instr): Int = i.n + latency(i.op) + 1
+  /** cycles of an instruction without stream stalls: n elements, the unit's latency, the issue gap */
+  def cycles(i: Instr): Int = i.n + latency(i.op) + Stage1Params.IssueGap
   val programCycles: Seq[Int] = programs.map(_._2.map(w => cycles(decode(w))).sum)
 
   private def size(space: Int): Int = if (space == SLOT) slotWords else constLen
@@ -117,6 +117,10 @@ case class Stage1Params(
 }
 
 object Stage1Params {
+  /** cycles an instruction adds beyond its n elements and its unit's latency: the address step (M) and the
+    * operand register (R) of Stage1Engine, less the write that overlaps the next instruction's issue */
+  val IssueGap = 2
+
   def fromJson(text: String): Stage1Params = {
     val j = ujson.read(text)
     require(j("core").str == "ipm_stage1", s"not a Stage 1 configuration: core=${j("core").str}")
