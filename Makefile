@@ -18,6 +18,9 @@ LAT_ADD ?=
 LAT_MUL ?=
 # FGM: problems interleaved on the row units (K_p)
 PROBLEMS ?=
+# float cores (minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact or fast)
+FORMAT  ?=
+LATENCY ?=
 PYTEST_ARGS ?=
 # parallel test workers (pytest-xdist, one per core); a test file runs on one worker (its module fixtures
 # regenerate cores in place)
@@ -25,7 +28,7 @@ JOBS        ?= auto
 
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT)) \
            $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL)) \
-           $(if $(PROBLEMS),--problems $(PROBLEMS))
+           $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY))
 
 .PHONY: setup verilog c split design test test-slow demo clean
 

@@ -24,7 +24,8 @@ from mpc_cores.errors import DesignError, GeneratorError, SpecError
 from mpc_cores.flow import REPO
 from mpc_cores.schema import check_override, check_size
 
-OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format", "target", "problems")
+OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format", "latency", "target",
+             "problems")
 
 
 def refuse(msg: str) -> None:
@@ -209,6 +210,8 @@ def main(argv=None) -> None:
         s.add_argument("--rounding", help="truncate or nearest")
         s.add_argument("--iterations")
         s.add_argument("--format", help="float format (MINRES, ipm): binary32, binary16 or e<E>m<M>, e.g. e8m17")
+        s.add_argument("--latency", help="float operator latencies (MINRES, ipm): compact (fewest cycles) or fast "
+                                         "(150 MHz on the LFE5U-85F)")
         s.add_argument("--target", help="FPGA family of the multipliers (fgm, admm): generic, ecp5 or xilinx7")
         s.add_argument("--problems", help="K_p, problems interleaved on the row units (fgm, admm): 1 to 16")
         s.add_argument("--out")

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 from mpc_cores.errors import SpecError
 from mpc_cores.fixed import ROUNDING_MODES
+from mpc_cores.float.latency import LATENCY_PRESETS
 from mpc_cores.target import TARGETS
 
 PART, PART_MULTS, PART_BLOCKS, BLOCK_WORDS = "LFE5U-85F", 156, 208, 1024
@@ -204,11 +205,13 @@ SOLVER = {
     "minres_P": Int(0, 64, " (0: eq. (15) of 001)"),
     "minres_iterations": Int(0, 65535, " (0: the default N)"),
     "minres_format": FloatFormat(),
+    "minres_latency": Choice(LATENCY_PRESETS),
     # ipm
     "ipm_P": Int(0, 64, " (0: eq. (15) of 001)"),
     "ipm_newton": Int(1, 65535, " (I_NW)"),
     "ipm_minres": Int(0, 65535, " (I_MR; 0: the default)"),
     "ipm_format": FloatFormat(),
+    "ipm_latency": Choice(LATENCY_PRESETS),
     "ipm_mu_tol": Num(0),
     "ipm_res_tol": Num(0),
     # dgp

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from mpc_cores.flow import REPO, GeneratorError, run_generator
+from mpc_cores.float.latency import format_latencies
 from verif.float import corners, rtl, suite
 
 BUILD = REPO / "build" / "tests" / "float"
@@ -130,6 +131,11 @@ def test_fully_pipelined(float_session, key):
     n, u = _check(float_session, key)
     assert n >= suite.N_LATENCY
     assert u.latency == u.info["steps"] > u.info["default_latency"] and u.module.endswith(f"_l{u.latency}")
+    # the cores' fast latency preset builds divide and square root fully pipelined, and compact at the default
+    op, f, _ = key
+    if op in ("div", "sqrt"):
+        assert format_latencies(f, "fast")[f"lat_{op}"] == u.info["steps"]
+    assert format_latencies(f, "compact")[f"lat_{op}"] == u.info["default_latency"]
 
 
 @pytest.mark.parametrize("f", [suite.E8M17, suite.BINARY32], ids=lambda f: f.tag)

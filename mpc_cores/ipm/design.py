@@ -5,7 +5,9 @@ format, and the convergence tolerances, written to the config.json the generator
 Defaults: I_NW = 8; I_MR the larger of 12 (the masses closed loop within 0.1 % of OSQP with the equilibration,
 docs/ipm.md) and the smallest I_MR at which Stage 1 hides behind MINRES (a Newton iteration of 2P problems
 takes two MINRES batches back to back, mpc_cores.ipm.timing), so that the added iterations cost no latency; P from
-eq. (15) of 001 (the MINRES core's form). Spec keys (solver section): ipm_P, ipm_newton, ipm_minres, ipm_format, ipm_mu_tol, ipm_res_tol.
+eq. (15) of 001 (the MINRES core's form); the float operators' latencies from a preset, compact (the float
+library's defaults) or fast (150 MHz on the LFE5U-85F). Spec keys (solver section): ipm_P, ipm_newton, ipm_minres,
+ipm_format, ipm_latency, ipm_mu_tol, ipm_res_tol.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from mpc_cores.minres.design import MinresDesign, design_minres
 
 SIGMA, TAU, START, FLOOR = 0.1, 0.99, 1.0, 1e-2
 I_NW, I_MR_ACCURACY = 8, 12
+LATENCY = "compact"   # the float operators' latency preset (mpc_cores.minres.design.format_latencies)
 MU_TOL, RES_TOL = 1e-3, 1e-1
 
 
@@ -85,7 +88,7 @@ class IpmDesign:
 
 def design_ipm(problem, P: int | None = None, iterations: int | None = None, newton: int | None = None,
                lat_add: int | None = None, lat_mul: int | None = None, format: str | None = None,
-               name: str | None = None, **_ignored) -> IpmDesign:
+               name: str | None = None, latency: str | None = None, **_ignored) -> IpmDesign:
     solver = problem.solver or {}
     s = sparse_mpc(problem)
     if len(s.bounded) == 0:
@@ -96,7 +99,7 @@ def design_ipm(problem, P: int | None = None, iterations: int | None = None, new
         raise DesignError(f"I_NW (newton) must be in [1, 65535]: got {i_nw}")
     P = P if P is not None else solver.get("ipm_P", 0)
     md = design_minres(problem, P=P, iterations=1, lat_add=lat_add, lat_mul=lat_mul, format=fmt, name=name,
-                       warm=True)
+                       warm=True, latency=latency or solver.get("ipm_latency", LATENCY))
     st1 = build(s, SIGMA, TAU, True, START, FLOOR)
     d = IpmDesign(name or problem.name, problem, s, st1, md, i_nw, float(solver.get("ipm_mu_tol", MU_TOL)),
                   float(solver.get("ipm_res_tol", RES_TOL)))

@@ -11,12 +11,11 @@ import numpy as np
 
 from mpc_cores.errors import DesignError  # the error the command line reports
 from mpc_cores.float import vector as fv
+from mpc_cores.float.latency import LAT, format_latencies
 from mpc_cores.float.model import Format
 from mpc_cores.minres.band import BandPattern, band_pattern
 from mpc_cores.minres.kkt import Layout, const_rom, kkt_matrix, problem_matrices
 
-# default latencies of the binary32 operators (float library defaults); divide and square root follow the format
-LAT = {"lat_add": 4, "lat_mul": 3, "lat_div": 16, "lat_sqrt": 16}
 NAMES = {"binary32": Format(8, 23), "binary16": Format(5, 10)}
 STREAM_BITS = 32
 
@@ -48,10 +47,6 @@ def format_name(f: Format) -> str:
     return next((k for k, v in NAMES.items() if v == f), f"e{f.expW}m{f.manW}")
 
 
-def format_latencies(f: Format) -> dict:
-    """The float library's default latencies in format f: divide ceil((M + 9) / 2), square root ceil((M + 8) / 2)
-    (FDiv / FSqrt.defaultLatency: about two quotient or root bits per cycle)."""
-    return dict(LAT, lat_div=(f.manW + 10) // 2, lat_sqrt=(f.manW + 9) // 2)
 
 
 @dataclass
@@ -97,7 +92,7 @@ class MinresDesign:
 
 def design_minres(problem, P: int | None = None, iterations: int | None = None, lat_add: int | None = None,
                   lat_mul: int | None = None, name: str | None = None, format: str | None = None,
-                  warm: bool = False, **_ignored) -> MinresDesign:
+                  warm: bool = False, latency: str | None = None, **_ignored) -> MinresDesign:
     A, B, Q, R, QN, T = problem_matrices(problem)
     n, m = problem.nx, problem.nu
     solver = problem.solver or {}
@@ -105,7 +100,7 @@ def design_minres(problem, P: int | None = None, iterations: int | None = None, 
     if P < 0 or P > 64:
         raise DesignError(f"P must be in [1, 64] (0 or none: eq. (15)): got P={P}")
     fmt = parse_format(format if format not in (None, "") else solver.get("minres_format", "binary32"))
-    lat = format_latencies(fmt)
+    lat = format_latencies(fmt, latency or solver.get("minres_latency", "compact"))
     if lat_add is not None:
         lat["lat_add"] = int(lat_add)
     if lat_mul is not None:
