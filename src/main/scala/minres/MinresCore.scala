@@ -126,8 +126,15 @@ class MinresCore(val p: MinresParams) extends Module {
   // warm form: d (copy 0 the feed, copy 1 the row scaling) and z0 (the init pass's feed), double-buffered
   val smem  = if (p.warm) Some(new VecRam("smem", 2 * P * N, W, copies = 2)) else None
   val zmem  = if (p.warm) Some(new VecRam("zmem", 2 * P * N, W)) else None
-  private def adr2(buf: UInt, slot: UInt, e: UInt, len: Int): UInt = (buf * P.U +& slot) * len.U +& e
-  private def adr1(slot: UInt, e: UInt): UInt = slot * N.U +& e
+  /** (buf P + slot) len + e and slot N + e, the products as tables of constants indexed by the (buf, slot) bits: a
+    * few LUT levels ahead of the adder instead of a multiplier on the memories' address paths */
+  private def adr2(buf: UInt, slot: UInt, e: UInt, len: Int): UInt = {
+    val (wb, ws) = (buf.getWidth, slot.getWidth)
+    val prods    = Seq.tabulate(1 << (wb + ws))(k => BigInt(((k >> ws) * P + (k & ((1 << ws) - 1))) * len))
+    val w        = math.max(1, prods.max.bitLength)
+    VecInit(prods.map(_.U(w.W)))(Cat(buf, slot)) +& e
+  }
+  private def adr1(slot: UInt, e: UInt): UInt = adr2(0.U(1.W), slot, e, N)
   private def inN(e: UInt): UInt = Mux(e < N.U, e, 0.U)
 
   // ---- per-problem scalars
@@ -224,8 +231,8 @@ class MinresCore(val p: MinresParams) extends Module {
     started(nextBank) := true.B
     active(nextBank)  := true.B
     g(nextBank)       := 0.U
-    gEnd(nextBank)    := imaxIn * p.cyclesPerIteration.U +& (p.batchCycles(0) - 1).U
-    gFeed(nextBank)   := imaxIn * p.cyclesPerIteration.U +& (p.cyclesPerIteration - 1).U
+    gEnd(nextBank)    := ~0.U(32.W) // set two cycles later, from the product registered in between
+    gFeed(nextBank)   := ~0.U(32.W)
     for (q <- 0 until P) xBad(nextBank * P.U + q.U) := false.B
     curBank  := nextBank
     nextBank := ~nextBank
@@ -247,6 +254,13 @@ class MinresCore(val p: MinresParams) extends Module {
   val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - 1), feed.imax, curBank)
   val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, curBank)
   val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - 1), feed.imax, curBank)
+  // the batch's last cycles, I_MR P S + c: from the I_MR the feed latched at the start, the multiplier between
+  // registers, set on the batch's third cycle (g = 2; until then they hold the largest count)
+  private val imaxCyc = RegNext(feed.imax * p.cyclesPerIteration.U)
+  for (b <- 0 until 2) when(active(b) && g(b) === 2.U) {
+    gEnd(b)  := imaxCyc +& (p.batchCycles(0) - 1).U
+    gFeed(b) := imaxCyc +& (p.cyclesPerIteration - 1).U
+  }
 
   // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
   private val sr0 = vmem.read(0, adr1(feed.c.slot, inN(feed.c.e)))
