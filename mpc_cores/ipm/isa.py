@@ -18,8 +18,8 @@ float library (mpc_cores/float/model.py):
   MINRED  min of a[0..n-1], the first of equal values; NaN if any is NaN
   IN      n words of the input stream into the destination      OUT  a[0..n-1] to the output stream
 Every NaN result is the canonical quiet NaN. Instructions run one after another (each waits until the previous
-one's last result is written), so a program's cycle count is fixed: sum over its instructions of n + the unit's
-latency + ISSUE_GAP (IN and OUT: n cycles without backpressure).
+one's last result is written), so a program's cycle count is fixed: PROGRAM_START + the sum over its instructions
+of n + the unit's latency + ISSUE_GAP (IN and OUT: latency 0, without backpressure).
 The interpreter reads all n elements of an instruction before it writes any; the engine streams them, so an
 element must not read a slot word that an earlier element of the same instruction writes (stream_hazards).
 """
@@ -32,7 +32,8 @@ import numpy as np
 OPS = ("ADD", "SUB", "MUL", "DIV", "SQRT", "MOV", "MIN", "MAX", "SELNEG", "ACC", "MINRED", "IN", "OUT")
 SPACES = ("slot", "const")
 MODES = ("vec", "scalar", "gather")
-ISSUE_GAP = 2     # cycles an instruction adds to n + latency: the engine's address step and operand register
+ISSUE_GAP = 3      # cycles an instruction adds to n + latency: the engine's table, address and operand registers
+PROGRAM_START = 1  # cycles a program adds to its instructions': its first instruction word is decoded ahead
 
 
 @dataclass(frozen=True)
@@ -97,7 +98,7 @@ def stream_hazards(i: Instr, tables) -> list[tuple[int, int]]:
 
 def cycles(program: list[Instr], lat: dict) -> int:
     """Cycles of a program without stream stalls."""
-    return sum(i.n + latency(i.op, lat) + ISSUE_GAP for i in program)
+    return PROGRAM_START + sum(i.n + latency(i.op, lat) + ISSUE_GAP for i in program)
 
 
 # ---- encoding of the instruction ROM (the generator reads the words from config.json)

@@ -16,7 +16,8 @@ The hand-offs, in cycles (IpmCore, MinresCore):
   a receive waiting for MINRES is done N + 2 + ISSUE_GAP cycles after MINRES starts streaming (its k-th problem
   N + 2 cycles later each), ISSUE_GAP after it takes the last word, else after its own cycles, from the second
   problem on ID_STALL more (the norm and id words between two problems' solutions, which arrive 3 cycles after
-  the previous problem's last word while the next receive takes its first word ISSUE_GAP + 1 cycles after it);
+  the previous problem's last word while the next receive takes its first word ISSUE_GAP + PROGRAM_START + 1
+  cycles after it);
   an answer's status word leaves 3 cycles after output is done; the sequencer acts 2 cycles later (the next
   problem's update) or decides in its idle state 2 cycles later.
 The model assumes Stage 1 is in its receive when MINRES starts streaming (Stage 1 hidden, see `hidden`) or late
@@ -24,9 +25,9 @@ enough that MINRES waits; the testbench checks both regimes against the RTL.
 """
 from __future__ import annotations
 
-from mpc_cores.ipm.isa import ISSUE_GAP
+from mpc_cores.ipm.isa import ISSUE_GAP, PROGRAM_START
 
-ID_STALL = max(0, 2 - ISSUE_GAP)
+ID_STALL = max(0, 2 - ISSUE_GAP - PROGRAM_START)
 
 
 def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | None = None,

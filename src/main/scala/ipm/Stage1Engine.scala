@@ -9,22 +9,28 @@ import chisel3.util._
   * Interface. `start` (with `prog`, `slot`) runs program `prog` on slot `slot`; it is taken when the engine is
   * idle or on the cycle `done` is high (and ignored for a `prog` beyond the programs; `slot` must be < slots). `busy` is high from the cycle after `start` to `done` included. A
   * program started on cycle s raises `done` on cycle s + cycles(program) with cycles as
-  * mpc_cores.ipm.isa.cycles when the streams do not stall (sum over the instructions of n + latency + 2); its
+  * mpc_cores.ipm.isa.cycles when the streams do not stall (1 + the sum over the instructions of n + latency + 3); its
   * last result is written on the cycle after `done`, before any read of a program started on the `done`
   * cycle, so back-to-back programs run as one. IN takes words from `s_axis` (the format's word in the low bits
   * of tdata), OUT writes them to `m_axis` (tlast on an instruction's last word) through a 4-word buffer; both
   * wait for the other side, the only data-dependent timing.
   *
   * Pipeline, one element per cycle:
-  *   T  issue: element index; index-table ROMs read (one per role d, a, b that gathers or scatters)
-  *   M  addresses: vec addr + i, scalar addr, gather addr + table[i] (+ the slot's base in slot space);
-  *      slot memory and constant ROMs read (one copy per operand a, b)
+  *   T  issue: element index; index-table ROMs read (one per role d, a, b that gathers or scatters) at the
+  *      instruction's table base (registered when the instruction word was fetched) + the index
+  *   G  table words out of their ROMs, registered
+  *   M  addresses: operand base (the slot's base + the operand's address, registered at the instruction's
+  *      launch) + the index or the table word; slot memory and constant ROMs read (one copy per operand a, b)
   *   R  memory words out; operand select (slot or constant), registered
   *   U  operands ready; into the unit of the op (Stage1Alu), result written latency(op) cycles later.
-  * The R register keeps the block RAM's clock-to-out and the operand select out of the units' first step.
+  * Every block RAM's output and every address adder ends in a register, so no path runs from one memory
+  * through an adder into another, nor from a memory into a unit.
+  * The instruction ROM is read ahead: the word at the program counter is decoded into a register (with its
+  * table bases) before its launch, so a program's first instruction launches two cycles after `start` (one cycle
+  * per program, Stage1Params.ProgramStart).
   * An instruction issues its n elements on consecutive cycles (IN: when a word is there; OUT: when the output
-  * buffer has room for the words in flight) and the next one issues latency + 3 cycles after its last element,
-  * that is on the cycle its last result is written: its first read is on the cycle after. So instructions run
+  * buffer has room for the words in flight) and the next one issues latency + 4 cycles after its last element,
+  * that is on the cycle its last result is written: its first read is two cycles after. So instructions run
   * strictly one after another and an instruction never reads a word it writes itself later (the programs keep
   * the write of element i away from the reads of the elements after i: mpc_cores.ipm.isa.stream_hazards).
   *
@@ -35,6 +41,8 @@ import chisel3.util._
   */
 class Stage1Engine(p: Stage1Params) extends Module {
   import Isa._
+  /** output buffer: one word per pipeline stage (G, M, R, U) and one more, so that OUT streams without a gap */
+  private val OutDepth = 5
   override def desiredName = p.moduleName
   private val w = p.fmt.width
 
@@ -57,6 +65,8 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val pcEnd    = Reg(UInt(p.pcW.W))
   private val slotBase = Reg(UInt(p.memAddrW.W))
   private val cur      = Reg(new InstrBits)
+  private val slotBases = table(Seq.tabulate(p.slots)(k => (k * p.slotWords).U(p.memAddrW.W)), 1 << p.slotW,
+    0.U(p.memAddrW.W))
   private val i        = Reg(UInt(NW.W))
 
   private val entry  = table(p.entries.init.map(_.U(p.pcW.W)), 1 << p.progW, 0.U(p.pcW.W))
@@ -69,16 +79,27 @@ class Stage1Engine(p: Stage1Params) extends Module {
   busy := running
   done := finish
 
+  // the instruction at pc, decoded, and its table bases, registered ahead of its launch (the ROM word of the pc
+  // of cycle t is here on t + 2: pc moves at a launch and the next launch is at least 4 cycles later)
+  private val tableBase = table(p.tableBase.init.map(_.U(17.W)), 1 << TableW, 0.U(17.W))
+  private val nxt       = RegNext(InstrBits.decode(code))
+  private def bases(x: InstrBits): Vec[UInt] = VecInit(Seq(x.d, x.a, x.b).map(o => tableBase(o.table)))
+  private val nxtTab    = RegNext(bases(InstrBits.decode(code)))
+  private val curTab    = Reg(Vec(3, UInt(17.W)))
+
   // ---- T: issue
-  private val ins     = Mux(launch, InstrBits.decode(code), cur)
+  private val ins     = Mux(launch, nxt, cur)
+  private val tabT    = Mux(launch, nxtTab, curTab)
   private val iT      = Mux(launch, 0.U, i)
   private val lastT   = iT + 1.U === ins.n
-  private val outQ    = Module(new Queue(UInt((w + 1).W), 4, flow = true))
+  private val outQ    = Module(new Queue(UInt((w + 1).W), OutDepth, flow = true))
+  private val vG      = RegInit(false.B)
   private val vM      = RegInit(false.B)
+  private val vR      = RegInit(false.B)
   private val vU      = RegInit(false.B)
   private val curOut  = cur.op === OUT.U
-  private val vR      = RegInit(false.B)
-  private val room    = outQ.io.count +& (vM && curOut) +& (vR && curOut) +& (vU && curOut) <= 3.U
+  private val room    = outQ.io.count +& (Seq(vG, vM, vR, vU).map(v => (v && curOut).asUInt).reduce(_ +& _)) <=
+    (OutDepth - 1).U
   private val active  = launch || issuing
   private val issue   = active && Mux(ins.op === IN.U, s_axis.tvalid, Mux(ins.op === OUT.U, room, true.B))
   s_axis.tready := active && ins.op === IN.U
@@ -86,6 +107,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   when(running && !issuing && gap =/= 0.U) { gap := gap - 1.U }
   when(launch) {
     cur     := ins
+    curTab  := nxtTab
     issuing := true.B
     pc      := pc + 1.U
     i       := 0.U
@@ -101,41 +123,53 @@ class Stage1Engine(p: Stage1Params) extends Module {
   when(accept) {
     running  := true.B
     issuing  := false.B
-    gap      := 0.U
+    gap      := Stage1Params.ProgramStart.U // the first instruction word is decoded first
     pc       := entry(prog)
     pcEnd    := ends(prog)
-    slotBase := slot * p.slotWords.U
+    slotBase := slotBases(slot)
   }
 
-  private val tableBase = table(p.tableBase.init.map(_.U(17.W)), 1 << TableW, 0.U(17.W))
-  private def tableRom(role: String, used: Boolean, o: OperandBits): UInt =
-    if (used) Rom(s"Stage1Table$role", p.tableWords.map(BigInt(_)), p.tableW, tableBase(o.table) + iT, clock)
+  private def tableRom(role: String, used: Boolean, k: Int): UInt =
+    if (used) Rom(s"Stage1Table$role", p.tableWords.map(BigInt(_)), p.tableW, tabT(k) + iT, clock)
     else 0.U(p.tableW.W)
-  private val tabD = tableRom("D", p.gatherD, ins.d)
-  private val tabA = tableRom("A", p.gatherA, ins.a)
-  private val tabB = tableRom("B", p.gatherB, ins.b)
+  private val tabD = tableRom("D", p.gatherD, 0)
+  private val tabA = tableRom("A", p.gatherA, 1)
+  private val tabB = tableRom("B", p.gatherB, 2)
 
-  // ---- M: addresses (the element in M belongs to `cur`: the next instruction issues at least 2 cycles later)
-  vM := issue
-  private val iM    = RegNext(iT)
-  private val lastM = RegNext(lastT)
-  private val inM   = RegNext(s_axis.tdata(w - 1, 0))
-  private def offset(o: OperandBits, tab: UInt): UInt = o.addr +& Mux(o.isGather, tab, Mux(o.isVec, iM, 0.U))
-  private val aOff  = offset(cur.a, tabA)
-  private val bOff  = offset(cur.b, tabB)
-  private val dOff  = cur.d.addr +& Mux(cur.d.isGather, tabD, iM)
-  private val mem   = new SlotMem(p.slotMemWords, w, if (p.slotB) 2 else 1)
-  private val slotA = mem.read(0, slotBase + aOff)
-  private val slotBw = if (p.slotB) mem.read(1, slotBase + bOff) else 0.U(w.W)
-  private val constA = if (p.constA) Rom("Stage1ConstA", p.constWords, w, aOff, clock) else 0.U(w.W)
-  private val constB = if (p.constB) Rom("Stage1ConstB", p.constWords, w, bOff, clock) else 0.U(w.W)
+  // ---- G: table words registered (the element in G, M and R belongs to `cur`: the next instruction launches
+  // at least 4 cycles after the last element issues); the operands' bases registered from the launch on
+  vG := issue
+  private val iG    = RegNext(iT)
+  private val lastG = RegNext(lastT)
+  private val inG   = RegNext(s_axis.tdata(w - 1, 0))
+  private val aBase = RegNext(slotBase +& cur.a.addr)
+  private val bBase = RegNext(slotBase +& cur.b.addr)
+  private val dBase = RegNext(slotBase +& cur.d.addr)
+
+  // ---- M: addresses
+  vM := vG
+  private val iM    = RegNext(iG)
+  private val lastM = RegNext(lastG)
+  private val inM   = RegNext(inG)
+  private val tabAM = RegNext(tabA)
+  private val tabBM = RegNext(tabB)
+  private val tabDM = RegNext(tabD)
+  private def offset(o: OperandBits, tab: UInt): UInt = Mux(o.isGather, tab, Mux(o.isVec, iM, 0.U))
+  private val mem    = new SlotMem(p.slotMemWords, w, if (p.slotB) 2 else 1)
+  private val aOff   = offset(cur.a, tabAM)
+  private val bOff   = offset(cur.b, tabBM)
+  private val slotA  = mem.read(0, aBase + aOff)
+  private val slotBw = if (p.slotB) mem.read(1, bBase + bOff) else 0.U(w.W)
+  // constant operands: their address is relative to the constant region (the slot base is not added)
+  private val constA = if (p.constA) Rom("Stage1ConstA", p.constWords, w, cur.a.addr +& aOff, clock) else 0.U(w.W)
+  private val constB = if (p.constB) Rom("Stage1ConstB", p.constWords, w, cur.b.addr +& bOff, clock) else 0.U(w.W)
 
   // ---- R: memory words out, operands selected and registered
   vR := vM
   private val iR    = RegNext(iM)
   private val lastR = RegNext(lastM)
   private val inR   = RegNext(inM)
-  private val addrR = RegNext(slotBase + dOff)
+  private val addrR = RegNext(dBase + Mux(cur.d.isGather, tabDM, iM))
 
   // ---- U: operands, units, write-back (the element in U still belongs to `cur`: a new instruction is
   // loaded into `cur` at the end of its first issue cycle, at the earliest the cycle its predecessor's last

@@ -28,6 +28,7 @@ object Stage1Main extends App {
         "cmp" -> p.latCmp, "acc" -> p.latAcc),
       "op_latency" -> ujson.Obj.from(Isa.ops.zipWithIndex.map { case (op, k) => op -> ujson.Num(p.latency(k)) }),
       "issue_gap" -> Stage1Params.IssueGap,
+      "program_start" -> Stage1Params.ProgramStart,
       "programs" -> ujson.Arr(progs: _*),
       "memories" -> ujson.Obj(
         "slot_copies" -> (if (p.slotB) 2 else 1),

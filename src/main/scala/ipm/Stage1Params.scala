@@ -60,7 +60,7 @@ case class Stage1Params(
 
   /** cycles of an instruction without stream stalls: n elements, the unit's latency, the issue gap */
   def cycles(i: Instr): Int = i.n + latency(i.op) + Stage1Params.IssueGap
-  val programCycles: Seq[Int] = programs.map(_._2.map(w => cycles(decode(w))).sum)
+  val programCycles: Seq[Int] = programs.map(p => Stage1Params.ProgramStart + p._2.map(w => cycles(decode(w))).sum)
 
   private def size(space: Int): Int = if (space == SLOT) slotWords else constLen
 
@@ -117,9 +117,11 @@ case class Stage1Params(
 }
 
 object Stage1Params {
-  /** cycles an instruction adds beyond its n elements and its unit's latency: the address step (M) and the
-    * operand register (R) of Stage1Engine, less the write that overlaps the next instruction's issue */
-  val IssueGap = 2
+  /** cycles an instruction adds beyond its n elements and its unit's latency: Stage1Engine's table register (G),
+    * address step (M) and operand register (R), less the write that overlaps the next instruction's launch */
+  val IssueGap = 3
+  /** cycles a program adds beyond its instructions: its first instruction word is decoded into a register */
+  val ProgramStart = 1
 
   def fromJson(text: String): Stage1Params = {
     val j = ujson.read(text)
