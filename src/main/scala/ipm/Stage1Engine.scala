@@ -9,7 +9,7 @@ import chisel3.util._
   * Interface. `start` (with `prog`, `slot`) runs program `prog` on slot `slot`; it is taken when the engine is
   * idle or on the cycle `done` is high (and ignored for a `prog` beyond the programs; `slot` must be < slots). `busy` is high from the cycle after `start` to `done` included. A
   * program started on cycle s raises `done` on cycle s + cycles(program) with cycles as
-  * mpc_cores.ipm.isa.cycles when the streams do not stall (1 + the sum over the instructions of n + latency + 3); its
+  * mpc_cores.ipm.isa.cycles when the streams do not stall (1 + the sum over the instructions of n + latency + 4); its
   * last result is written on the cycle after `done`, before any read of a program started on the `done`
   * cycle, so back-to-back programs run as one. IN takes words from `s_axis` (the format's word in the low bits
   * of tdata), OUT writes them to `m_axis` (tlast on an instruction's last word) through a 4-word buffer; both
@@ -21,7 +21,8 @@ import chisel3.util._
   *   G  table words out of their ROMs, registered
   *   M  addresses: operand base (the slot's base + the operand's address, registered at the instruction's
   *      launch) + the index or the table word; slot memory and constant ROMs read (one copy per operand a, b)
-  *   R  memory words out; operand select (slot or constant), registered
+  *   R  memory words out, registered per bank of the slot memory (SlotMem) and for the constant ROMs
+  *   S  bank select and operand select (slot or constant), registered
   *   U  operands ready; into the unit of the op (Stage1Alu), result written latency(op) cycles later.
   * Every block RAM's output and every address adder ends in a register, so no path runs from one memory
   * through an adder into another, nor from a memory into a unit.
@@ -29,20 +30,21 @@ import chisel3.util._
   * table bases) before its launch, so a program's first instruction launches two cycles after `start` (one cycle
   * per program, Stage1Params.ProgramStart).
   * An instruction issues its n elements on consecutive cycles (IN: when a word is there; OUT: when the output
-  * buffer has room for the words in flight) and the next one issues latency + 4 cycles after its last element,
+  * buffer has room for the words in flight) and the next one issues latency + 5 cycles after its last element,
   * that is on the cycle its last result is written: its first read is two cycles after. So instructions run
   * strictly one after another and an instruction never reads a word it writes itself later (the programs keep
   * the write of element i away from the reads of the elements after i: mpc_cores.ipm.isa.stream_hazards).
   *
-  * Memories. The slot memory (slots x slot_words words) is two SyncReadMems written identically, copy 0 read by
-  * operand a and copy 1 by operand b (one read and one write port each: DP16KD on ECP5); the constant region is
+  * Memories. The slot memory (slots x slot_words words) is two copies written identically (SlotMem, banks of
+  * SyncReadMems), copy 0 read by operand a and copy 1 by operand b (one read and one write port each: DP16KD on
+  * ECP5); the constant region is
   * a ROM per operand that reads it, the index tables one ROM per role, the program a ROM of instruction words
   * (mem.InitRam, contents in the emitted Verilog). Only the copies the programs use are built.
   */
 class Stage1Engine(p: Stage1Params) extends Module {
   import Isa._
-  /** output buffer: one word per pipeline stage (G, M, R, U) and one more, so that OUT streams without a gap */
-  private val OutDepth = 5
+  /** output buffer: one word per pipeline stage (G, M, R, S, U) and one more, so that OUT streams without a gap */
+  private val OutDepth = 6
   override def desiredName = p.moduleName
   private val w = p.fmt.width
 
@@ -96,9 +98,10 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val vG      = RegInit(false.B)
   private val vM      = RegInit(false.B)
   private val vR      = RegInit(false.B)
+  private val vS      = RegInit(false.B)
   private val vU      = RegInit(false.B)
   private val curOut  = cur.op === OUT.U
-  private val room    = outQ.io.count +& (Seq(vG, vM, vR, vU).map(v => (v && curOut).asUInt).reduce(_ +& _)) <=
+  private val room    = outQ.io.count +& (Seq(vG, vM, vR, vS, vU).map(v => (v && curOut).asUInt).reduce(_ +& _)) <=
     (OutDepth - 1).U
   private val active  = launch || issuing
   private val issue   = active && Mux(ins.op === IN.U, s_axis.tvalid, Mux(ins.op === OUT.U, room, true.B))
@@ -136,8 +139,8 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val tabA = tableRom("A", p.gatherA, 1)
   private val tabB = tableRom("B", p.gatherB, 2)
 
-  // ---- G: table words registered (the element in G, M and R belongs to `cur`: the next instruction launches
-  // at least 4 cycles after the last element issues); the operands' bases registered from the launch on
+  // ---- G: table words registered (the element in G, M, R and S belongs to `cur`: the next instruction
+  // launches at least 5 cycles after the last element issues); the operands' bases registered from the launch on
   vG := issue
   private val iG    = RegNext(iT)
   private val lastG = RegNext(lastT)
@@ -164,23 +167,32 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val constA = if (p.constA) Rom("Stage1ConstA", p.constWords, w, cur.a.addr +& aOff, clock) else 0.U(w.W)
   private val constB = if (p.constB) Rom("Stage1ConstB", p.constWords, w, cur.b.addr +& bOff, clock) else 0.U(w.W)
 
-  // ---- R: memory words out, operands selected and registered
+  // ---- R: memory words out, registered (the slot memory's per bank, in SlotMem)
   vR := vM
   private val iR    = RegNext(iM)
   private val lastR = RegNext(lastM)
   private val inR   = RegNext(inM)
   private val addrR = RegNext(dBase + Mux(cur.d.isGather, tabDM, iM))
+  private val constAR = RegNext(constA)
+  private val constBR = RegNext(constB)
+
+  // ---- S: bank and operand selected, registered
+  vS := vR
+  private val iS    = RegNext(iR)
+  private val lastS = RegNext(lastR)
+  private val inS   = RegNext(inR)
+  private val addrS = RegNext(addrR)
 
   // ---- U: operands, units, write-back (the element in U still belongs to `cur`: a new instruction is
   // loaded into `cur` at the end of its first issue cycle, at the earliest the cycle its predecessor's last
   // element is here)
-  vU := vR
-  private val iU    = RegNext(iR)
-  private val lastU = RegNext(lastR)
-  private val inU   = RegNext(inR)
-  private val addrU = RegNext(addrR)
-  private val aU    = RegNext(Mux(cur.a.inConst, constA, slotA))
-  private val bU    = RegNext(Mux(cur.b.inConst, constB, slotBw))
+  vU := vS
+  private val iU    = RegNext(iS)
+  private val lastU = RegNext(lastS)
+  private val inU   = RegNext(inS)
+  private val addrU = RegNext(addrS)
+  private val aU    = RegNext(Mux(cur.a.inConst, constAR, slotA))
+  private val bU    = RegNext(Mux(cur.b.inConst, constBR, slotBw))
 
   private val alu = Module(new Stage1Alu(p))
   alu.io.valid  := vU

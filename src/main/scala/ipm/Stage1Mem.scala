@@ -1,29 +1,47 @@
 package ipm
 
 import chisel3._
-import chisel3.util.log2Ceil
+import chisel3.util.{isPow2, log2Ceil}
 
-/** The slot memory: `copies` SyncReadMems of `depth` words, each with one read port and one write port, all
-  * written with the same word on the same cycle, copy k read only by operand k (a, b). Two operands are read on
-  * the same cycle without a second read port on any memory, so Yosys maps every copy to DP16KD (ECP5)
-  * block RAM in simple dual-port mode. The engine never reads a word on the cycle it writes it (an instruction
-  * starts reading after the previous one's last write), so read-under-write is left undefined.
+/** The slot memory: `copies` memories of `depth` words, each with one read port and one write port, all written
+  * with the same word on the same cycle, copy k read only by operand k (a, b). Two operands are read on the same
+  * cycle without a second read port on any memory, so Yosys maps every copy to DP16KD (ECP5) block RAM in simple
+  * dual-port mode. The engine never reads a word on the cycle it writes it (an instruction starts reading after
+  * the previous one's last write), so read-under-write is left undefined.
   *
-  * Read timing: the address of cycle t gives its word on cycle t + 1.
+  * Each copy is split into banks of at most `bankWords` words (SyncReadMems: a few block RAMs each, no output
+  * multiplexer of their own). A read registers every bank's word and then selects the bank, so no path runs from
+  * a block RAM's output (about 4.3 ns after the clock on the ECP5 without its output register) through the
+  * multiplexer of a deep memory.
+  *
+  * Read timing: the address of cycle t gives its word on cycle t + 2 (SlotMem.ReadLatency).
   */
-class SlotMem(depth: Int, width: Int, copies: Int) {
-  require(depth >= 1 && copies >= 1)
-  private val aw   = math.max(1, log2Ceil(depth))
-  private val mems = Seq.tabulate(copies) { k =>
-    val m = SyncReadMem(depth, UInt(width.W))
-    m.suggestName(s"slotmem_$k")
+class SlotMem(depth: Int, width: Int, copies: Int, bankWords: Int = SlotMem.BankWords) {
+  require(depth >= 1 && copies >= 1 && bankWords >= 2 && isPow2(bankWords))
+  private val aw    = math.max(1, log2Ceil(depth))
+  private val lowW  = math.min(aw, log2Ceil(bankWords))
+  private val banks = (depth + bankWords - 1) / bankWords
+  private val mems  = Seq.tabulate(copies, banks) { (k, b) =>
+    val m = SyncReadMem(math.min(bankWords, depth - b * bankWords), UInt(width.W))
+    m.suggestName(if (banks == 1) s"slotmem_$k" else s"slotmem_${k}_b$b")
     m
   }
+  private def low(addr: UInt): UInt  = addr(lowW - 1, 0)
+  private def bank(addr: UInt): UInt = if (aw > lowW) addr(aw - 1, lowW) else 0.U
 
   def write(en: Bool, addr: UInt, data: UInt): Unit =
-    for (m <- mems) when(en) { m.write(addr(aw - 1, 0), data) }
+    for (copy <- mems; (m, b) <- copy.zipWithIndex) when(en && bank(addr) === b.U) { m.write(low(addr), data) }
 
-  def read(copy: Int, addr: UInt): UInt = mems(copy).read(addr(aw - 1, 0))
+  def read(copy: Int, addr: UInt): UInt = {
+    val words = mems(copy).map(m => RegNext(m.read(low(addr))))
+    if (banks == 1) words.head else VecInit(words)(RegNext(RegNext(bank(addr))))
+  }
+}
+
+object SlotMem {
+  /** words per bank: 2048 x 26 bits (e8m17) is three DP16KD in the 2048 x 9 mode */
+  val BankWords   = 2048
+  val ReadLatency = 2
 }
 
 /** A read-only memory with its words written into the emitted Verilog (mem.InitRam without writes): one
