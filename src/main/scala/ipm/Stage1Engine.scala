@@ -36,8 +36,8 @@ import chisel3.util._
   * the write of element i away from the reads of the elements after i: mpc_cores.ipm.isa.stream_hazards).
   *
   * Memories. The slot memory (slots x slot_words words) is two copies written identically (SlotMem, banks of
-  * SyncReadMems), copy 0 read by operand a and copy 1 by operand b (one read and one write port each: DP16KD on
-  * ECP5); the constant region is
+  * block RAMs with their output register), copy 0 read by operand a and copy 1 by operand b (one read and one
+  * write port each: DP16KD on ECP5); the constant region is
   * a ROM per operand that reads it, the index tables one ROM per role, the program a ROM of instruction words
   * (mem.InitRam, contents in the emitted Verilog). Only the copies the programs use are built.
   */
@@ -158,7 +158,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val tabBM = RegNext(tabB)
   private val tabDM = RegNext(tabD)
   private def offset(o: OperandBits, tab: UInt): UInt = Mux(o.isGather, tab, Mux(o.isVec, iM, 0.U))
-  private val mem    = new SlotMem(p.slotMemWords, w, if (p.slotB) 2 else 1)
+  private val mem    = new SlotMem(p.moduleName, p.slotMemWords, w, if (p.slotB) 2 else 1)
   private val aOff   = offset(cur.a, tabAM)
   private val bOff   = offset(cur.b, tabBM)
   private val slotA  = mem.read(0, aBase + aOff)

@@ -9,31 +9,41 @@ import chisel3.util.{isPow2, log2Ceil}
   * dual-port mode. The engine never reads a word on the cycle it writes it (an instruction starts reading after
   * the previous one's last write), so read-under-write is left undefined.
   *
-  * Each copy is split into banks of at most `bankWords` words (SyncReadMems: a few block RAMs each, no output
-  * multiplexer of their own). A read registers every bank's word and then selects the bank, so no path runs from
-  * a block RAM's output (about 4.3 ns after the clock on the ECP5 without its output register) through the
-  * multiplexer of a deep memory.
+  * Each copy is split into banks of at most `bankWords` words, each a mem.InitRam with its output register
+  * (read-first, starting at zero): Yosys maps the bank's read register into its block RAMs and keeps the output
+  * register in the fabric next to them, which the ECP5 block RAM cannot absorb. A read then selects the bank
+  * after that register, so no path runs from a block RAM's output (about 4.3 ns after the clock on the ECP5
+  * without its output register) through the multiplexer of a deep memory.
   *
   * Read timing: the address of cycle t gives its word on cycle t + 2 (SlotMem.ReadLatency).
   */
-class SlotMem(depth: Int, width: Int, copies: Int, bankWords: Int = SlotMem.BankWords) {
+class SlotMem(prefix: String, depth: Int, width: Int, copies: Int, bankWords: Int = SlotMem.BankWords) {
   require(depth >= 1 && copies >= 1 && bankWords >= 2 && isPow2(bankWords))
   private val aw    = math.max(1, log2Ceil(depth))
   private val lowW  = math.min(aw, log2Ceil(bankWords))
   private val banks = (depth + bankWords - 1) / bankWords
-  private val mems  = Seq.tabulate(copies, banks) { (k, b) =>
-    val m = SyncReadMem(math.min(bankWords, depth - b * bankWords), UInt(width.W))
-    m.suggestName(if (banks == 1) s"slotmem_$k" else s"slotmem_${k}_b$b")
-    m
+  private val rams  = Seq.tabulate(copies, banks) { (k, b) =>
+    val words = math.min(bankWords, depth - b * bankWords)
+    val ram   = Module(new mem.InitRam(s"${prefix}_slotmem_${k}_b$b", words, 1, width, Seq(), outReg = true))
+    ram.io.clock := Module.clock
+    ram.io.wmask := 1.U
+    ram
   }
-  private def low(addr: UInt): UInt  = addr(lowW - 1, 0)
+  private def low(addr: UInt, ram: mem.InitRam): UInt = addr(lowW - 1, 0).pad(ram.addrW)(ram.addrW - 1, 0)
   private def bank(addr: UInt): UInt = if (aw > lowW) addr(aw - 1, lowW) else 0.U
 
   def write(en: Bool, addr: UInt, data: UInt): Unit =
-    for (copy <- mems; (m, b) <- copy.zipWithIndex) when(en && bank(addr) === b.U) { m.write(low(addr), data) }
+    for (copy <- rams; (ram, b) <- copy.zipWithIndex) {
+      ram.io.wen   := en && bank(addr) === b.U
+      ram.io.waddr := low(addr, ram)
+      ram.io.wdata := data
+    }
 
   def read(copy: Int, addr: UInt): UInt = {
-    val words = mems(copy).map(m => RegNext(m.read(low(addr))))
+    val words = rams(copy).map { ram =>
+      ram.io.raddr := low(addr, ram)
+      ram.io.rdata
+    }
     if (banks == 1) words.head else VecInit(words)(RegNext(RegNext(bank(addr))))
   }
 }
