@@ -4,7 +4,8 @@ import chisel3._
 import chisel3.util._
 import float.{FAdd, FloatFormat, Stages}
 
-/** Sum of a stream of `nTerms` words arriving one per cycle (indices 0..nTerms-1 without gaps), with one
+/** Sum of a stream of `nTerms` words arriving one per cycle (indices 0..nTerms-1 without gaps: the adder's operand
+  * select relies on it), with one
   * pipelined adder of latency L = latAdd: term k is added to the partial sum of bucket k mod L, which the adder
   * returns exactly L cycles later (the first L terms are added to +0). The last L outputs (terms nTerms-L ..
   * nTerms-1, in arrival order) are captured and reduced pairwise: pairs (0,1), (2,3), ... at each level, an odd
@@ -30,7 +31,10 @@ class FStreamAcc(fmt: FloatFormat, nTerms: Int, latAdd: Int, shareTree: Boolean 
   val add = Module(new FAdd(fmt, latAdd))
   add.in_valid := io.valid
   add.a        := io.term
-  add.b        := Mux(io.index < L.U, 0.U, add.out)
+  // terms 0 .. L-1 are added to +0: the flag is registered from the previous cycle, as a stream is gapless (after
+  // term k < nTerms - 1 comes term k + 1; after the last term or an idle cycle, term 0 of the next stream)
+  val zeroB = RegNext(!io.valid || io.index < (L - 1).U || io.index === (nTerms - 1).U, true.B)
+  add.b        := Mux(zeroB, 0.U, add.out)
   add.sub      := false.B
   val idxOut = Stages.delay(io.index, latAdd)
   val vOut   = Stages.delayValid(io.valid, latAdd)
