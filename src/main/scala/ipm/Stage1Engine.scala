@@ -30,8 +30,10 @@ import chisel3.util._
   * table bases) before its launch, so a program's first instruction launches two cycles after `start` (one cycle
   * per program, Stage1Params.ProgramStart).
   * An instruction issues its n elements on consecutive cycles (IN: when a word is there; OUT: when the output
-  * buffer has room for the words in flight) and the next one issues latency + 5 cycles after its last element,
-  * that is on the cycle its last result is written: its first read is two cycles after. So instructions run
+  * buffer has room for the words in flight, a credit counter) and the next one issues latency + 5 cycles after
+  * its last element, that is on the cycle its last result is written: its first read is two cycles after. The
+  * sequencer decides from flags registered a cycle ahead (gap = 0 or 1, last element, last instruction, IN or
+  * OUT), so no compare or adder lies between its registers and the issue. So instructions run
   * strictly one after another and an instruction never reads a word it writes itself later (the programs keep
   * the write of element i away from the reads of the elements after i: mpc_cores.ipm.isa.stream_hazards).
   *
@@ -74,9 +76,13 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val entry  = table(p.entries.init.map(_.U(p.pcW.W)), 1 << p.progW, 0.U(p.pcW.W))
   private val ends   = table(p.entries.tail.map(_.U(p.pcW.W)), 1 << p.progW, 0.U(p.pcW.W))
   private val latOf  = table(Isa.ops.indices.map(o => p.latency(o).U(gap.getWidth.W)), 1 << OpW, 0.U(gap.getWidth.W))
-  private val finish = running && !issuing && gap === 1.U && pc === pcEnd
+  // the control decisions come from flags registered a cycle ahead: gap = 0, gap = 1, pc = pcEnd
+  private val gapZero = RegInit(true.B)
+  private val gapOne  = RegInit(false.B)
+  private val atEnd   = RegInit(true.B)
+  private val finish = running && !issuing && gapOne && atEnd
   private val accept = start && (!running || finish) && prog < p.programs.length.U
-  private val launch = running && !issuing && gap === 0.U && pc =/= pcEnd
+  private val launch = running && !issuing && gapZero && !atEnd
   private val code   = Rom("Stage1Code", p.code, InstrW, Mux(running && !finish, pc, entry(prog)), clock)
   busy := running
   done := finish
@@ -84,42 +90,62 @@ class Stage1Engine(p: Stage1Params) extends Module {
   // the instruction at pc, decoded, and its table bases, registered ahead of its launch (the ROM word of the pc
   // of cycle t is here on t + 2: pc moves at a launch and the next launch is at least 4 cycles later)
   private val tableBase = table(p.tableBase.init.map(_.U(17.W)), 1 << TableW, 0.U(17.W))
-  private val nxt       = RegNext(InstrBits.decode(code))
+  private val word      = InstrBits.decode(code)
+  private val nxt       = RegNext(word)
   private def bases(x: InstrBits): Vec[UInt] = VecInit(Seq(x.d, x.a, x.b).map(o => tableBase(o.table)))
-  private val nxtTab    = RegNext(bases(InstrBits.decode(code)))
+  private val nxtTab    = RegNext(bases(word))
+  private val nxtOne    = RegNext(word.n === 1.U)
+  private val nxtIn     = RegNext(word.op === IN.U)
+  private val nxtOut    = RegNext(word.op === OUT.U)
   private val curTab    = Reg(Vec(3, UInt(17.W)))
+  private val curIn     = RegInit(false.B)
+  private val curOut    = RegInit(false.B)
+  private val isLast    = Reg(Bool()) // element i of cur is its last
 
   // ---- T: issue
   private val ins     = Mux(launch, nxt, cur)
   private val tabT    = Mux(launch, nxtTab, curTab)
   private val iT      = Mux(launch, 0.U, i)
-  private val lastT   = iT + 1.U === ins.n
+  private val lastT   = Mux(launch, nxtOne, isLast)
+  private val insIn   = Mux(launch, nxtIn, curIn)
+  private val insOut  = Mux(launch, nxtOut, curOut)
   private val outQ    = Module(new Queue(UInt((w + 1).W), OutDepth, flow = true))
   private val vG      = RegInit(false.B)
   private val vM      = RegInit(false.B)
   private val vR      = RegInit(false.B)
   private val vS      = RegInit(false.B)
   private val vU      = RegInit(false.B)
-  private val curOut  = cur.op === OUT.U
-  private val room    = outQ.io.count +& (Seq(vG, vM, vR, vS, vU).map(v => (v && curOut).asUInt).reduce(_ +& _)) <=
-    (OutDepth - 1).U
+  // OUT words in flight or in the buffer at most OutDepth: one credit per free place
+  private val credit  = RegInit(OutDepth.U(log2Ceil(OutDepth + 1).W))
   private val active  = launch || issuing
-  private val issue   = active && Mux(ins.op === IN.U, s_axis.tvalid, Mux(ins.op === OUT.U, room, true.B))
-  s_axis.tready := active && ins.op === IN.U
+  private val issue   = active && Mux(insIn, s_axis.tvalid, Mux(insOut, credit =/= 0.U, true.B))
+  s_axis.tready := active && insIn
+  credit := credit - (issue && insOut).asUInt + outQ.io.deq.fire.asUInt
 
-  when(running && !issuing && gap =/= 0.U) { gap := gap - 1.U }
+  when(running && !issuing && !gapZero) {
+    gap     := gap - 1.U
+    gapZero := gap === 1.U
+    gapOne  := gap === 2.U
+  }
   when(launch) {
     cur     := ins
     curTab  := nxtTab
+    curIn   := nxtIn
+    curOut  := nxtOut
+    isLast  := nxtOne
     issuing := true.B
     pc      := pc + 1.U
+    atEnd   := pc + 1.U === pcEnd
     i       := 0.U
   }
   when(issue) {
-    i := iT + 1.U
+    i      := iT + 1.U
+    isLast := iT + 2.U === ins.n
     when(lastT) {
       issuing := false.B
       gap     := latOf(ins.op) + Stage1Params.IssueGap.U
+      gapZero := false.B
+      gapOne  := false.B
     }
   }
   when(finish) { running := false.B }
@@ -127,8 +153,11 @@ class Stage1Engine(p: Stage1Params) extends Module {
     running  := true.B
     issuing  := false.B
     gap      := Stage1Params.ProgramStart.U // the first instruction word is decoded first
+    gapZero  := false.B
+    gapOne   := true.B
     pc       := entry(prog)
     pcEnd    := ends(prog)
+    atEnd    := entry(prog) === ends(prog)
     slotBase := slotBases(slot)
   }
 
