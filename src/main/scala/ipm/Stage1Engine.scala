@@ -9,7 +9,7 @@ import chisel3.util._
   * Interface. `start` (with `prog`, `slot`) runs program `prog` on slot `slot`; it is taken when the engine is
   * idle or on the cycle `done` is high (and ignored for a `prog` beyond the programs; `slot` must be < slots). `busy` is high from the cycle after `start` to `done` included. A
   * program started on cycle s raises `done` on cycle s + cycles(program) with cycles as
-  * mpc_cores.ipm.isa.cycles when the streams do not stall (1 + the sum over the instructions of n + latency + 4); its
+  * mpc_cores.ipm.isa.cycles when the streams do not stall (1 + the sum over the instructions of n + latency + 5); its
   * last result is written on the cycle after `done`, before any read of a program started on the `done`
   * cycle, so back-to-back programs run as one. IN takes words from `s_axis` (the format's word in the low bits
   * of tdata), OUT writes them to `m_axis` (tlast on an instruction's last word) through a 4-word buffer; both
@@ -20,7 +20,8 @@ import chisel3.util._
   *      instruction's table base (registered when the instruction word was fetched) + the index
   *   G  table words out of their ROMs, registered
   *   M  addresses: operand base (the slot's base + the operand's address, registered at the instruction's
-  *      launch) + the index or the table word; slot memory and constant ROMs read (one copy per operand a, b)
+  *      launch) + the index or the table word, registered
+  *   A  slot memory and constant ROMs read at them (one copy per operand a, b)
   *   R  memory words out, registered per bank of the slot memory (SlotMem) and for the constant ROMs
   *   S  bank select and operand select (slot or constant), registered
   *   U  operands ready; into the unit of the op (Stage1Alu), result written latency(op) cycles later.
@@ -30,8 +31,8 @@ import chisel3.util._
   * table bases) before its launch, so a program's first instruction launches two cycles after `start` (one cycle
   * per program, Stage1Params.ProgramStart).
   * An instruction issues its n elements on consecutive cycles (IN: when a word is there; OUT: when the output
-  * buffer has room for the words in flight, a credit counter) and the next one issues latency + 5 cycles after
-  * its last element, that is on the cycle its last result is written: its first read is two cycles after. The
+  * buffer has room for the words in flight, a credit counter) and the next one issues latency + 6 cycles after
+  * its last element, that is on the cycle its last result is written: its first read is three cycles after. The
   * sequencer decides from flags registered a cycle ahead (gap = 0 or 1, last element, last instruction, IN or
   * OUT), so no compare or adder lies between its registers and the issue. So instructions run
   * strictly one after another and an instruction never reads a word it writes itself later (the programs keep
@@ -45,8 +46,8 @@ import chisel3.util._
   */
 class Stage1Engine(p: Stage1Params) extends Module {
   import Isa._
-  /** output buffer: one word per pipeline stage (G, M, R, S, U) and one more, so that OUT streams without a gap */
-  private val OutDepth = 6
+  /** output buffer: one word per pipeline stage (G, M, A, R, S, U) and one more, so that OUT streams without a gap */
+  private val OutDepth = 7
   override def desiredName = p.moduleName
   private val w = p.fmt.width
 
@@ -88,7 +89,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   done := finish
 
   // the instruction at pc, decoded, and its table bases, registered ahead of its launch (the ROM word of the pc
-  // of cycle t is here on t + 2: pc moves at a launch and the next launch is at least 4 cycles later)
+  // of cycle t is here on t + 2: pc moves at a launch and the next launch is at least 6 cycles later)
   private val tableBase = table(p.tableBase.init.map(_.U(17.W)), 1 << TableW, 0.U(17.W))
   private val word      = InstrBits.decode(code)
   private val nxt       = RegNext(word)
@@ -112,6 +113,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val outQ    = Module(new Queue(UInt((w + 1).W), OutDepth, flow = true))
   private val vG      = RegInit(false.B)
   private val vM      = RegInit(false.B)
+  private val vA      = RegInit(false.B)
   private val vR      = RegInit(false.B)
   private val vS      = RegInit(false.B)
   private val vU      = RegInit(false.B)
@@ -168,8 +170,8 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val tabA = tableRom("A", p.gatherA, 1)
   private val tabB = tableRom("B", p.gatherB, 2)
 
-  // ---- G: table words registered (the element in G, M, R and S belongs to `cur`: the next instruction
-  // launches at least 5 cycles after the last element issues); the operands' bases registered from the launch on
+  // ---- G: table words registered (the element in G, M, A, R and S belongs to `cur`: the next instruction
+  // launches at least 6 cycles after the last element issues); the operands' bases registered from the launch on
   vG := issue
   private val iG    = RegNext(iT)
   private val lastG = RegNext(lastT)
@@ -178,7 +180,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val bBase = RegNext(slotBase +& cur.b.addr)
   private val dBase = RegNext(slotBase +& cur.d.addr)
 
-  // ---- M: addresses
+  // ---- M: addresses, registered
   vM := vG
   private val iM    = RegNext(iG)
   private val lastM = RegNext(lastG)
@@ -190,18 +192,29 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val mem    = new SlotMem(p.moduleName, p.slotMemWords, w, if (p.slotB) 2 else 1)
   private val aOff   = offset(cur.a, tabAM)
   private val bOff   = offset(cur.b, tabBM)
-  private val slotA  = mem.read(0, aBase + aOff)
-  private val slotBw = if (p.slotB) mem.read(1, bBase + bOff) else 0.U(w.W)
+  private val aAdr  = RegNext(aBase + aOff)
+  private val bAdr  = RegNext(bBase + bOff)
   // constant operands: their address is relative to the constant region (the slot base is not added)
-  private val constA = if (p.constA) Rom("Stage1ConstA", p.constWords, w, cur.a.addr +& aOff, clock) else 0.U(w.W)
-  private val constB = if (p.constB) Rom("Stage1ConstB", p.constWords, w, cur.b.addr +& bOff, clock) else 0.U(w.W)
+  private val caAdr = RegNext(cur.a.addr +& aOff)
+  private val cbAdr = RegNext(cur.b.addr +& bOff)
+  private val dAdr  = RegNext(dBase + Mux(cur.d.isGather, tabDM, iM))
+
+  // ---- A: the memories read at the registered addresses
+  vA := vM
+  private val iA     = RegNext(iM)
+  private val lastA  = RegNext(lastM)
+  private val inA    = RegNext(inM)
+  private val slotA  = mem.read(0, aAdr)
+  private val slotBw = if (p.slotB) mem.read(1, bAdr) else 0.U(w.W)
+  private val constA = if (p.constA) Rom("Stage1ConstA", p.constWords, w, caAdr, clock) else 0.U(w.W)
+  private val constB = if (p.constB) Rom("Stage1ConstB", p.constWords, w, cbAdr, clock) else 0.U(w.W)
 
   // ---- R: memory words out, registered (the slot memory's per bank, in SlotMem)
-  vR := vM
-  private val iR    = RegNext(iM)
-  private val lastR = RegNext(lastM)
-  private val inR   = RegNext(inM)
-  private val addrR = RegNext(dBase + Mux(cur.d.isGather, tabDM, iM))
+  vR := vA
+  private val iR    = RegNext(iA)
+  private val lastR = RegNext(lastA)
+  private val inR   = RegNext(inA)
+  private val addrR = RegNext(dAdr)
   private val constAR = RegNext(constA)
   private val constBR = RegNext(constB)
 
