@@ -43,7 +43,10 @@ class Stage1Alu(p: Stage1Params) extends Module {
   })
   override def desiredName = s"Stage1Alu_${fmt.tag}"
 
-  private def is(codes: Int*): Bool = io.valid && codes.map(c => io.op === c.U).reduce(_ || _)
+  // op and n hold for all of an instruction's elements and from at least a cycle before its first (the engine
+  // loads them at the launch, 6 cycles ahead): their decode is registered, off the operands' paths
+  private val opIs = Isa.ops.indices.map(c => RegNext(io.op === c.U, false.B))
+  private def is(codes: Int*): Bool = io.valid && codes.map(opIs(_)).reduce(_ || _)
   private val qnan    = fmt.qNaN.U(w.W)
   private val posInf  = fmt.inf(false).U(w.W)
   private val signBit = (BigInt(1) << (w - 1)).U(w.W)
@@ -59,7 +62,7 @@ class Stage1Alu(p: Stage1Params) extends Module {
   add.in_valid := is(ADD, SUB)
   add.a        := io.a
   add.b        := io.b
-  add.sub      := io.op === SUB.U
+  add.sub      := opIs(SUB)
   private val mul = Module(new FMul(fmt, p.latMul))
   mul.in_valid := is(MUL)
   mul.a        := io.a
@@ -73,8 +76,8 @@ class Stage1Alu(p: Stage1Params) extends Module {
   sqrt.a        := io.a
 
   // ---- MIN, MAX, SELNEG: one comparator; MIN compares b < a, MAX a < b, SELNEG b < +0
-  private val isMin = io.op === MIN.U
-  private val isSel = io.op === SELNEG.U
+  private val isMin = opIs(MIN)
+  private val isSel = opIs(SELNEG)
   private val cmp   = Module(new FCompare(fmt, p.latCmp))
   cmp.in_valid  := is(MIN, MAX, SELNEG)
   cmp.a         := Mux(isMin || isSel, io.b, io.a)
@@ -112,7 +115,7 @@ class Stage1Alu(p: Stage1Params) extends Module {
   // ---- ACC: one streaming accumulator per length
   private val accs = p.accLengths.map { n =>
     val acc = Module(new minres.FStreamAcc(fmt, n, p.latAdd))
-    acc.io.valid := is(ACC) && io.n === n.U
+    acc.io.valid := is(ACC) && RegNext(io.n === n.U, false.B)
     acc.io.index := io.idx
     acc.io.term  := io.a
     (acc.io.done, acc.io.sum, redAddr)
