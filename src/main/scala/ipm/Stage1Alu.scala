@@ -4,8 +4,9 @@ import chisel3._
 import chisel3.util._
 import float._
 
-/** The units of the Stage 1 engine and its write-back. One element enters per cycle (`valid`, with its operands
-  * a, b, the input-stream word, its index in the instruction, and its destination address); the unit of `op`
+/** The units of the Stage 1 engine and its write-back. One element enters per cycle (`valid`, with the
+  * input-stream word, its index in the instruction, and its destination address; its operands a, b come a cycle
+  * ahead with `pre`, into the op's unit's own registers); the unit of `op`
   * returns its result `latency(op)` cycles later (mpc_cores.ipm.isa.latency) with the destination address
   * delayed alongside, and `wen`, `wdata`, `waddr` drive the write port of the slot memory. Instructions do not
   * overlap in here (the engine starts one only after the previous one's last result), so at most one unit
@@ -33,8 +34,9 @@ class Stage1Alu(p: Stage1Params) extends Module {
     val n      = Input(UInt(NW.W))
     val idx    = Input(UInt(NW.W))
     val last   = Input(Bool())
-    val a      = Input(UInt(w.W))
-    val b      = Input(UInt(w.W))
+    val pre    = Input(Bool())      // an element enters on the next cycle, with these operands
+    val aPre   = Input(UInt(w.W))
+    val bPre   = Input(UInt(w.W))
     val inData = Input(UInt(w.W))
     val addr   = Input(UInt(p.memAddrW.W))
     val wen    = Output(Bool())
@@ -47,6 +49,12 @@ class Stage1Alu(p: Stage1Params) extends Module {
   // loads them at the launch, 6 cycles ahead): their decode is registered, off the operands' paths
   private val opIs = Isa.ops.indices.map(c => RegNext(io.op === c.U, false.B))
   private def is(codes: Int*): Bool = io.valid && codes.map(opIs(_)).reduce(_ || _)
+  /** the operands of the units of `codes`: each unit's own registers next to it, loaded the cycle before its
+    * element enters (no shared operand register fanning out to every unit) */
+  private def operands(codes: Int*): (UInt, UInt) = {
+    val en = io.pre && codes.map(opIs(_)).reduce(_ || _)
+    (RegEnable(io.aPre, en), RegEnable(io.bPre, en))
+  }
   private val qnan    = fmt.qNaN.U(w.W)
   private val posInf  = fmt.inf(false).U(w.W)
   private val signBit = (BigInt(1) << (w - 1)).U(w.W)
@@ -60,64 +68,71 @@ class Stage1Alu(p: Stage1Params) extends Module {
 
   private val add = Module(new FAdd(fmt, p.latAdd))
   add.in_valid := is(ADD, SUB)
-  add.a        := io.a
-  add.b        := io.b
+  private val (addA, addB) = operands(ADD, SUB)
+  add.a        := addA
+  add.b        := addB
   add.sub      := opIs(SUB)
   private val mul = Module(new FMul(fmt, p.latMul))
   mul.in_valid := is(MUL)
-  mul.a        := io.a
-  mul.b        := io.b
+  private val (mulA, mulB) = operands(MUL)
+  mul.a        := mulA
+  mul.b        := mulB
   private val div = Module(new FDiv(fmt, p.latDiv))
   div.in_valid := is(DIV)
-  div.a        := io.a
-  div.b        := io.b
+  private val (divA, divB) = operands(DIV)
+  div.a        := divA
+  div.b        := divB
   private val sqrt = Module(new FSqrt(fmt, p.latSqrt))
   sqrt.in_valid := is(SQRT)
-  sqrt.a        := io.a
+  sqrt.a        := operands(SQRT)._1
 
   // ---- MIN, MAX, SELNEG: one comparator; MIN compares b < a, MAX a < b, SELNEG b < +0
   private val isMin = opIs(MIN)
   private val isSel = opIs(SELNEG)
   private val cmp   = Module(new FCompare(fmt, p.latCmp))
   cmp.in_valid  := is(MIN, MAX, SELNEG)
-  cmp.a         := Mux(isMin || isSel, io.b, io.a)
-  cmp.b         := Mux(isMin, io.a, Mux(isSel, 0.U, io.b))
+  private val (cmpA, cmpB) = operands(MIN, MAX, SELNEG)
+  cmp.a         := Mux(isMin || isSel, cmpB, cmpA)
+  cmp.b         := Mux(isMin, cmpA, Mux(isSel, 0.U, cmpB))
   cmp.signaling := false.B
-  private val cA     = Stages.delay(io.a, p.latCmp)
-  private val cB     = Stages.delay(io.b, p.latCmp)
+  private val cA     = Stages.delay(cmpA, p.latCmp)
+  private val cB     = Stages.delay(cmpB, p.latCmp)
   private val cSel   = Stages.delay(isSel, p.latCmp)
   private val cmpOut = Mux(cSel, Mux(isNaN(cA), qnan, Mux(cmp.lt, cA ^ signBit, posInf)),
     Mux(isNaN(cA) || isNaN(cB), qnan, Mux(cmp.lt, cB, cA)))
 
   // ---- MOV
   private val movValid = RegNext(is(MOV), false.B)
-  private val movOut   = RegNext(Mux(isNaN(io.a), qnan, io.a))
+  private val movA     = operands(MOV)._1
+  private val movOut   = RegNext(Mux(isNaN(movA), qnan, movA))
 
   // ---- MINRED
+  private val redA    = operands(MINRED)._1
   private val minReg  = Reg(UInt(w.W))
   private val minNaN  = Reg(Bool())
   private val less    = Module(new FCompare(fmt, 0))
   less.in_valid  := false.B
-  less.a         := io.a
+  less.a         := redA
   less.b         := minReg
   less.signaling := false.B
   when(is(MINRED)) {
     when(io.idx === 0.U) {
-      minReg := io.a
-      minNaN := isNaN(io.a)
+      minReg := redA
+      minNaN := isNaN(redA)
     }.otherwise {
-      when(less.lt) { minReg := io.a }
-      minNaN := minNaN || isNaN(io.a)
+      when(less.lt) { minReg := redA }
+      minNaN := minNaN || isNaN(redA)
     }
   }
   private val minValid = RegNext(is(MINRED) && io.last, false.B)
 
   // ---- ACC: one streaming accumulator per length
+  private val accA = operands(ACC)._1
   private val accs = p.accLengths.map { n =>
     val acc = Module(new minres.FStreamAcc(fmt, n, p.latAdd))
     acc.io.valid := is(ACC) && RegNext(io.n === n.U, false.B)
     acc.io.index := io.idx
-    acc.io.term  := io.a
+    acc.io.term  := accA
     (acc.io.done, acc.io.sum, redAddr)
   }
 

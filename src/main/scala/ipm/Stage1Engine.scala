@@ -23,7 +23,8 @@ import chisel3.util._
   *      launch) + the index or the table word, registered
   *   A  slot memory and constant ROMs read at them (one copy per operand a, b)
   *   R  memory words out, registered per bank of the slot memory (SlotMem) and for the constant ROMs
-  *   S  bank select and operand select (slot or constant), registered
+  *   S  bank select and operand select (slot or constant), registered at the inputs of the op's unit (each
+  *      unit has its own operand registers, Stage1Alu)
   *   U  operands ready; into the unit of the op (Stage1Alu), result written latency(op) cycles later.
   * Every block RAM's output and every address adder ends in a register, so no path runs from one memory
   * through an adder into another, nor from a memory into a unit.
@@ -233,8 +234,9 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val lastU = RegNext(lastS)
   private val inU   = RegNext(inS)
   private val addrU = RegNext(addrS)
-  private val aU    = RegNext(Mux(cur.a.inConst, constAR, slotA))
-  private val bU    = RegNext(Mux(cur.b.inConst, constBR, slotBw))
+  private val aS    = Mux(cur.a.inConst, constAR, slotA)
+  private val bS    = Mux(cur.b.inConst, constBR, slotBw)
+  private val aU    = RegEnable(aS, vS && curOut) // the OUT word; the units register their own operands
 
   private val alu = Module(new Stage1Alu(p))
   alu.io.valid  := vU
@@ -242,8 +244,9 @@ class Stage1Engine(p: Stage1Params) extends Module {
   alu.io.n      := cur.n
   alu.io.idx    := iU
   alu.io.last   := lastU
-  alu.io.a      := aU
-  alu.io.b      := bU
+  alu.io.pre    := vS
+  alu.io.aPre   := aS
+  alu.io.bPre   := bS
   alu.io.inData := inU
   alu.io.addr   := addrU
   mem.write(alu.io.wen, alu.io.waddr, alu.io.wdata)
