@@ -10,7 +10,8 @@ The interior-point core (Algorithm 1 of 001: Stage 1 engine + MINRES in its warm
   units      FMul, FAdd, FDiv, FSqrt instances of the generated SystemVerilog under the Stage 1 engine and the MINRES
              core, beside Table I of 001 (Stage 1 3i, linear solver 4M + 24);
   resources  Yosys synth_ecp5 (MULT18X18D, LUT4, FF, DP16KD; fit on the LFE5U-85F) on the small core at P = 1, and in
-             a full run synth_xilinx xc7 on it and both on masses at P = 1, binary32 and e8m17 (the masses core
+             a full run synth_xilinx xc7 on it and both on masses at P = 1 in binary32 and at its default P in
+             e8m17 with the fast operator latencies (the masses core
              that fits the part);
   Fmax       nextpnr-ecp5 on the LFE5U-85F (speed 8, constraints/ipm_core.lpf) for the cores that fit;
   software   OSQP (default and tuned), PIQP and Clarabel on the QPs of the masses closed loop under the core's
@@ -55,7 +56,7 @@ class IpmCore(ToolResults):
     problem: str
     out: Path
     design: object               # mpc_cores.ipm.design.IpmDesign
-    role: str                    # "masses" (default design), "masses_p1", "masses_e8m17_p1", "small", "small_p1"
+    role: str                    # "masses" (default design), "masses_p1", "masses_e8m17_fast", "small", "small_p1"
     kind: str = "ipm"
     simulate: bool = False
     synth: bool = False
@@ -70,7 +71,9 @@ class IpmCore(ToolResults):
     @property
     def tag(self) -> str:
         fmt = (self.core or {}).get("format") or (self.design.format if self.design else "binary32")
-        return f"IPM {self.problem} P={self.P or 'eq15'}" + ("" if fmt == "binary32" else f" {fmt}")
+        fast = self.design is not None and self.design.md.latency != "compact"
+        return f"IPM {self.problem} P={self.P or 'eq15'}" + ("" if fmt == "binary32" else f" {fmt}") + \
+            (f" {self.design.md.latency}" if fast else "")
 
     @property
     def placeable(self) -> bool:
@@ -202,22 +205,24 @@ class Section(QpSection):
         masses, small = load_spec(MASSES), small_problem()
         self.problem = masses
         full = not self.quick
-        plan = [(masses, None, "masses", {}, None), (small, None, "small", {}, None),
-                (small, 1, "small_p1", dict(simulate=True, synth=True, place=self.place), None)]
+        plan = [(masses, None, "masses", {}, None, None), (small, None, "small", {}, None, None),
+                (small, 1, "small_p1", dict(simulate=True, synth=True, place=self.place), None, None)]
         if full:
-            # masses at P = 1: binary32 (simulated; too big for the part) and e8m17 (the core that fits, placed)
-            plan += [(masses, 1, "masses_p1", dict(simulate=True, synth=True), None),
-                     (masses, 1, "masses_e8m17_p1", dict(synth=True, place=self.place), "e8m17")]
-        for p, P, role, steps, fmt in plan:
-            d = design_ipm(p, P=P, format=fmt)
+            # masses: at P = 1 in binary32 (simulated; too big for the part), and the core for the part: e8m17 with
+            # the fast operator latencies at its default P (eq. (15)), placed
+            plan += [(masses, 1, "masses_p1", dict(simulate=True, synth=True), None, None),
+                     (masses, None, "masses_e8m17_fast", dict(synth=True, place=self.place), "e8m17", "fast")]
+        for p, P, role, steps, fmt, lat in plan:
+            d = design_ipm(p, P=P, format=fmt, latency=lat)
             if role == "masses":
                 self.designs[p.name] = d
-            folder = f"{p.name}_{f'p{P}' if P else 'default'}" + (f"_{fmt}" if fmt else "")
+            folder = f"{p.name}_{f'p{P}' if P else 'default'}" + (f"_{fmt}" if fmt else "") + (f"_{lat}" if lat else "")
             self.cores.append(IpmCore(p.name, root / "cores" / folder, d, role, **steps))
         self.plan_text = (f"Cores: masses at its default P (cycles from core.json), {small.name} (n = {small.nx}, "
                           f"m = {small.nu}, T = {small.N}) at its default P and at P = 1 (Verilator, Yosys ECP5"
                           f"{', xc7' if self.xilinx else ''}, nextpnr{'' if self.place else ' off'}"
-                          + ("); masses at P = 1 (Verilator, Yosys) and in e8m17 at P = 1 (Yosys, nextpnr)." if full else
+                          + ("); masses at P = 1 (Verilator, Yosys) and in e8m17 with the fast latencies at its "
+                             "default P (Yosys, nextpnr)." if full else
                              " from the cache only); QUICK: masses not simulated or synthesised."))
         self.log("IPM: " + self.plan_text)
 

@@ -68,7 +68,7 @@ class IpmDesign:
                 "cmp": self.lat_cmp}
 
     def label(self) -> str:
-        return f"{self.format}, I_NW = {self.i_nw}, I_MR = {self.i_mr}"
+        return f"{self.format} ({self.md.latency} latencies), I_NW = {self.i_nw}, I_MR = {self.i_mr}"
 
     def word(self, v: float) -> int:
         return int(fv.encode(self.fmt, np.array([v]))[0])

@@ -13,7 +13,7 @@ def core_json(d, hw: dict) -> dict:
          "P_eq15": mr["P_eq15"], "problems_in_flight": hw["problems_in_flight"], "format": hw["format"],
          "exp_width": hw["exp_width"], "man_width": hw["man_width"], "word_width": mr["word_width"],
          "stream_width": 32, "i_nw": d.i_nw, "iterations": d.i_mr, "mu_tol": d.mu_tol, "res_tol": d.res_tol,
-         "in_words": hw["in_words"], "out_words": hw["out_words"], **d.md.lat, "lat_cmp": d.lat_cmp,
+         "in_words": hw["in_words"], "out_words": hw["out_words"], **d.md.lat, "lat_cmp": d.lat_cmp, "latency_preset": d.md.latency,
          "axil_addr_width": hw["axil_addr_width"], "registers": hw["registers"], "regions": hw["regions"]}
     assert hw["format"] == d.format, f"the generator built {hw['format']}, the design asks for {d.format}"
     progs = {q["name"]: q["cycles"] for q in st1["programs"]}
@@ -36,7 +36,9 @@ def core_json(d, hw: dict) -> dict:
 def design_report(d, core: dict | None = None) -> str:
     p = d.problem
     lines = [f"Interior-point core for {d.name}: n = {p.nx}, m = {p.nu}, T = {p.N}: N = {d.md.layout.N}, "
-             f"format {d.format}, I_NW = {d.i_nw}, I_MR = {d.i_mr}, sigma = 0.1, tau = 0.99, equilibration on"]
+             f"format {d.format} ({d.md.latency} latencies: add {d.md.lat['lat_add']}, mul {d.md.lat['lat_mul']}, "
+             f"div {d.md.lat['lat_div']}, sqrt {d.md.lat['lat_sqrt']}), I_NW = {d.i_nw}, I_MR = {d.i_mr}, "
+             "sigma = 0.1, tau = 0.99, equilibration on"]
     if core:
         lines += [f"P = {core['P']} (eq. (15): {core['P_eq15']}): {core['problems_in_flight']} problems in flight",
                   f"Stage 1 cycles per problem: " + ", ".join(f"{k} {v}" for k, v in core["stage1_cycles"].items()),

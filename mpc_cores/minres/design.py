@@ -64,6 +64,7 @@ class MinresDesign:
     problem: object = None
     fmt: Format = NAMES["binary32"]
     warm: bool = False     # the interior-point core's form (MinresParams.warm)
+    latency: str = "compact"  # the operator latency preset (mpc_cores.float.latency)
 
     @property
     def layout(self) -> Layout:
@@ -100,7 +101,8 @@ def design_minres(problem, P: int | None = None, iterations: int | None = None, 
     if P < 0 or P > 64:
         raise DesignError(f"P must be in [1, 64] (0 or none: eq. (15)): got P={P}")
     fmt = parse_format(format if format not in (None, "") else solver.get("minres_format", "binary32"))
-    lat = format_latencies(fmt, latency or solver.get("minres_latency", "compact"))
+    preset = latency or solver.get("minres_latency", "compact")
+    lat = format_latencies(fmt, preset)
     if lat_add is not None:
         lat["lat_add"] = int(lat_add)
     if lat_mul is not None:
@@ -113,4 +115,4 @@ def design_minres(problem, P: int | None = None, iterations: int | None = None, 
     rom = rom.astype(np.float32) if fmt == NAMES["binary32"] else fv.decode(fmt, fv.encode(fmt, rom))
     h = np.diagonal(kkt_matrix(A, B, Q, R, QN, T))[Layout(n, m, T).primal_rows()]
     return MinresDesign(name or problem.name, n, m, T, P, min(it, 65535), lat, rom=rom, h_diag=h, problem=problem,
-                        fmt=fmt, warm=warm)
+                        fmt=fmt, warm=warm, latency=preset)
