@@ -1,7 +1,7 @@
 package minres
 
 import chisel3._
-import chisel3.util.{log2Ceil, MuxCase, RegEnable}
+import chisel3.util.{Mux1H, RegEnable}
 import float.{FAdd, FDiv, FMul, FSqrt, FloatFormat}
 
 /** A static schedule of a small dataflow graph of float operations on one operator per kind: `ops` in program
@@ -32,17 +32,19 @@ case class StaticSchedule(ops: Seq[(String, String, Seq[String])], lat: Map[Stri
 }
 
 /** The hardware of a StaticSchedule: one FMul, FAdd, FDiv and FSqrt (those the graph uses), their operands
-  * selected by a cycle counter started by `trigger`. The sources are read on the trigger cycle; every value is
-  * kept in a register from its ready cycle until the next trigger, which must come at least `latency` cycles
-  * later. Each operation is rounded as on an operator of its own, so the results equal a fully pipelined
+  * selected (AND-OR) by a one-hot cycle count started by `trigger`. The sources are read on the trigger cycle;
+  * every value is kept in a register from its ready cycle until the next trigger, which must come at least
+  * `latency` cycles later. Each operation is rounded as on an operator of its own, so the results equal a fully pipelined
   * evaluation of the graph word for word.
   */
 class SharedScalar(fmt: FloatFormat, s: StaticSchedule, trigger: Bool, sources: Map[String, UInt]) {
   require(sources.keySet == s.ready.keySet -- s.issue.keySet, "the sources must be the schedule's")
   private val L = s.latency
-  private val k = RegInit(0.U(log2Ceil(L + 2).W)) // cycles since the trigger (0: idle or the trigger cycle)
-  when(trigger) { k := 1.U }.elsewhen(k =/= 0.U && k < L.U) { k := k + 1.U }.otherwise { k := 0.U }
-  private def at(t: Int): Bool = if (t == 0) trigger else k === t.U
+  // cycles since the trigger, one-hot (bit t: t cycles since the trigger, t in 1..L; none: idle), so that every
+  // select below is a register bit
+  private val hot = RegInit(0.U((L + 1).W))
+  hot := Mux(trigger, 2.U((L + 1).W), (hot << 1)(L, 0))
+  private def at(t: Int): Bool = if (t == 0) trigger else hot(t)
   private val lat = s.lat
 
   private class Unit(kind: String) {
@@ -71,12 +73,13 @@ class SharedScalar(fmt: FloatFormat, s: StaticSchedule, trigger: Bool, sources: 
 
   for ((u, hw) <- units) {
     val mine = s.ops.filter(o => unitOf(o._2) == u)
-    def operand(i: Int): UInt = MuxCase(0.U(fmt.width.W), mine.map { case (name, _, args) =>
+    // one operation issues on the unit per cycle at most (the schedule's), so the selects are one-hot
+    def operand(i: Int): UInt = Mux1H(mine.map { case (name, _, args) =>
       at(s.issue(name)) -> value(args(math.min(i, args.length - 1)), s.issue(name))
     })
     hw.in_valid := true.B
     hw.a := operand(0)
     if (u != "sqrt") hw.b := operand(1)
-    hw.sub.foreach(_ := MuxCase(false.B, mine.map { case (name, kind, _) => at(s.issue(name)) -> (kind == "sub").B }))
+    hw.sub.foreach(_ := mine.filter(_._2 == "sub").map(o => at(s.issue(o._1))).foldLeft(false.B)(_ || _))
   }
 }
