@@ -2,6 +2,7 @@ package ipm
 
 import chisel3._
 import chisel3.util._
+import float.Stages
 
 /** Stage 1 of the interior-point core (001, section VI-C): the sequential floating-point vector machine of
   * mpc_cores/ipm/isa.py, bit-exact with its interpreter (mpc_cores/ipm/machine.py).
@@ -112,12 +113,6 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val insIn   = Mux(launch, nxtIn, curIn)
   private val insOut  = Mux(launch, nxtOut, curOut)
   private val outQ    = Module(new Queue(UInt((w + 1).W), OutDepth, flow = true))
-  private val vG      = RegInit(false.B)
-  private val vM      = RegInit(false.B)
-  private val vA      = RegInit(false.B)
-  private val vR      = RegInit(false.B)
-  private val vS      = RegInit(false.B)
-  private val vU      = RegInit(false.B)
   // OUT words in flight or in the buffer at most OutDepth: one credit per free place
   private val credit  = RegInit(OutDepth.U(log2Ceil(OutDepth + 1).W))
   private val active  = launch || issuing
@@ -173,19 +168,21 @@ class Stage1Engine(p: Stage1Params) extends Module {
 
   // ---- G: table words registered (the element in G, M, A, R and S belongs to `cur`: the next instruction
   // launches at least 6 cycles after the last element issues); the operands' bases registered from the launch on
-  vG := issue
-  private val iG    = RegNext(iT)
-  private val lastG = RegNext(lastT)
-  private val inG   = RegNext(s_axis.tdata(w - 1, 0))
+  // the element's valid bit, index, last flag and input word travel beside it: `at(k)` is the element k stages
+  // after T (1: G, 2: M, 3: A, 4: R, 5: S, 6: U)
+  private val eT = Wire(new Stage1Elem(w))
+  eT.i    := iT
+  eT.last := lastT
+  eT.in   := s_axis.tdata(w - 1, 0)
+  private val at = (1 to 6).scanLeft(eT)((x, _) => RegNext(x))
+  private val vS = Stages.delayValid(issue, 5)
+  private val vU = RegNext(vS, false.B)
+  private val iM = at(2).i
   private val aBase = RegNext(slotBase +& cur.a.addr)
   private val bBase = RegNext(slotBase +& cur.b.addr)
   private val dBase = RegNext(slotBase +& cur.d.addr)
 
   // ---- M: addresses, registered
-  vM := vG
-  private val iM    = RegNext(iG)
-  private val lastM = RegNext(lastG)
-  private val inM   = RegNext(inG)
   private val tabAM = RegNext(tabA)
   private val tabBM = RegNext(tabB)
   private val tabDM = RegNext(tabD)
@@ -201,39 +198,22 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val dAdr  = RegNext(dBase + Mux(cur.d.isGather, tabDM, iM))
 
   // ---- A: the memories read at the registered addresses
-  vA := vM
-  private val iA     = RegNext(iM)
-  private val lastA  = RegNext(lastM)
-  private val inA    = RegNext(inM)
   private val slotA  = mem.read(0, aAdr)
   private val slotBw = if (p.slotB) mem.read(1, bAdr) else 0.U(w.W)
   private val constA = if (p.constA) Rom("Stage1ConstA", p.constWords, w, caAdr, clock) else 0.U(w.W)
   private val constB = if (p.constB) Rom("Stage1ConstB", p.constWords, w, cbAdr, clock) else 0.U(w.W)
 
   // ---- R: memory words out, registered (the slot memory's per bank, in SlotMem)
-  vR := vA
-  private val iR    = RegNext(iA)
-  private val lastR = RegNext(lastA)
-  private val inR   = RegNext(inA)
-  private val addrR = RegNext(dAdr)
   private val constAR = RegNext(constA)
   private val constBR = RegNext(constB)
 
   // ---- S: bank and operand selected, registered
-  vS := vR
-  private val iS    = RegNext(iR)
-  private val lastS = RegNext(lastR)
-  private val inS   = RegNext(inR)
-  private val addrS = RegNext(addrR)
 
   // ---- U: operands, units, write-back (the element in U still belongs to `cur`: a new instruction is
   // loaded into `cur` at the end of its first issue cycle, at the earliest the cycle its predecessor's last
   // element is here)
-  vU := vS
-  private val iU    = RegNext(iS)
-  private val lastU = RegNext(lastS)
-  private val inU   = RegNext(inS)
-  private val addrU = RegNext(addrS)
+  private val eU    = at(6)
+  private val addrU = Stages.delay(dAdr, 3) // registered at M, here at U
   private val aS    = Mux(cur.a.inConst, constAR, slotA)
   private val bS    = Mux(cur.b.inConst, constBR, slotBw)
   private val aU    = RegEnable(aS, vS && curOut) // the OUT word; the units register their own operands
@@ -242,21 +222,29 @@ class Stage1Engine(p: Stage1Params) extends Module {
   alu.io.valid  := vU
   alu.io.op     := cur.op
   alu.io.n      := cur.n
-  alu.io.idx    := iU
-  alu.io.last   := lastU
+  alu.io.idx    := eU.i
+  alu.io.last   := eU.last
   alu.io.pre    := vS
   alu.io.aPre   := aS
   alu.io.bPre   := bS
-  alu.io.inData := inU
+  alu.io.inData := eU.in
   alu.io.addr   := addrU
   mem.write(alu.io.wen, alu.io.waddr, alu.io.wdata)
 
   outQ.io.enq.valid := vU && curOut
-  outQ.io.enq.bits  := Cat(lastU, aU)
+  outQ.io.enq.bits  := Cat(eU.last, aU)
   m_axis.tvalid     := outQ.io.deq.valid
   m_axis.tdata      := outQ.io.deq.bits(w - 1, 0).pad(32)
   m_axis.tlast      := outQ.io.deq.bits(w)
   outQ.io.deq.ready := m_axis.tready
   bus.Protocol.streamOut("m_axis", m_axis)
   bus.Protocol.noOverflow("output buffer", outQ.io.enq.valid, outQ.io.enq.ready)
+}
+
+/** What travels beside an element through the Stage 1 pipeline: its index in the instruction, whether it is the
+  * last, and the input-stream word (IN) */
+class Stage1Elem(w: Int) extends Bundle {
+  val i    = UInt(Isa.NW.W)
+  val last = Bool()
+  val in   = UInt(w.W)
 }
