@@ -11,8 +11,9 @@ The hand-offs, in cycles (IpmCore, MinresCore):
   the next problem's update likewise); else it closes the batch and decides in its idle state a cycle later;
   MINRES starts a full batch the cycle after its last word (a closed partial batch one cycle later), but no
   earlier than (I_MR + 1) P S cycles after it started the previous batch (when that batch's feed has taken its
-  last element: batches overlap), and streams its answers (batch cycles) + 1 cycles later, or the cycle after the
-  previous batch's last answer word was taken if that is later;
+  last element: batches overlap), and streams its answers (batch cycles) + READ_LATENCY cycles later (a word is
+  issued that far ahead of its read), or the cycle after the previous batch's last answer word was taken if that
+  is later;
   a receive waiting for MINRES is done N + 2 + ISSUE_GAP cycles after MINRES starts streaming (its k-th problem
   N + 2 cycles later each), ISSUE_GAP after it takes the last word, else after its own cycles, from the second
   problem on ID_STALL more (the norm and id words between two problems' solutions, which arrive 3 cycles after
@@ -26,6 +27,7 @@ enough that MINRES waits; the testbench checks both regimes against the RTL.
 from __future__ import annotations
 
 from mpc_cores.ipm.isa import ISSUE_GAP, PROGRAM_START
+from mpc_cores.minres.schedule import READ_LATENCY
 
 ID_STALL = max(0, 2 - ISSUE_GAP - PROGRAM_START)
 
@@ -77,7 +79,7 @@ def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | 
         solves[g] += 1
         start = max(full, mr_next)
         mr_next = start + span
-        o = max(start + 1 + batch, out_free)   # MINRES streams the answers
+        o = max(start + READ_LATENCY + batch, out_free)   # MINRES streams the answers
         done = t + 1
         for k in range(len(chans[g])):
             done = max(done + C["receive"] + (k > 0) * ID_STALL, o + N + 2 + ISSUE_GAP + k * (N + 2))

@@ -14,6 +14,8 @@ SCALAR_OPS = (
     ("a3", "mul", ("sp", "gamma")), ("c1", "div", ("a0", "a1")), ("s1", "div", ("g1", "a1")),
     ("ceta", "mul", ("c1", "eta")), ("seta", "mul", ("s1", "eta")))
 SCALAR_SOURCES = ("nrm", "delta", "c", "cp", "s", "sp", "gamma", "eta")
+# cycles from a vector memory's read address to its word (minres.VecRam.ReadLatency)
+READ_LATENCY = 2
 
 
 def _log2ceil(x: int) -> int:
@@ -72,7 +74,7 @@ def schedule(N: int, M: int, K: int, lat: dict, P: int, warm: bool) -> dict:
     acc_tail = acc_latency(N, la) + 1
     lat_b = lm + 2 * la
     lat_cx = 2 * lm + 3 * la + ld
-    t_row = M + (lm if warm else 0)
+    t_row = M - 1 + READ_LATENCY + (lm if warm else 0)
     t_b = t_row + N - 1 + lat_matvec + lm + acc_tail
     t_s = t_b + N - 1 + lat_b + lm + acc_tail
 

@@ -247,13 +247,14 @@ class MinresCore(val p: MinresParams) extends Module {
   }
   private def startAt(t: Int): Bool = if (t == 0) startBatch else active(curBank) && g(curBank) === (t - 1).U
 
-  // The memories have a registered read: passes B and C count one cycle ahead (address phase, counters pbA and
-  // pcA) and their words and control meet one cycle later (bc, cc), at the offsets tB and tC. The feed's first
-  // shift-register stage is the read register of its vmem copy.
+  // The memories' words arrive RL cycles after their address: passes B and C count RL cycles ahead (address
+  // phase, counters pbA and pcA) and their words and control meet at the offsets tB and tC (bc, cc). The feed's
+  // words enter the shift register RL cycles after its count (tRow counts them).
+  private val RL = VecRam.ReadLatency
   val feed = new PassCounter(p); feed.tick(startAt(0), imaxIn, nextBank)
-  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - 1), feed.imax, curBank)
+  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - RL), feed.imax, curBank)
   val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, curBank)
-  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - 1), feed.imax, curBank)
+  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - RL), feed.imax, curBank)
   // the batch's last cycles, I_MR P S + c: from the I_MR the feed latched at the start, the multiplier between
   // registers, set on the batch's third cycle (g = 2; until then they hold the largest count)
   private val imaxCyc = RegNext(feed.imax * p.cyclesPerIteration.U)
@@ -268,12 +269,14 @@ class MinresCore(val p: MinresParams) extends Module {
   private val feedWord = if (!p.warm) sr0 else {
     val fAdr = adr2(feed.c.bank, feed.c.slot, inN(feed.c.e), N)
     val dv   = mul(Timed(smem.get.read(0, fAdr), 0), Timed(sr0, 0))
-    Mux(Stages.delay(RegNext(feed.c.j === 0.U), p.latFeed), Stages.delay(zmem.get.read(0, fAdr), p.latFeed), dv.v)
+    Mux(Stages.delay(RegNext(feed.c.j === 0.U), RL - 1 + p.latFeed), Stages.delay(zmem.get.read(0, fAdr), p.latFeed),
+      dv.v)
   }
   val sr = VecInit(Seq.iterate(feedWord, taps)(RegNext(_)))
-  val rowPre   = Stages.delay(feed.c, M - 1 + p.latFeed) // address phase of the variable column's read
+  val rowAdr   = Stages.delay(feed.c, p.tRow - RL) // address phase of the variable column's read
+  val rowPre   = Stages.delay(rowAdr, RL - 1)
   val row      = Stages.delay(rowPre, 1)
-  val rowValid = Stages.delayValid(feed.valid, M + p.latFeed)
+  val rowValid = Stages.delayValid(feed.valid, p.tRow)
 
   // ---- the sparse row (mpc_cores/minres/band.py): the row's key (position in the period, or a row of the last
   // stage) selects, per slot, an offset o of the window and a coefficient: a constant, or the variable diagonal
@@ -282,7 +285,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private def keyOf(c: MinresCtl): UInt =
     Mux(c.k === T.U, (p.period).U(keyW.W) +& c.r, c.r.pad(keyW))(keyW - 1, 0)
   private val key    = RegNext(keyOf(rowPre))
-  private val dRead  = dmem.read(0, adr2(rowPre.bank, rowPre.slot, Mux(rowPre.r < n.U, 0.U, rowPre.prim), nPrimal))
+  private val dRead  = dmem.read(0, adr2(rowAdr.bank, rowAdr.slot, Mux(rowAdr.r < n.U, 0.U, rowAdr.prim), nPrimal))
   val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
   private def perKey[T <: Data](f: Int => T): T = VecInit((0 until p.keys).map(f))(key)
@@ -300,9 +303,9 @@ class MinresCore(val p: MinresParams) extends Module {
     dot.io.b(s) := RegNext(Mux(ok, word, zero))
   }
   val ay   = Timed(dot.io.sum, p.latMatvec)
-  // warm form: row i scaled by d_i (its read addressed a cycle ahead)
+  // warm form: row i scaled by d_i (its read addressed RL cycles ahead)
   val y    = if (!p.warm) ay else {
-    val pre = ops.delayTo(row, 0, ay.t - 1)
+    val pre = ops.delayTo(row, 0, ay.t - RL)
     mul(Timed(smem.get.read(1, adr2(pre.bank, pre.slot, inN(pre.e), N)), ay.t), ay)
   }
   val rowY = ops.delayTo(row, 0, y.t)
@@ -324,11 +327,12 @@ class MinresCore(val p: MinresParams) extends Module {
   private val bY     = ymem.read(0, bAdr)
   private val bVj    = vmem.read(1, bAdr)
   private val bVjm1  = vpmem.read(0, bAdr)
-  private val bc     = RegNext(bA)
-  private val bValid = RegNext(pbA.valid, false.B)
+  private val bA1    = Stages.delay(bA, RL - 1)
+  private val bc     = RegNext(bA1)
+  private val bValid = Stages.delayValid(pbA.valid, RL)
   // the selects of pass B and C from compares registered beside bc / cc (the same values, off the operand paths)
-  private val bInit  = RegNext(bA.j === 0.U)
-  private val bFirst = RegNext(bA.j <= 1.U)
+  private val bInit  = RegNext(bA1.j === 0.U)
+  private val bFirst = RegNext(bA1.j <= 1.U)
   val yIn   = Mux(bInit, bRhs, bY)
   val vjB   = Mux(bInit, zero, bVj)
   val vjm1B = Mux(bFirst, zero, bVjm1)
@@ -398,10 +402,11 @@ class MinresCore(val p: MinresParams) extends Module {
   private val cVj    = vmem.read(2, cAdr)
   private val cW01   = wmem.map(_.read(0, cAdr))
   private val cX0    = xmem.read(0, adr2(cA.bank, cA.slot, inN(cA.e), N))
-  private val cc     = RegNext(cA)
-  private val cLe1   = RegNext(cA.j <= 1.U)
-  private val cLe2   = RegNext(cA.j <= 2.U)
-  private val cValid = RegNext(pcA.valid, false.B)
+  private val cA1    = Stages.delay(cA, RL - 1)
+  private val cc     = RegNext(cA1)
+  private val cLe1   = RegNext(cA1.j <= 1.U)
+  private val cLe2   = RegNext(cA1.j <= 2.U)
+  private val cValid = Stages.delayValid(pcA.valid, RL)
   private val par    = cc.j(0)  // bank of w_j; w_{j-1} and w_{j+1} are in the other
   val uC    = at0(cU)
   val vjC   = at0(cVj)
@@ -422,9 +427,9 @@ class MinresCore(val p: MinresParams) extends Module {
   xmem.write(xEn, adr2(cX.bank, cX.slot, cX.e, N), xNew.v)
   when(xEn && !finite(xNew.v)) { xBad(cX.bank * P.U + cX.slot) := true.B }
 
-  // ---- output: per problem the id word, then z (N words from xmem). The read is registered, so words are
-  // issued one cycle ahead into a 3-word queue (enough for one word per cycle under any backpressure: a word is
-  // issued only if the queue will have room for it); m_axis is the queue's head.
+  // ---- output: per problem the id word, then z (N words from xmem). Words are issued RL cycles ahead of their
+  // read into an (RL + 2)-word queue (enough for one word per cycle under any backpressure: a word is issued only
+  // if the queue will have room for it and those in flight); m_axis is the queue's head.
   // Batches finish in the order they start, so the output takes the banks in turn (outBank).
   val outBank = RegInit(0.U(1.W))
   val issSlot = RegInit(0.U(log2Ceil(P + 1).W)) // output position: problem issSlot, word issIdx (0: the id word)
@@ -433,18 +438,21 @@ class MinresCore(val p: MinresParams) extends Module {
   private val xOut   = xmem.read(1, outAdr)
   private val ob     = outBank * P.U + issSlot
   private val count  = cnt(outBank)
-  val outQ    = Module(new Queue(new MinresOutWord, 3))
+  private val outQn = RL + 2
+  val outQ    = Module(new Queue(new MinresOutWord, outQn))
   val issDone = RegInit(false.B)
-  val pending = RegInit(false.B)
-  private val issue = doneB(outBank) && !issDone && (outQ.io.count +& pending) < 3.U
+  private val inFlight = Wire(Vec(RL, Bool()))
+  private val issue = doneB(outBank) && !issDone && (outQ.io.count +& PopCount(inFlight)) < outQn.U
   private val oBad  = inBad(ob) || xBad(ob)
-  pending := issue
-  private val pendId   = RegNext(issIdx === 0.U)
-  private val pendWord = RegNext(Cat(oBad, ids(ob)))
+  for (i <- 0 until RL) inFlight(i) := Stages.delayValid(issue, i + 1)
+  private val pending  = inFlight(RL - 1)
+  private def pend[T <: Data](x: T): T = Stages.delay(x, RL)
+  private val pendId   = pend(issIdx === 0.U)
+  private val pendWord = pend(Cat(oBad, ids(ob)))
   private val lastIdx  = (p.outWords - 1).U
-  private val pendLast = RegNext(issIdx === lastIdx)
-  private val pendRes  = RegNext(issIdx === (N + 1).U)
-  private val pendR0   = RegNext(res0R(ob))
+  private val pendLast = pend(issIdx === lastIdx)
+  private val pendRes  = pend(issIdx === (N + 1).U)
+  private val pendR0   = pend(res0R(ob))
   outQ.io.enq.valid      := pending
   outQ.io.enq.bits.data  := Mux(pendId, pendWord, Mux(pendRes && p.warm.B, pendR0, xOut))
   outQ.io.enq.bits.last  := pendLast

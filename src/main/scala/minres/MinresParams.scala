@@ -102,7 +102,8 @@ case class MinresParams(
   val latFeed: Int = if (warm) latMul else 0
 
   // ---- schedule, offsets from a slot's first feed cycle
-  val tRow: Int   = M + latFeed
+  /** the row of the feed's first word: its read (VecRam.ReadLatency) and the window's M - 1 shifts */
+  val tRow: Int   = M - 1 + VecRam.ReadLatency + latFeed
   val tDelta: Int = tRow + N - 1 + latMatvec + latMul + accTail
   val tB: Int     = tDelta
   val tNrm: Int   = tB + N - 1 + latB + latMul + accTail

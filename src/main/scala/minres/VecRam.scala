@@ -4,12 +4,14 @@ import chisel3._
 import chisel3.util.log2Ceil
 
 /** A vector memory of the MINRES core as block RAM: `copies` simple-dual-port memories (SyncReadMem with one
-  * write port and one registered read port each) of `depth` words of `width` bits. Every copy is written with the
+  * write port and one registered read port each, and an output register) of `depth` words of `width` bits. Every copy is written with the
   * same word on the same cycle (one `write` call per core), and copy i serves exactly one reader, so Yosys maps
   * each copy to DP16KD (ECP5) or RAMB (7-series) without read multiplexing or transparency logic.
   *
-  * Read timing: the address given to `read` on cycle t returns the word on cycle t + 1. The core never reads and
-  * writes one address on the same cycle, so the read-under-write behaviour is left undefined. (firtool emits the
+  * Read timing: the address given to `read` on cycle t returns the word on cycle t + 2 (VecRam.ReadLatency): the
+  * block RAM reads at the end of cycle t, and its word is registered once more, so that no logic follows the
+  * block RAM's output (about 4.3 ns after the clock on an ECP5 without its output register). The core never
+  * reads and writes one address on the same cycle, so the read-under-write behaviour is left undefined. (firtool emits the
   * read as a registered address, which Yosys takes for a transparent port and emulates on the DP16KD with a
   * bypass register and an address comparator, a few dozen FF and LUT4 per memory that the schedule never uses.)
   */
@@ -35,9 +37,14 @@ class VecRam(name: String, val depth: Int, width: Int, copies: Int = 1) {
     for (m <- mems) when(en) { m.write(a, data) }
   }
 
-  /** The read port of copy `copy` (call once per copy): data on the next cycle. */
+  /** The read port of copy `copy` (call once per copy): data VecRam.ReadLatency cycles later. */
   def read(copy: Int, addr: UInt): UInt = {
     require(readers.add(copy), s"VecRam $name: copy $copy has one read port only")
-    mems(copy).read(fit(addr))
+    RegNext(mems(copy).read(fit(addr)))
   }
+}
+
+object VecRam {
+  /** cycles from a read address to its word */
+  val ReadLatency = 2
 }
