@@ -212,7 +212,8 @@ def main(argv=None) -> None:
         s.add_argument("--format", help="float format (MINRES, ipm): binary32, binary16 or e<E>m<M>, e.g. e8m17")
         s.add_argument("--latency", help="float operator latencies (MINRES, ipm): compact (fewest cycles) or fast "
                                          "(150 MHz on the LFE5U-85F)")
-        s.add_argument("--target", help="FPGA family of the multipliers (fgm, admm): generic, ecp5 or xilinx7")
+        s.add_argument("--target", help="FPGA family: generic, ecp5 or xilinx7 (fgm, admm: the multipliers; minres, "
+                       "ipm: ecp5 builds the memories from DP16KD with their output register)")
         s.add_argument("--problems", help="K_p, problems interleaved on the row units (fgm, admm): 1 to 16")
         s.add_argument("--out")
         if name == "design":

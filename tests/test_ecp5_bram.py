@@ -1,8 +1,9 @@
-"""The ECP5 block RAMs of the row memories (mem/Ecp5BlockRam.scala): on TARGET=ecp5 the FGM and ADMM row memories
-are DP16KD primitives with their output register for synthesis. Every other test simulates their behavioural
-branch; here the synthesis branch itself runs in Verilator (-DSYNTHESIS) against a model of the primitive
-(verif/ecp5/bram_tb.py): initial contents from INITVAL, the two-cycle read, lane-masked writes, lanes of one and
-of two primitives."""
+"""The ECP5 block RAMs (mem/Ecp5BlockRam.scala, mem/Ecp5SdpRam.scala): on TARGET=ecp5 the FGM and ADMM row
+memories, the MINRES vector memories and the Stage 1 slot memory are DP16KD primitives with their output register
+for synthesis. Every other test simulates their behavioural branch; here the synthesis branch itself runs in
+Verilator (-DSYNTHESIS) against a model of the primitive (verif/ecp5/bram_tb.py): initial contents from INITVAL,
+the two-cycle read, lane-masked writes, lanes of one and of two primitives; the simple dual-port RAM in the x18 and
+x9 modes (a read and a write on one cycle)."""
 from __future__ import annotations
 
 import json
@@ -53,5 +54,58 @@ def test_synthesis_branch_reads_and_writes(suite, case, mem, cores, admm_cores):
     prims = text.count("DP16KD #(")
     assert prims == spec["lanes"] * -(-spec["lane_width"] // 18)
     tests, failed = run_cocotb([d / f"{name}.sv", d / "dp16kd_model.v"], name, "verif.ecp5.bram_tb", d / "sim",
-                               {"BRAM_SPEC": str(d / "spec.json")}, extra_args=("-DSYNTHESIS",))
+                               {"BRAM_SPEC": str(d / "spec.json")}, testcase="bram_rows", extra_args=("-DSYNTHESIS",))
     assert (tests, failed) == (1, 0), f"see {d / 'sim' / 'sim.log'}"
+
+
+@pytest.fixture(scope="module")
+def stage1_masses_ecp5():
+    """A Stage 1 engine of the masses' programs on two slots, target ecp5: its slot memory banks (2048 words, the
+    x9 mode) and the last, shorter one."""
+    from mpc_cores.ipm import stage1_config as sc
+    from mpc_cores.ipm.design import FLOOR, SIGMA, START, TAU
+    from mpc_cores.ipm.program import build
+    from mpc_cores.ipm.sparse import sparse_mpc
+    from mpc_cores.problem import load_spec
+
+    st = build(sparse_mpc(load_spec(REPO / "examples/masses.yaml")), SIGMA, TAU, True, START, FLOOR)
+    cfg = sc.config(st, "masses", slots=2, target="ecp5")
+    out = BUILD / "stage1_masses"
+    hw = sc.generate([(cfg, out)])[0]
+    return out, hw
+
+
+def sdp_spec(text: str) -> dict:
+    depth = int(re.search(r"reg \[\d+:0\] mem \[0:(\d+)\];", text).group(1)) + 1
+    width = int(re.search(r"output +\[(\d+):0\] rdata", text).group(1)) + 1
+    return {"kind": "sdp", "depth": depth, "lanes": 1, "lane_width": width}
+
+
+@pytest.mark.parametrize("bank", ["b0", "last"])
+def test_sdp_synthesis_branch(bank, stage1_masses_ecp5):
+    out, hw = stage1_masses_ecp5
+    sv = (out / f"{hw['module']}.sv").read_text()
+    names = sorted(re.findall(r"^module (\w+_slotmem_0_b\d+) ", sv, re.M), key=lambda n: int(n.rsplit("_b", 1)[1]))
+    assert len(names) >= 2, "a slot memory of several banks"
+    name = names[0] if bank == "b0" else names[-1]
+    text = module_text(sv, name)
+    assert 'REGMODE_B("OUTREG")' in text and "`ifdef SYNTHESIS" in text
+    spec = sdp_spec(text)
+    mode = 18 if spec["depth"] <= 1024 else 9 if spec["depth"] <= 2048 else None
+    assert mode and f".DATA_WIDTH_A({mode})" in text
+    assert (bank == "b0") == (mode == 9), "the first bank is 2048 words"
+    assert text.count("DP16KD #(") == -(-spec["lane_width"] // mode)
+    d = BUILD / name
+    d.mkdir(parents=True, exist_ok=True)
+    (d / f"{name}.sv").write_text(text)
+    (d / "dp16kd_model.v").write_text(dp16kd_model_text())
+    (d / "spec.json").write_text(json.dumps(spec))
+    tests, failed = run_cocotb([d / f"{name}.sv", d / "dp16kd_model.v"], name, "verif.ecp5.bram_tb", d / "sim",
+                               {"BRAM_SPEC": str(d / "spec.json")}, testcase="sdp_rows", extra_args=("-DSYNTHESIS",))
+    assert (tests, failed) == (1, 0), f"see {d / 'sim' / 'sim.log'}"
+
+
+def dp16kd_model_text() -> str:
+    from verif.ecp5.bram_tb import dp16kd_model
+
+    return dp16kd_model()

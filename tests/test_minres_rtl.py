@@ -30,8 +30,10 @@ RTL_CASES = {
     # counting its idle end when the next batch starts
     "n2_m1_t3_p1": (lambda: random_problem("rc", 2, 1, 3, 0, 7), dict(P=1, iterations=6), 16),
     # the reduced format e8m17 (26-bit words, an 18-bit significand: one MULT18X18D per product), its default
-    # divide and square-root latencies (13), random upper bits on the input stream
-    "n2_m1_t3_e8m17": (lambda: random_problem("rd", 2, 1, 3, 0, 8), dict(P=3, iterations=8, format="e8m17"), 16),
+    # divide and square-root latencies (13), random upper bits on the input stream; target ecp5 (the vector
+    # memories' DP16KD primitives, simulated through their behavioural model)
+    "n2_m1_t3_e8m17": (lambda: random_problem("rd", 2, 1, 3, 0, 8), dict(P=3, iterations=8, format="e8m17",
+                                                                         target="ecp5"), 16),
     # the interior-point core's form: warm start at z0, equilibration d, ||r_0|| after x, iterations and the
     # closing of partial batches on ports
     "n2_m1_t3_warm": (lambda: random_problem("re", 2, 1, 3, 0, 9), dict(P=2, iterations=7, warm=True), 16),
@@ -90,13 +92,19 @@ def test_masses_core_json(minres_cores):
 
 def test_format_in_core_json(minres_cores):
     """The e8m17 core: its format in config.json, hw.json and core.json, in the module name, the float library's
-    e8m17 operators and latencies; binary32 cores keep their names."""
+    e8m17 operators and latencies, its target (ecp5: the vector memories as DP16KD with their output register);
+    binary32 cores keep their names."""
     out, core = minres_cores[0]["n2_m1_t3_e8m17"]
     cfg = json.loads((out / "config.json").read_text())
     assert (cfg["format"], cfg["exp_width"], cfg["man_width"]) == ("e8m17", 8, 17)
     assert (core["format"], core["word_width"], core["stream_width"]) == ("e8m17", 26, 32)
     assert (core["lat_div"], core["lat_sqrt"]) == (13, 13)
-    assert core["module"].endswith("_e8m17") and "FMul_e8_m17" in (out / core["sv"]).read_text()
+    sv = (out / core["sv"]).read_text()
+    assert core["module"].endswith("_e8m17_ecp5") and "FMul_e8_m17" in sv and core["target"] == "ecp5"
+    # every vector memory copy a mem.Ecp5SdpRam (no memory array of its own in the core)
+    assert len(re.findall(r"^module \w+_vmem_\d \(", sv, re.M)) == 3 and 'REGMODE_B("OUTREG")' in sv
+    top = re.search(rf"^module {core['module']}\(.*?^endmodule", sv, re.S | re.M).group(0)
+    assert "_vmem_0 " in top and not re.search(r"reg +\[\d+:0\] +\w*mem\w* +\[", top)
     out32, core32 = minres_cores[0]["masses_p4"]
     assert (core32["format"], core32["word_width"], core32["module"]) == ("binary32", 32, "MinresCore_masses_n8_m4_t10_p4")
 

@@ -68,7 +68,8 @@ class IpmDesign:
                 "cmp": self.lat_cmp}
 
     def label(self) -> str:
-        return f"{self.format} ({self.md.latency} latencies), I_NW = {self.i_nw}, I_MR = {self.i_mr}"
+        return (f"{self.format} ({self.md.latency} latencies, target {self.md.target}), I_NW = {self.i_nw}, "
+                f"I_MR = {self.i_mr}")
 
     def word(self, v: float) -> int:
         return int(fv.encode(self.fmt, np.array([v]))[0])
@@ -76,7 +77,7 @@ class IpmDesign:
     def config(self) -> dict:
         p = self.problem
         st1 = stage1_config.config(self.st1, self.name, slots=2, lat=self.lat, exp_w=self.fmt.expW,
-                                   man_w=self.fmt.manW)
+                                   man_w=self.fmt.manW, target=self.md.target)
         return {"core": "ipm", "name": self.name, "n": p.nx, "m": p.nu, "ny": p.ny, "i_nw": self.i_nw,
                 "mu_tol": self.word(self.mu_tol), "res_tol": self.word(self.res_tol),
                 "sigma": SIGMA, "tau": TAU, "hard_states": p.hard_states is not None, "stage1": st1,
@@ -88,7 +89,8 @@ class IpmDesign:
 
 def design_ipm(problem, P: int | None = None, iterations: int | None = None, newton: int | None = None,
                lat_add: int | None = None, lat_mul: int | None = None, format: str | None = None,
-               name: str | None = None, latency: str | None = None, **_ignored) -> IpmDesign:
+               name: str | None = None, latency: str | None = None, target: str | None = None,
+               **_ignored) -> IpmDesign:
     solver = problem.solver or {}
     s = sparse_mpc(problem)
     if len(s.bounded) == 0:
@@ -99,7 +101,7 @@ def design_ipm(problem, P: int | None = None, iterations: int | None = None, new
         raise DesignError(f"I_NW (newton) must be in [1, 65535]: got {i_nw}")
     P = P if P is not None else solver.get("ipm_P", 0)
     md = design_minres(problem, P=P, iterations=1, lat_add=lat_add, lat_mul=lat_mul, format=fmt, name=name,
-                       warm=True, latency=latency or solver.get("ipm_latency", LATENCY))
+                       warm=True, latency=latency or solver.get("ipm_latency", LATENCY), target=target)
     st1 = build(s, SIGMA, TAU, True, START, FLOOR)
     d = IpmDesign(name or problem.name, problem, s, st1, md, i_nw, float(solver.get("ipm_mu_tol", MU_TOL)),
                   float(solver.get("ipm_res_tol", RES_TOL)))

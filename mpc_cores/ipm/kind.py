@@ -7,7 +7,7 @@ KIND = CoreKind(
           "e<E>m<M>, 2P problems in flight",
     model_fn="mpc_cores.ipm.core_model:IpmCoreModel",
     spec_section=("ipm_P", "ipm_newton", "ipm_minres", "ipm_format", "ipm_latency", "ipm_mu_tol", "ipm_res_tol"),
-    overrides=("P", "iterations", "newton", "lat_add", "lat_mul", "format", "latency"),
+    overrides=("P", "iterations", "newton", "lat_add", "lat_mul", "format", "latency", "target"),
     cycle_test="latency",
     controllers_fn="mpc_cores.ipm.kind:controllers",
     rtl_controller_fn="mpc_cores.ipm.control:rtl_controller",

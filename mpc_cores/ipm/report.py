@@ -13,7 +13,8 @@ def core_json(d, hw: dict) -> dict:
          "P_eq15": mr["P_eq15"], "problems_in_flight": hw["problems_in_flight"], "format": hw["format"],
          "exp_width": hw["exp_width"], "man_width": hw["man_width"], "word_width": mr["word_width"],
          "stream_width": 32, "i_nw": d.i_nw, "iterations": d.i_mr, "mu_tol": d.mu_tol, "res_tol": d.res_tol,
-         "in_words": hw["in_words"], "out_words": hw["out_words"], **d.md.lat, "lat_cmp": d.lat_cmp, "latency_preset": d.md.latency,
+         "in_words": hw["in_words"], "out_words": hw["out_words"], **d.md.lat, "lat_cmp": d.lat_cmp,
+         "latency_preset": d.md.latency, "target": d.md.target,
          "axil_addr_width": hw["axil_addr_width"], "registers": hw["registers"], "regions": hw["regions"]}
     assert hw["format"] == d.format, f"the generator built {hw['format']}, the design asks for {d.format}"
     progs = {q["name"]: q["cycles"] for q in st1["programs"]}

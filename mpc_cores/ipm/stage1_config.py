@@ -60,10 +60,11 @@ def check(programs: dict, tables, lat: dict) -> None:
 
 
 def config(st1, name: str, slots: int = 1, lat: dict | None = None, exp_w: int = 8, man_w: int = 23,
-           debug: bool = False) -> dict:
+           debug: bool = False, target: str = "generic") -> dict:
     """config.json of an engine running the programs of `st1` (mpc_cores.ipm.program.Stage1, or anything with
     programs, const_words, tables and slot_words) on `slots` problem slots; `debug` adds the load and dump
-    programs."""
+    programs; `target` the FPGA family (mpc_cores.target: ecp5 builds the slot memory from DP16KD primitives with
+    their output register)."""
     lat = dict(DEFAULT_LAT, **(lat or {}))
     programs = dict(st1.programs)
     if debug:
@@ -75,7 +76,7 @@ def config(st1, name: str, slots: int = 1, lat: dict | None = None, exp_w: int =
         "slot_words": int(st1.slot_words), "const": const_words(st1.const_words, exp_w, man_w), "tables": tables,
         "programs": [{"name": k, "code": [hex(isa.encode(i)) for i in v]} for k, v in programs.items()],
         "lat_add": lat["add"], "lat_mul": lat["mul"], "lat_div": lat["div"], "lat_sqrt": lat["sqrt"],
-        "lat_cmp": lat["cmp"],
+        "lat_cmp": lat["cmp"], "target": target,
     }
 
 

@@ -15,6 +15,7 @@ from mpc_cores.float.latency import LAT, format_latencies
 from mpc_cores.float.model import Format
 from mpc_cores.minres.band import BandPattern, band_pattern
 from mpc_cores.minres.kkt import Layout, const_rom, kkt_matrix, problem_matrices
+from mpc_cores.target import check_target
 
 NAMES = {"binary32": Format(8, 23), "binary16": Format(5, 10)}
 STREAM_BITS = 32
@@ -65,6 +66,7 @@ class MinresDesign:
     fmt: Format = NAMES["binary32"]
     warm: bool = False     # the interior-point core's form (MinresParams.warm)
     latency: str = "compact"  # the operator latency preset (mpc_cores.float.latency)
+    target: str = "generic"   # FPGA family (mpc_cores.target): ecp5 builds the memories from DP16KD with OUTREG
 
     @property
     def layout(self) -> Layout:
@@ -80,6 +82,7 @@ class MinresDesign:
                 "iterations": self.iterations, "flush_cycles": self.flush_cycles, **self.lat,
                 "format": self.format, "exp_width": self.fmt.expW, "man_width": self.fmt.manW,
                 "h_diag": [float(v) for v in self.h_diag], "rom": rom.tolist(), "warm": self.warm,
+                "target": self.target,
                 **self.pattern.config(lambda v: fv.encode(self.fmt, v).astype(np.int64))}
 
     @property
@@ -93,7 +96,8 @@ class MinresDesign:
 
 def design_minres(problem, P: int | None = None, iterations: int | None = None, lat_add: int | None = None,
                   lat_mul: int | None = None, name: str | None = None, format: str | None = None,
-                  warm: bool = False, latency: str | None = None, **_ignored) -> MinresDesign:
+                  warm: bool = False, latency: str | None = None, target: str | None = None,
+                  **_ignored) -> MinresDesign:
     A, B, Q, R, QN, T = problem_matrices(problem)
     n, m = problem.nx, problem.nu
     solver = problem.solver or {}
@@ -102,6 +106,7 @@ def design_minres(problem, P: int | None = None, iterations: int | None = None, 
         raise DesignError(f"P must be in [1, 64] (0 or none: eq. (15)): got P={P}")
     fmt = parse_format(format if format not in (None, "") else solver.get("minres_format", "binary32"))
     preset = latency or solver.get("minres_latency", "compact")
+    tgt = check_target(str(target or solver.get("target", "generic")))
     lat = format_latencies(fmt, preset)
     if lat_add is not None:
         lat["lat_add"] = int(lat_add)
@@ -115,4 +120,4 @@ def design_minres(problem, P: int | None = None, iterations: int | None = None, 
     rom = rom.astype(np.float32) if fmt == NAMES["binary32"] else fv.decode(fmt, fv.encode(fmt, rom))
     h = np.diagonal(kkt_matrix(A, B, Q, R, QN, T))[Layout(n, m, T).primal_rows()]
     return MinresDesign(name or problem.name, n, m, T, P, min(it, 65535), lat, rom=rom, h_diag=h, problem=problem,
-                        fmt=fmt, warm=warm, latency=preset)
+                        fmt=fmt, warm=warm, latency=preset, target=tgt)

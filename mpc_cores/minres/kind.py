@@ -7,6 +7,6 @@ KIND = CoreKind(
           "interleaved",
     model_fn="mpc_cores.minres.model:MinresCoreModel.from_config",
     spec_section=("minres_P", "minres_iterations", "minres_format", "minres_latency"),
-    overrides=("P", "iterations", "lat_add", "lat_mul", "format", "latency"),
+    overrides=("P", "iterations", "lat_add", "lat_mul", "format", "latency", "target"),
     cycle_test="cycles_per_iteration",
 )

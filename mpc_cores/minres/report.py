@@ -9,7 +9,8 @@ def core_json(d, hw: dict) -> dict:
     c = {"core": "minres", "name": d.name, "module": hw["module"], "sv": f"{hw['module']}.sv",
          "n": d.n, "m": d.m, "T": d.T, "iterations": d.iterations,
          "flush_cycles": d.flush_cycles, "stream_width": 32, "format": d.format, "exp_width": d.fmt.expW,
-         "man_width": d.fmt.manW, "word_width": d.fmt.width, **d.lat}
+         "man_width": d.fmt.manW, "word_width": d.fmt.width, **d.lat, "latency_preset": d.latency,
+         "target": d.target}
     assert (hw["format"], hw["exp_width"], hw["man_width"]) == (c["format"], c["exp_width"], c["man_width"]), \
         f"the generator built {hw['format']}, the design asks for {c['format']}"
     for k in ("N", "M", "K", "P", "P_eq15", "k1", "k2", "slot_cycles", "cycles_per_iteration", "cycles_bound",

@@ -57,7 +57,8 @@ case class IpmParams(
   val outWordsAll: Int = outWords + N + n + m
   val axiAddrW: Int = log2Ceil(SolverRegs.RegionStart) + 2
   val moduleName: String =
-    s"IpmCore_${name}_n${n}_m${m}_t${T}_p$P" + (if (mr.formatName == "binary32") "" else s"_${mr.formatName}")
+    s"IpmCore_${name}_n${n}_m${m}_t${T}_p$P" + (if (mr.formatName == "binary32") "" else s"_${mr.formatName}") +
+      (if (mr.target == dsp.Target.Generic) "" else s"_${mr.target.name}")
 }
 
 object IpmParams {

@@ -187,7 +187,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val tabBM = RegNext(tabB)
   private val tabDM = RegNext(tabD)
   private def offset(o: OperandBits, tab: UInt): UInt = Mux(o.isGather, tab, Mux(o.isVec, iM, 0.U))
-  private val mem    = new SlotMem(p.moduleName, p.slotMemWords, w, if (p.slotB) 2 else 1)
+  private val mem    = new SlotMem(p.moduleName, p.slotMemWords, w, if (p.slotB) 2 else 1, ecp5 = p.target == dsp.Target.Ecp5)
   private val aOff   = offset(cur.a, tabAM)
   private val bOff   = offset(cur.b, tabBM)
   private val aAdr  = RegNext(aBase + aOff)

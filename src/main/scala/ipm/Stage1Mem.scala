@@ -15,35 +15,42 @@ import chisel3.util.{isPow2, log2Ceil}
   * after that register, so no path runs from a block RAM's output (about 4.3 ns after the clock on the ECP5
   * without its output register) through the multiplexer of a deep memory.
   *
+  * With `ecp5`, the banks are mem.Ecp5SdpRam: the output register is the DP16KD's own.
+  *
   * Read timing: the address of cycle t gives its word on cycle t + 2 (SlotMem.ReadLatency).
   */
-class SlotMem(prefix: String, depth: Int, width: Int, copies: Int, bankWords: Int = SlotMem.BankWords) {
+class SlotMem(prefix: String, depth: Int, width: Int, copies: Int, bankWords: Int = SlotMem.BankWords,
+    ecp5: Boolean = false) {
   require(depth >= 1 && copies >= 1 && bankWords >= 2 && isPow2(bankWords))
   private val aw    = math.max(1, log2Ceil(depth))
   private val lowW  = math.min(aw, log2Ceil(bankWords))
   private val banks = (depth + bankWords - 1) / bankWords
-  private val rams  = Seq.tabulate(copies, banks) { (k, b) =>
+  /** a bank's ports: its address width, (en, addr, data) => unit, addr => word */
+  private class Bank(val addrW: Int, val write: (Bool, UInt, UInt) => Unit, val read: UInt => UInt)
+  private val rams = Seq.tabulate(copies, banks) { (k, b) =>
     val words = math.min(bankWords, depth - b * bankWords)
-    val ram   = Module(new mem.InitRam(s"${prefix}_slotmem_${k}_b$b", words, 1, width, Seq(), outReg = true))
-    ram.io.clock := Module.clock
-    ram.io.wmask := 1.U
-    ram
+    val name  = s"${prefix}_slotmem_${k}_b$b"
+    if (ecp5) {
+      val ram = Module(new mem.Ecp5SdpRam(name, words, width))
+      ram.io.clock := Module.clock
+      new Bank(ram.addrW, (en, a, d) => { ram.io.wen := en; ram.io.waddr := a; ram.io.wdata := d },
+        a => { ram.io.raddr := a; ram.io.rdata })
+    } else {
+      val ram = Module(new mem.InitRam(name, words, 1, width, Seq(), outReg = true))
+      ram.io.clock := Module.clock
+      ram.io.wmask := 1.U
+      new Bank(ram.addrW, (en, a, d) => { ram.io.wen := en; ram.io.waddr := a; ram.io.wdata := d },
+        a => { ram.io.raddr := a; ram.io.rdata })
+    }
   }
-  private def low(addr: UInt, ram: mem.InitRam): UInt = addr(lowW - 1, 0).pad(ram.addrW)(ram.addrW - 1, 0)
+  private def low(addr: UInt, ram: Bank): UInt = addr(lowW - 1, 0).pad(ram.addrW)(ram.addrW - 1, 0)
   private def bank(addr: UInt): UInt = if (aw > lowW) addr(aw - 1, lowW) else 0.U
 
   def write(en: Bool, addr: UInt, data: UInt): Unit =
-    for (copy <- rams; (ram, b) <- copy.zipWithIndex) {
-      ram.io.wen   := en && bank(addr) === b.U
-      ram.io.waddr := low(addr, ram)
-      ram.io.wdata := data
-    }
+    for (copy <- rams; (ram, b) <- copy.zipWithIndex) ram.write(en && bank(addr) === b.U, low(addr, ram), data)
 
   def read(copy: Int, addr: UInt): UInt = {
-    val words = rams(copy).map { ram =>
-      ram.io.raddr := low(addr, ram)
-      ram.io.rdata
-    }
+    val words = rams(copy).map(ram => ram.read(low(addr, ram)))
     if (banks == 1) words.head else VecInit(words)(RegNext(RegNext(bank(addr))))
   }
 }

@@ -8,7 +8,8 @@ import float.FloatFormat
   * the programs (encoded instruction words, in order; program k starts where k-1 ends) and the latencies of the
   * float operators. Every instruction is checked here: a destination in slot space, operands and destinations
   * inside their region (gather and scatter through the table's first n entries), tables that exist, ACC longer
-  * than lat_add (the streaming accumulator's partial sums).
+  * than lat_add (the streaming accumulator's partial sums). `target` (dsp.Target): ecp5 builds the slot memory
+  * from DP16KD primitives with their output register (SlotMem); the words and cycles are those of every target.
   */
 case class Stage1Params(
     name: String,
@@ -22,7 +23,8 @@ case class Stage1Params(
     latMul: Int,
     latDiv: Int,
     latSqrt: Int,
-    latCmp: Int) {
+    latCmp: Int,
+    target: dsp.Target = dsp.Target.Generic) {
   import Isa._
 
   require(fmt.width <= 32, s"the stream words are 32 bits: the format must fit them: got width ${fmt.width}")
@@ -113,7 +115,8 @@ case class Stage1Params(
   val pcW: Int              = log2Ceil(code.length + 1)
   val maxTap: Int           = Seq(latAdd, latMul, latDiv, latSqrt, latCmp, 1).max
 
-  val moduleName: String = s"Stage1Engine_${name}_s$slots"
+  val moduleName: String =
+    s"Stage1Engine_${name}_s$slots" + (if (target == dsp.Target.Generic) "" else s"_${target.name}")
 }
 
 object Stage1Params {
@@ -144,7 +147,8 @@ object Stage1Params {
       latMul = j("lat_mul").num.toInt,
       latDiv = j("lat_div").num.toInt,
       latSqrt = j("lat_sqrt").num.toInt,
-      latCmp = j("lat_cmp").num.toInt
+      latCmp = j("lat_cmp").num.toInt,
+      target = dsp.Target(j.obj.get("target").map(_.str).getOrElse("generic"))
     )
   }
 }

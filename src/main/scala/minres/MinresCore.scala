@@ -115,17 +115,18 @@ class MinresCore(val p: MinresParams) extends Module {
   // slot-major. Single-buffered where the schedule reads a word before it is overwritten (v_j by the feed and
   // passes B and C before pass C writes v_{j+1} over it); w alternates between two banks by the parity of j, so
   // that w_j and w_{j-1} come from different memories.
-  val vmem  = new VecRam("vmem", P * N, W, copies = 3)  // v_j: copy 0 feed, 1 pass B, 2 pass C (written by pass C)
-  val vpmem = new VecRam("vpmem", P * N, W)             // v_{j-1} for pass B (pass B copies v_j into it)
-  val umem  = new VecRam("umem", P * N, W)              // u, from pass B to pass C
-  val wmem  = Seq(new VecRam("wmem0", P * N, W), new VecRam("wmem1", P * N, W)) // w_j in bank j % 2
-  val xmem  = new VecRam("xmem", 2 * P * N, W, copies = 2) // x by bank: copy 0 pass C, copy 1 the output stream
-  val ymem  = new VecRam("ymem", P * N, W)              // A v_j, from the matvec to pass B
-  val bmem  = new VecRam("bmem", 2 * P * N, W)          // right-hand sides, double-buffered (load bank)
-  val dmem  = new VecRam("dmem", 2 * P * nPrimal, W)    // variable column (primal diagonal), double-buffered
+  private val prim = if (p.target == dsp.Target.Ecp5) Some(p.moduleName) else None
+  val vmem  = new VecRam("vmem", P * N, W, copies = 3, ecp5 = prim)  // v_j: copy 0 feed, 1 pass B, 2 pass C (written by pass C)
+  val vpmem = new VecRam("vpmem", P * N, W, ecp5 = prim)             // v_{j-1} for pass B (pass B copies v_j into it)
+  val umem  = new VecRam("umem", P * N, W, ecp5 = prim)              // u, from pass B to pass C
+  val wmem  = Seq(new VecRam("wmem0", P * N, W, ecp5 = prim), new VecRam("wmem1", P * N, W, ecp5 = prim)) // w_j in bank j % 2
+  val xmem  = new VecRam("xmem", 2 * P * N, W, copies = 2, ecp5 = prim) // x by bank: copy 0 pass C, copy 1 the output stream
+  val ymem  = new VecRam("ymem", P * N, W, ecp5 = prim)              // A v_j, from the matvec to pass B
+  val bmem  = new VecRam("bmem", 2 * P * N, W, ecp5 = prim)          // right-hand sides, double-buffered (load bank)
+  val dmem  = new VecRam("dmem", 2 * P * nPrimal, W, ecp5 = prim)    // variable column (primal diagonal), double-buffered
   // warm form: d (copy 0 the feed, copy 1 the row scaling) and z0 (the init pass's feed), double-buffered
-  val smem  = if (p.warm) Some(new VecRam("smem", 2 * P * N, W, copies = 2)) else None
-  val zmem  = if (p.warm) Some(new VecRam("zmem", 2 * P * N, W)) else None
+  val smem  = if (p.warm) Some(new VecRam("smem", 2 * P * N, W, copies = 2, ecp5 = prim)) else None
+  val zmem  = if (p.warm) Some(new VecRam("zmem", 2 * P * N, W, ecp5 = prim)) else None
   /** (buf P + slot) len + e and slot N + e, the products as tables of constants indexed by the (buf, slot) bits: a
     * few LUT levels ahead of the adder instead of a multiplier on the memories' address paths */
   private def adr2(buf: UInt, slot: UInt, e: UInt, len: Int): UInt = {

@@ -13,6 +13,9 @@ import chisel3.util.log2Ceil
   * from its slot start. P * S must cover the chain from a slot's feed to the first v_{j+1} word being written:
   * `need` cycles. P = 0 in the configuration means "the smallest P with P N >= need", eq. (15) of 001 in this
   * core's form: P = ceil((2N + M + k1 ceil(log2(K)) + k2) / N) with k1 = lat_add, k2 below.
+  *
+  * `target` (dsp.Target): ecp5 builds the vector memories from DP16KD primitives with their output register
+  * (mem.Ecp5SdpRam); the words and cycles are those of every target.
   */
 case class MinresParams(
     name: String,
@@ -30,7 +33,8 @@ case class MinresParams(
     coefs: Seq[Seq[BigInt]],
     expW: Int = 8,
     manW: Int = 23,
-    warm: Boolean = false) {
+    warm: Boolean = false,
+    target: dsp.Target = dsp.Target.Generic) {
   /** the float format of every operator, memory and constant (FloatFormat refuses widths outside its rules) */
   val fmt: float.FloatFormat = float.FloatFormat(expW, manW)
   require(fmt.width <= 32, s"the float format must fit the 32-bit stream word (1 + expW + manW <= 32): got " +
@@ -141,7 +145,7 @@ case class MinresParams(
   }
   val moduleName: String =
     s"MinresCore_${name}_n${n}_m${m}_t${T}_p$P" + (if (formatName == "binary32") "" else s"_$formatName") +
-      (if (warm) "_warm" else "")
+      (if (warm) "_warm" else "") + (if (target == dsp.Target.Generic) "" else s"_${target.name}")
 
   // ---- storage (words): variable column double-buffered for P problems, constant columns once
   val storageVariable: Int = 2 * P * nPrimal
@@ -179,7 +183,8 @@ object MinresParams {
       coefs = j("band_coefs").arr.toSeq.map(_.arr.toSeq.map(v => BigInt(v.num.toLong))),
       expW = j.obj.get("exp_width").map(_.num.toInt).getOrElse(8),
       manW = j.obj.get("man_width").map(_.num.toInt).getOrElse(23),
-      warm = j.obj.get("warm").exists(_.bool)
+      warm = j.obj.get("warm").exists(_.bool),
+      target = dsp.Target(j.obj.get("target").map(_.str).getOrElse("generic"))
     )
   }
 }
