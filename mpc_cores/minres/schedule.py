@@ -16,6 +16,8 @@ SCALAR_OPS = (
 SCALAR_SOURCES = ("nrm", "delta", "c", "cp", "s", "sp", "gamma", "eta")
 # cycles from a vector memory's read address to its word (minres.VecRam.ReadLatency)
 READ_LATENCY = 2
+# registers carrying each matvec product to the adder tree (minres.MinresParams.dotMove)
+DOT_MOVE = 1
 
 
 def _log2ceil(x: int) -> int:
@@ -70,7 +72,7 @@ def schedule(N: int, M: int, K: int, lat: dict, P: int, warm: bool) -> dict:
     (a batch of Imax iterations takes batch_cycles_imax0 + Imax P S; back to back, batches start (Imax + 1) P S
     apart)."""
     la, lm, ld, ls = lat["lat_add"], lat["lat_mul"], lat["lat_div"], lat["lat_sqrt"]
-    lat_matvec = 1 + lm + la * _log2ceil(K)
+    lat_matvec = 1 + DOT_MOVE + lm + la * _log2ceil(K)
     acc_tail = acc_latency(N, la) + 1
     lat_b = lm + 2 * la
     lat_cx = 2 * lm + 3 * la + ld

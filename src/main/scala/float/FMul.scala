@@ -206,16 +206,19 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
     val inexact = Bool()
     val tiny    = Bool()
     val fieldM  = UInt(fieldW.W)
+    val ovf     = Vec(3, Bool()) // field >= maxExpField if the significand's top bits add c to it
     val spc     = new Special
   })
   s4.rounded := r3.kept +& (r3.guard && (r3.sticky || r3.kept(0)))
   s4.inexact := r3.guard || r3.sticky
   s4.tiny    := r3.tiny
   s4.fieldM  := r3.fieldM
+  for (c <- 0 until 3) s4.ovf(c) := r3.fieldM >= (fmt.maxExpField - c).U
   s4.spc     := r3.spc
   val r4 = cut(s4)
 
-  // ---- exponent field (a carry out of the significand adds one), overflow to infinity
+  // ---- exponent field (the significand's top bits, 0 to 2 with a rounding carry, add to it), overflow to
+  // infinity from the compares made beside the rounding (no carry chain ahead of the special-case selects)
   val s5 = Wire(new Bundle {
     val mag      = UInt((fmt.width - 1).W)
     val overflow = Bool()
@@ -223,8 +226,9 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
     val tiny     = Bool()
     val spc      = new Special
   })
-  private val field = r4.fieldM + r4.rounded(w, m)
-  s5.overflow := field >= fmt.maxExpField.U
+  private val top2  = r4.rounded(w, m)
+  private val field = r4.fieldM + top2
+  s5.overflow := Mux(top2(1), r4.ovf(2), Mux(top2(0), r4.ovf(1), r4.ovf(0)))
   s5.mag      := Cat(field(fmt.expW - 1, 0), r4.rounded(m - 1, 0))
   s5.inexact  := r4.inexact
   s5.tiny     := r4.tiny

@@ -1,18 +1,22 @@
 package linalg
 
 import chisel3._
-import float.{FMul, FloatFormat}
+import float.{FMul, FloatFormat, Stages}
 
 /** Floating-point dot product of k terms (Fig. 1 of 001): k parallel multipliers and a pairwise adder tree,
   * pairs (0,1), (2,3), ... at each level and an odd last element passed on (delayed to stay aligned), the order
-  * of DotProductTree and of the golden model. Fixed latency latMul + latAdd ceil(log2 k), one dot product per
-  * cycle.
+  * of DotProductTree and of the golden model. `move` plain registers carry each product to the tree: the
+  * multipliers sit by their hard multipliers, spread along the device's DSP rows, and a register-to-register hop
+  * takes the long route instead of a rounding step. Fixed latency move + latMul + latAdd ceil(log2 k), one dot
+  * product per cycle.
   */
-class FDotProduct(val fmt: FloatFormat, val k: Int, val latMul: Int, val latAdd: Int) extends Module {
+class FDotProduct(val fmt: FloatFormat, val k: Int, val latMul: Int, val latAdd: Int, val move: Int = 0)
+    extends Module {
   require(k >= 1, s"FDotProduct: k must be >= 1, got k=$k")
+  require(move >= 0, s"FDotProduct: move must be >= 0, got move=$move")
   val depth: Int   = chisel3.util.log2Ceil(k)
-  val latency: Int = latMul + latAdd * depth
-  override def desiredName = s"FDotProduct_${fmt.tag}_k${k}_lm${latMul}_la$latAdd"
+  val latency: Int = move + latMul + latAdd * depth
+  override def desiredName = s"FDotProduct_${fmt.tag}_k${k}_lm${latMul}_la$latAdd" + (if (move > 0) s"_m$move" else "")
 
   val io = IO(new Bundle {
     val a   = Input(Vec(k, UInt(fmt.width.W)))
@@ -25,7 +29,7 @@ class FDotProduct(val fmt: FloatFormat, val k: Int, val latMul: Int, val latAdd:
     mul.in_valid := true.B
     mul.a        := io.a(t)
     mul.b        := io.b(t)
-    mul.out
+    Stages.delay(mul.out, move)
   }
   io.sum := FAddTree(products, fmt, latAdd)
 }

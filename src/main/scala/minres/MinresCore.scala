@@ -287,7 +287,7 @@ class MinresCore(val p: MinresParams) extends Module {
     Mux(c.k === T.U, (p.period).U(keyW.W) +& c.r, c.r.pad(keyW))(keyW - 1, 0)
   private val key    = RegNext(keyOf(rowPre))
   private val dRead  = dmem.read(0, adr2(rowAdr.bank, rowAdr.slot, Mux(rowAdr.r < n.U, 0.U, rowAdr.prim), nPrimal))
-  val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd))
+  val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd, p.dotMove))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
   private def perKey[T <: Data](f: Int => T): T = VecInit((0 until p.keys).map(f))(key)
   for (s <- 0 until p.K) {

@@ -75,8 +75,10 @@ case class MinresParams(
   require(N > accParts, s"N = $N must exceed lat_add = $latAdd (the accumulator's partial sums)")
 
   // ---- latencies of the pipelines (MinresCore checks its own against these)
-  /** matvec: the registered slot operands, the products, then the adder tree */
-  val latMatvec: Int = 1 + latMul + latAdd * depth
+  /** registers carrying each matvec product to the adder tree (linalg.FDotProduct.move) */
+  val dotMove: Int = 1
+  /** matvec: the registered slot operands, the products, their move to the tree, then the adder tree */
+  val latMatvec: Int = 1 + dotMove + latMul + latAdd * depth
   /** from the last term entering an accumulator to its result readable in the per-problem register */
   val accTail: Int = FStreamAcc.latency(latAdd, shareAcc) + 1
   /** pass B: u = (y - delta v_j) - gamma v_{j-1} */
