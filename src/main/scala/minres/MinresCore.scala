@@ -246,7 +246,13 @@ class MinresCore(val p: MinresParams) extends Module {
       batchCyc(b) := g(b) + 1.U
     }
   }
-  private def startAt(t: Int): Bool = if (t == 0) startBatch else active(curBank) && g(curBank) === (t - 1).U
+  /** the cycle t of the batch started last (t = 0: its start), from a flag registered a cycle ahead: a pass starts
+    * within the first iteration, when no other batch can start (its feed is not done), so the bank a cycle ahead
+    * is the bank of that cycle */
+  private def startAt(t: Int): Bool =
+    if (t == 0) startBatch
+    else if (t == 1) RegNext(startBatch, false.B)
+    else RegNext(active(curBank) && g(curBank) === (t - 2).U, false.B)
 
   // The memories' words arrive RL cycles after their address: passes B and C count RL cycles ahead (address
   // phase, counters pbA and pcA) and their words and control meet at the offsets tB and tC (bc, cc). The feed's
