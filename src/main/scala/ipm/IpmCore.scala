@@ -117,9 +117,19 @@ class IpmCore(val p: IpmParams) extends Module {
   private val headOk  = s_axis.tvalid && !regs.ctrlHold && !busyC(headCh)
   /** another problem of the current group follows curC in its batch */
   private val more    = k + 1.U < gCnt(curG)
+  // What picks the next program and its slot, registered a cycle ahead: a program runs for several cycles, and
+  // curC, k, the group and its counts hold while it runs, so on the cycle it is done these equal their
+  // combinational values (CTRL.WARM and CTRL.OUT_ALL act a cycle after their write). No table read or compare
+  // then lies between the engine's done and its next start.
+  private val moreR    = RegNext(more, false.B)
+  private val nextOrd  = RegNext(ord(curG, k + 1.U))
+  private val firstOrd = RegNext(ord(curG, 0.U))
+  private val warmSel  = RegNext(started(curC) && regs.ctrlWarm, false.B)
+  private val linAgain = RegNext(gIter(curG) < gInw(curG), false.B)
+  private val outAllR  = RegNext(regs.ctrlOutAll, false.B)
   private def next(): Unit = {
     k    := k + 1.U
-    curC := ord(curG, k + 1.U)
+    curC := nextOrd
   }
   private def form(g: UInt): Unit = {
     state := sTakeId; curG := g; forming := true.B
@@ -178,7 +188,7 @@ class IpmCore(val p: IpmParams) extends Module {
     is(sSample) {
       when(st1.done) {
         run("cold", curC)
-        when(started(curC) && regs.ctrlWarm) { st1.prog := p.prog("warm").U }
+        when(warmSel) { st1.prog := p.prog("warm").U }
         started(curC) := true.B
         state := sStart
       }
@@ -212,13 +222,13 @@ class IpmCore(val p: IpmParams) extends Module {
     }
     is(sRecvWait) {
       when(st1.done) {
-        when(more) {
-          run("receive", ord(curG, k + 1.U))
+        when(moreR) {
+          run("receive", nextOrd)
           next()
         }.otherwise {
-          run("update", ord(curG, 0.U))
+          run("update", firstOrd)
           k     := 0.U
-          curC  := ord(curG, 0.U)
+          curC  := firstOrd
           state := sOut
         }
       }
@@ -233,7 +243,7 @@ class IpmCore(val p: IpmParams) extends Module {
     }
     is(sOut) {
       when(st1.done) {
-        when(gIter(curG) < gInw(curG)) {
+        when(linAgain) {
           outExt  := false.B
           toArmed := true.B
           run("linearise", curC)
@@ -241,9 +251,9 @@ class IpmCore(val p: IpmParams) extends Module {
         }.otherwise {
           outExt   := true.B
           outArmed := true.B
-          outAll   := regs.ctrlOutAll
+          outAll   := outAllR
           run("output", curC)
-          when(regs.ctrlOutAll) { st1.prog := p.prog("output_all").U }
+          when(outAllR) { st1.prog := p.prog("output_all").U }
           state := sOutDrain
         }
       }
