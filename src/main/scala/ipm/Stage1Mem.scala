@@ -6,8 +6,9 @@ import chisel3.util.{isPow2, log2Ceil}
 /** The slot memory: `copies` memories of `depth` words, each with one read port and one write port, all written
   * with the same word on the same cycle, copy k read only by operand k (a, b). Two operands are read on the same
   * cycle without a second read port on any memory, so Yosys maps every copy to DP16KD (ECP5) block RAM in simple
-  * dual-port mode. The engine never reads a word on the cycle it writes it (an instruction starts reading after
-  * the previous one's last write), so read-under-write is left undefined.
+  * dual-port mode. The engine never reads a word on the cycle it writes it (an instruction reads three cycles
+  * after the previous one issues its last write, which lands a cycle after its issue), so read-under-write is left
+  * undefined.
   *
   * Each copy is split into banks of at most `bankWords` words, each a mem.InitRam with its output register
   * (read-first, starting at zero): Yosys maps the bank's read register into its block RAMs and keeps the output
@@ -46,8 +47,13 @@ class SlotMem(prefix: String, depth: Int, width: Int, copies: Int, bankWords: In
   private def low(addr: UInt, ram: Bank): UInt = addr(lowW - 1, 0).pad(ram.addrW)(ram.addrW - 1, 0)
   private def bank(addr: UInt): UInt = if (aw > lowW) addr(aw - 1, lowW) else 0.U
 
-  def write(en: Bool, addr: UInt, data: UInt): Unit =
-    for (copy <- rams; (ram, b) <- copy.zipWithIndex) ram.write(en && bank(addr) === b.U, low(addr, ram), data)
+  /** The write of cycle t lands at the end of t + 1: its enables (one per bank), address and word are registered
+    * first, so that the unit's result select does not reach across the device to every bank. */
+  def write(en: Bool, addr: UInt, data: UInt): Unit = {
+    val (a, d) = (RegNext(addr), RegNext(data))
+    for (copy <- rams; (ram, b) <- copy.zipWithIndex)
+      ram.write(RegNext(en && bank(addr) === b.U, false.B), low(a, ram), d)
+  }
 
   def read(copy: Int, addr: UInt): UInt = {
     val words = rams(copy).map(ram => ram.read(low(addr, ram)))
