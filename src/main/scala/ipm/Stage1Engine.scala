@@ -98,12 +98,15 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private def bases(x: InstrBits): Vec[UInt] = VecInit(Seq(x.d, x.a, x.b).map(o => tableBase(o.table)))
   private val nxtTab    = RegNext(bases(word))
   private val nxtOne    = RegNext(word.n === 1.U)
+  private val nxtTwo    = RegNext(word.n === 2.U)
+  private val nxtLeft   = RegNext(word.n - 1.U) // elements after the first
   private val nxtIn     = RegNext(word.op === IN.U)
   private val nxtOut    = RegNext(word.op === OUT.U)
   private val curTab    = Reg(Vec(3, UInt(17.W)))
   private val curIn     = RegInit(false.B)
   private val curOut    = RegInit(false.B)
   private val isLast    = Reg(Bool()) // element i of cur is its last
+  private val left      = Reg(UInt(NW.W)) // elements of cur after element i
 
   // ---- T: issue
   private val ins     = Mux(launch, nxt, cur)
@@ -131,6 +134,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
     curIn   := nxtIn
     curOut  := nxtOut
     isLast  := nxtOne
+    left    := nxtLeft
     issuing := true.B
     pc      := pc + 1.U
     atEnd   := pc + 1.U === pcEnd
@@ -138,7 +142,10 @@ class Stage1Engine(p: Stage1Params) extends Module {
   }
   when(issue) {
     i      := iT + 1.U
-    isLast := iT + 2.U === ins.n
+    // the next element is the last when one follows this one: a compare on a register, no adder ahead of it
+    val leftT = Mux(launch, nxtLeft, left)
+    left   := leftT - 1.U
+    isLast := Mux(launch, nxtTwo, left === 1.U)
     when(lastT) {
       issuing := false.B
       gap     := latOf(ins.op) + Stage1Params.IssueGap.U
