@@ -307,23 +307,30 @@ class IpmCore(val p: IpmParams) extends Module {
   val outBad = Reg(Bool())
   val outMu  = Reg(UInt(W.W))
   private val oLen   = Mux(outAll, (p.outWordsAll - 3).U, (p.outWords - 3).U) // Stage 1's words of the answer
-  private val oPass  = outCnt >= 1.U && outCnt <= oLen
-  // +&: oLen is as wide as its largest literal, and oLen + 2 may need a bit more (an answer of 14 or 15 Stage 1
-  // words ended after its first word)
-  private val oRes   = outCnt === oLen +& 1.U
-  private val oStat  = outCnt === oLen +& 2.U
+  // the answer's word kinds as flags of outCnt, set from compares of its value before a handshake (so that no
+  // compare lies between the count and m_axis, nor between tready and what the handshake updates):
+  // cnt0 outCnt = 0 (the tag), oPass 1 .. oLen (Stage 1's words), oRes oLen + 1 (the residual), oStat oLen + 2
+  // (the status word; +&: oLen is as wide as its largest literal, and oLen + 2 may need a bit more)
+  private val cnt0  = RegInit(true.B)
+  private val oPass = RegInit(false.B)
+  private val oRes  = RegInit(false.B)
+  private val oStat = RegInit(false.B)
   private val conv   = atMost(outMu, muTol(W - 1, 0)) && atMost(resC(curC), resTol(W - 1, 0))
   private val bad    = outBad || badC(curC)
   private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)
-  m_axis.tvalid := Mux(outCnt === 0.U, outArmed, Mux(oPass, outExt && st1.m_axis.tvalid, outCnt =/= 0.U))
-  m_axis.tdata  := Mux(outCnt === 0.U, tagC(curC).pad(32),
+  m_axis.tvalid := Mux(cnt0, outArmed, Mux(oPass, outExt && st1.m_axis.tvalid, true.B))
+  m_axis.tdata  := Mux(cnt0, tagC(curC).pad(32),
     Mux(oPass, st1.m_axis.tdata, Mux(oRes, resC(curC).pad(32), status)))
   m_axis.tlast  := oStat
   bus.Protocol.streamOut("m_axis", m_axis)
   st1.m_axis.tready := Mux(outExt, oPass && m_axis.tready, toCnt =/= 0.U && mr.s_axis.tready)
   when(m_axis.fire) {
     outCnt := Mux(oStat, 0.U, outCnt + 1.U)
-    when(outCnt === 0.U) {
+    cnt0   := oStat
+    oPass  := !oStat && outCnt < oLen
+    oRes   := !oStat && outCnt === oLen
+    oStat  := !oStat && outCnt === oLen +& 1.U
+    when(cnt0) {
       outArmed := false.B
       outBad   := false.B
     }
