@@ -5,7 +5,7 @@ import chisel3.util._
 import bus.{AxiLiteIO, AxiStreamIO}
 import float.{FloatFormat, Stages}
 import linalg.FDotProduct
-import shell.{Field, RegMap, SolverRegs}
+import shell.SolverRegs
 
 /** Control word of one element of a pass: problem slot, element (row) index, iteration (0 = the init pass), and
   * for the feed the position of the row in the MPC structure (row r of stage k, primal index).
@@ -116,17 +116,18 @@ class MinresCore(val p: MinresParams) extends Module {
   // passes B and C before pass C writes v_{j+1} over it); w alternates between two banks by the parity of j, so
   // that w_j and w_{j-1} come from different memories.
   private val prim = if (p.target == dsp.Target.Ecp5) Some(p.moduleName) else None
-  val vmem  = new VecRam("vmem", P * N, W, copies = 3, ecp5 = prim)  // v_j: copy 0 feed, 1 pass B, 2 pass C (written by pass C)
-  val vpmem = new VecRam("vpmem", P * N, W, ecp5 = prim)             // v_{j-1} for pass B (pass B copies v_j into it)
-  val umem  = new VecRam("umem", P * N, W, ecp5 = prim)              // u, from pass B to pass C
-  val wmem  = Seq(new VecRam("wmem0", P * N, W, ecp5 = prim), new VecRam("wmem1", P * N, W, ecp5 = prim)) // w_j in bank j % 2
-  val xmem  = new VecRam("xmem", 2 * P * N, W, copies = 2, ecp5 = prim) // x by bank: copy 0 pass C, copy 1 the output stream
-  val ymem  = new VecRam("ymem", P * N, W, ecp5 = prim)              // A v_j, from the matvec to pass B
-  val bmem  = new VecRam("bmem", 2 * P * N, W, ecp5 = prim)          // right-hand sides, double-buffered (load bank)
-  val dmem  = new VecRam("dmem", 2 * P * nPrimal, W, ecp5 = prim)    // variable column (primal diagonal), double-buffered
+  private def vec(name: String, depth: Int, copies: Int = 1) = new VecRam(name, depth, W, copies, prim)
+  val vmem  = vec("vmem", P * N, copies = 3)  // v_j: copy 0 feed, 1 pass B, 2 pass C (written by pass C)
+  val vpmem = vec("vpmem", P * N)             // v_{j-1} for pass B (pass B copies v_j into it)
+  val umem  = vec("umem", P * N)              // u, from pass B to pass C
+  val wmem  = Seq(vec("wmem0", P * N), vec("wmem1", P * N)) // w_j in bank j % 2
+  val xmem  = vec("xmem", 2 * P * N, copies = 2) // x by bank: copy 0 pass C, copy 1 the output stream
+  val ymem  = vec("ymem", P * N)              // A v_j, from the matvec to pass B
+  val bmem  = vec("bmem", 2 * P * N)          // right-hand sides, double-buffered (load bank)
+  val dmem  = vec("dmem", 2 * P * nPrimal)    // variable column (primal diagonal), double-buffered
   // warm form: d (copy 0 the feed, copy 1 the row scaling) and z0 (the init pass's feed), double-buffered
-  val smem  = if (p.warm) Some(new VecRam("smem", 2 * P * N, W, copies = 2, ecp5 = prim)) else None
-  val zmem  = if (p.warm) Some(new VecRam("zmem", 2 * P * N, W, ecp5 = prim)) else None
+  val smem  = if (p.warm) Some(vec("smem", 2 * P * N, copies = 2)) else None
+  val zmem  = if (p.warm) Some(vec("zmem", 2 * P * N)) else None
   /** (buf P + slot) len + e and slot N + e, the products as tables of constants indexed by the (buf, slot) bits: a
     * few LUT levels ahead of the adder instead of a multiplier on the memories' address paths */
   private def adr2(buf: UInt, slot: UInt, e: UInt, len: Int): UInt = {
@@ -499,32 +500,4 @@ class MinresCore(val p: MinresParams) extends Module {
   // ---- registers: the shared ones and STATUS.NONFINITE (MinresRegs)
   regs.busy := started.asUInt.orR || full.asUInt.orR || ldWord =/= 0.U || ldSlot =/= 0.U || s_axis.fire
   regs.writes()
-}
-
-/** The warm form's inputs from the interior-point core (MinresParams.warm): the MINRES iterations of the next
-  * batch (latched at its start, 1..65535) and `close`, a pulse that sends a partly loaded batch on at once. */
-class MinresIpmIO extends Bundle {
-  val imax  = UInt(16.W)
-  val close = Bool()
-}
-
-/** The register map of a MINRES core: the shared registers of shell.SolverRegs (no warm start, no output choice,
-  * no data memories) with STATUS bit 6 NONFINITE. */
-object MinresRegs {
-  def map(p: MinresParams): RegMap = {
-    val none = "no effect on this core"
-    val regs = SolverRegs.registers("MNR1",
-      config0 = Seq(Field.const("N", 0, 16, p.N, "order of the KKT matrix"),
-        Field.const("P", 16, 16, p.P, "problems per batch")),
-      config1 = Seq(Field.const("n", 0, 8, p.n, "states"), Field.const("m", 8, 8, p.m, "inputs"),
-        Field.const("T", 16, 16, p.T, "horizon")),
-      ctrl = SolverRegs.ctrlFields(warmDefault = false, outAllDefault = false, "", warmText = none, outText = none),
-      status = SolverRegs.statusFields(warm = false, unused = Set("SAT", "OVERFLOW", "WRITE_REJECTED"),
-        extra = Seq(Field.w1c("NONFINITE", 6, "a non-finite input word or solution; the problem's output id has " +
-          "bit 31 set"))),
-      cyclesPerIteration = p.cyclesPerIteration, imaxDefault = p.imaxDefault,
-      lastCycles = "cycles of the last batch", solves = "problems solved since reset")
-    RegMap(p.moduleName, s"MINRES core ${p.moduleName}: control and status, 32-bit registers on AXI4-Lite, no " +
-      "data memories; an unmapped address: DECERR.", regs, Nil)
-  }
 }
