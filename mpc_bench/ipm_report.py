@@ -201,7 +201,8 @@ def _units_part(cores: list, recs: list[dict]) -> list[str]:
     if syn:
         body = [[c.tag, _n(r.get("ecp5_MULT18X18D")), _n(r.get("ecp5_LUT4")), _n(r.get("ecp5_CCU2C")),
                  _n(r.get("ecp5_FF")), _n(r.get("ecp5_DP16KD")), _n(r.get("ecp5_LUTRAM")),
-                 _fit(c), _f(r["fmax_mhz"], "{:.1f} MHz", c.pnr_note or "-"), _n(r.get("xc7_DSP48E1")), _n(r.get("xc7_LUT")),
+                 _fit(c), f"{pnr_cells(c, '')[0]} MHz" if c.pnr else (c.pnr_note or "-"),
+                 _n(r.get("xc7_DSP48E1")), _n(r.get("xc7_LUT")),
                  _n(r.get("xc7_FF")), _f(r.get("xc7_RAMB"), "{:g}")] for c, r in syn]
         L += _table(["core", "MULT18X18D", "LUT4", "CCU2C", "FF", "DP16KD", "DPR16X4", "LFE5U-85F", "nextpnr",
                      "DSP48E1", "LUT", "FF", "RAMB36"], body)
