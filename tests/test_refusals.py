@@ -195,8 +195,8 @@ def test_missing_spec_file(tmp_path):
     (("--core", "admm", "--problem", "examples/masses_rate_soft.yaml", "--target", "xilinx7", "--lat-mul", "2"),
      "target xilinx7 needs lat_mul >= 4 (the DSP's registers, and a stage summing partial products; widest product "
      "20 x 29 bits): got lat_mul=2 (set lat_mul: 4 in the spec's solver section, LAT_MUL=4, or leave it out)"),
-    (("--core", "ipm", "--target", "ecp5"), "CORE=ipm takes the overrides P, iterations, newton, lat_add, lat_mul, "
-                                            "format, latency: got target"),
+    (("--core", "ipm", "--problems", "2"), "CORE=ipm takes the overrides P, iterations, newton, lat_add, lat_mul, "
+                                           "format, latency, target: got problems"),
     (("--core", "minres", "--P", "65"), "--P: expected an integer in [0, 64] (0: eq. (15) of 001), got 65"),
     (("--core", "minres", "--format", "e9m23"), "--format: format must fit the 32-bit stream word (1 + E + M <= 32): "
                                                 "got e9m23, 33 bits"),
@@ -205,11 +205,11 @@ def test_missing_spec_file(tmp_path):
                                                  "register), got 70000"),
     (("--problems", "17"), "--problems: expected an integer in [1, 16] (problems interleaved on the row units), got 17"),
     (("--core", "minres", "--problems", "2"),
-     "CORE=minres takes the overrides P, iterations, lat_add, lat_mul, format, latency: got problems"),
+     "CORE=minres takes the overrides P, iterations, lat_add, lat_mul, format, latency, target: got problems"),
     (("--core", "ipm", "--latency", "fastest"), "--latency: expected one of compact, fast, got 'fastest'"),
     (("--bogus", "1"), "unrecognized arguments: --bogus 1"),
 ], ids=["B64", "B_text", "P_text", "P0", "P_frac", "lat_mul", "imax", "rounding", "tol", "tol_nan", "format_fgm",
-        "target_name", "target_lat_mul", "target_x7_lat_mul", "target_ipm",
+        "target_name", "target_lat_mul", "target_x7_lat_mul", "problems_ipm",
         "minres_P", "minres_format", "ipm_P", "ipm_imr", "problems_range", "problems_minres", "ipm_latency",
         "unknown_option"])
 def test_overrides(args, expected):

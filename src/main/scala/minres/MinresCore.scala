@@ -449,11 +449,15 @@ class MinresCore(val p: MinresParams) extends Module {
   private val outQn = RL + 2
   val outQ    = Module(new Queue(new MinresOutWord, outQn))
   val issDone = RegInit(false.B)
-  private val inFlight = Wire(Vec(RL, Bool()))
+  private val issueW   = Wire(Bool())
+  // the issues of the last RL cycles, the oldest (its word read now) `pending`
+  val pending = RegInit(false.B)
+  private val earlier  = if (RL == 1) Seq() else Seq.iterate(RegNext(issueW, false.B), RL - 1)(RegNext(_, false.B))
+  pending := earlier.lastOption.getOrElse(issueW)
+  private val inFlight = earlier :+ pending
   private val issue = doneB(outBank) && !issDone && (outQ.io.count +& PopCount(inFlight)) < outQn.U
+  issueW := issue
   private val oBad  = inBad(ob) || xBad(ob)
-  for (i <- 0 until RL) inFlight(i) := Stages.delayValid(issue, i + 1)
-  private val pending  = inFlight(RL - 1)
   private def pend[T <: Data](x: T): T = Stages.delay(x, RL)
   private val pendId   = pend(issIdx === 0.U)
   private val pendWord = pend(Cat(oBad, ids(ob)))
