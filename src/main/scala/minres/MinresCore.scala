@@ -292,11 +292,12 @@ class MinresCore(val p: MinresParams) extends Module {
   private val keyW   = log2Ceil(p.keys)
   private def keyOf(c: MinresCtl): UInt =
     Mux(c.k === T.U, (p.period).U(keyW.W) +& c.r, c.r.pad(keyW))(keyW - 1, 0)
-  private val key    = RegNext(keyOf(rowPre))
+  // the row's key a cycle ahead (at rowPre), so that every per-key select below is a register at the row
+  private val keyPre = RegNext(keyOf(rowAdr))
   private val dRead  = dmem.read(0, adr2(rowAdr.bank, rowAdr.slot, Mux(rowAdr.r < n.U, 0.U, rowAdr.prim), nPrimal))
   val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd, p.dotMove))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
-  private def perKey[T <: Data](f: Int => T): T = VecInit((0 until p.keys).map(f))(key)
+  private def perKey[T <: Data](f: Int => T): T = RegNext(VecInit((0 until p.keys).map(f))(keyPre))
   for (s <- 0 until p.K) {
     val cands = p.candidates(s)
     val sel   = perKey(q => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W))
@@ -305,7 +306,8 @@ class MinresCore(val p: MinresParams) extends Module {
     val coef  = perKey(q => p.coefs(q)(s).U(W.W))
     // the window word at offset o and whether column e + o is inside the matrix, per candidate offset
     val word  = VecInit(cands.map(o => sr(M - 1 - o)))(sel)
-    val in    = VecInit(cands.map(o => if (o >= 0) row.e < (N - o).U else row.e >= (-o).U))(sel)
+    val ins   = RegNext(VecInit(cands.map(o => if (o >= 0) rowPre.e < (N - o).U else rowPre.e >= (-o).U)))
+    val in    = ins(sel)
     val ok    = used && in
     dot.io.a(s) := RegNext(Mux(ok, Mux(diag, dRead, coef), zero))
     dot.io.b(s) := RegNext(Mux(ok, word, zero))
