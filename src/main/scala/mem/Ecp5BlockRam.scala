@@ -37,24 +37,8 @@ object Ecp5BlockRam {
       val lo    = l * laneW + s * sliceW
       val width = math.min(sliceW, laneW - s * sliceW)
       val words = rows.map(r => ((r >> (l * laneW)) & laneMask) >> (s * sliceW) & ((BigInt(1) << width) - 1))
-      def pins(p: String, n: Int)(f: Int => String) = (0 until n).map(i => s".$p$i(${f(i)})").mkString(", ")
-      // AD13..AD4 the word address; AD1, AD0 the byte enables of the x18 mode (on for writes), AD3, AD2 unused
-      def addr(sig: String, enables: String)(i: Int) =
-        if (i < 2) enables else if (i < 4) "1'b0" else if (i - 4 < addrW) s"$sig[${i - 4}]" else "1'b0"
-      s"""  DP16KD #(
-         |    .DATA_WIDTH_A(18), .DATA_WIDTH_B(18), .REGMODE_A("NOREG"), .REGMODE_B("OUTREG"),
-         |    .RESETMODE("SYNC"), .ASYNC_RESET_RELEASE("SYNC"), .CSDECODE_A("0b000"), .CSDECODE_B("0b000"),
-         |    .WRITEMODE_A("NORMAL"), .WRITEMODE_B("NORMAL"), .GSR("DISABLED"),
-         |    ${initvals(words).grouped(2).map(_.mkString(", ")).mkString(",\n    ")}
-         |  ) bram_l${l}_s$s (
-         |    ${pins("DIA", 18)(i => if (i < width) s"wdata_q[${lo + i}]" else "1'b0")},
-         |    ${pins("ADA", 14)(addr("waddr_q", "1'b1"))},
-         |    .CLKA(clock), .CEA(1'b1), .OCEA(1'b1), .WEA(wen_q & wmask_q[$l]), .RSTA(1'b0), .CSA0(1'b0), .CSA1(1'b0), .CSA2(1'b0),
-         |    ${pins("DIB", 18)(_ => "1'b0")},
-         |    ${pins("ADB", 14)(addr("raddr", "1'b0"))},
-         |    .CLKB(clock), .CEB(1'b1), .OCEB(1'b1), .WEB(1'b0), .RSTB(1'b0), .CSB0(1'b0), .CSB1(1'b0), .CSB2(1'b0),
-         |    ${pins("DOB", width)(i => s"rdata[${lo + i}]")}
-         |  );""".stripMargin
+      Ecp5SdpRam.dp16kd(s"bram_l${l}_s$s", sliceW, maxDepth, addrW, "waddr_q", "raddr", s"wen_q & wmask_q[$l]",
+        initvals(words), i => s"wdata_q[${lo + i}]", i => s"rdata[${lo + i}]", width)
     }
     out.mkString("\n")
   }

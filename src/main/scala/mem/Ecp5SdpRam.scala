@@ -76,29 +76,38 @@ object Ecp5SdpRam {
 
   /** the primitives' text: slice s holds bits [s w, s w + w) */
   def primitives(depth: Int, width: Int, addrW: Int): String = {
-    val w     = mode(depth)
-    val words = modes.find(_._1 == w).get._2
-    val low   = 14 - log2Ceil(words) // address pins below the word address (byte enables in the x18 mode)
-    def pins(p: String, n: Int)(f: Int => String) = (0 until n).map(i => s".$p$i(${f(i)})").mkString(", ")
+    val w = mode(depth)
+    (0 until primitives(depth, width)).map { s =>
+      val n = math.min(w, width - s * w)
+      dp16kd(s"bram_s$s", w, modes.find(_._1 == w).get._2, addrW, "waddr", "raddr", "wen", Seq(),
+        i => s"wdata[${s * w + i}]", i => s"rdata[${s * w + i}]", n)
+    }.mkString("\n")
+  }
+
+  /** One DP16KD in a `w`-bit mode of `words` words, output register on: port A writes `din(i)` (i < n) at `waddr`
+    * when `wen`, port B reads `raddr` into `dout(i)`; `params` adds INITVAL_xx. The word address is on the top
+    * address pins; below it, the x18 mode's byte enables (on for writes) and zeros. */
+  def dp16kd(inst: String, w: Int, words: Int, addrW: Int, waddr: String, raddr: String, wen: String,
+      params: Seq[String], din: Int => String, dout: Int => String, n: Int): String = {
+    val low = 14 - log2Ceil(words)
+    def pins(p: String, k: Int)(f: Int => String) = (0 until k).map(i => s".$p$i(${f(i)})").mkString(", ")
     def addr(sig: String, enables: String)(i: Int) =
       if (i < low) (if (w == 18 && i < 2) enables else "1'b0")
       else if (i - low < addrW) s"$sig[${i - low}]"
       else "1'b0"
-    (0 until primitives(depth, width)).map { s =>
-      val n = math.min(w, width - s * w)
-      s"""  DP16KD #(
-         |    .DATA_WIDTH_A($w), .DATA_WIDTH_B($w), .REGMODE_A("NOREG"), .REGMODE_B("OUTREG"),
-         |    .RESETMODE("SYNC"), .ASYNC_RESET_RELEASE("SYNC"), .CSDECODE_A("0b000"), .CSDECODE_B("0b000"),
-         |    .WRITEMODE_A("NORMAL"), .WRITEMODE_B("NORMAL"), .GSR("DISABLED")
-         |  ) bram_s$s (
-         |    ${pins("DIA", 18)(i => if (i < n) s"wdata[${s * w + i}]" else "1'b0")},
-         |    ${pins("ADA", 14)(addr("waddr", "1'b1"))},
-         |    .CLKA(clock), .CEA(1'b1), .OCEA(1'b1), .WEA(wen), .RSTA(1'b0), .CSA0(1'b0), .CSA1(1'b0), .CSA2(1'b0),
-         |    ${pins("DIB", 18)(_ => "1'b0")},
-         |    ${pins("ADB", 14)(addr("raddr", "1'b0"))},
-         |    .CLKB(clock), .CEB(1'b1), .OCEB(1'b1), .WEB(1'b0), .RSTB(1'b0), .CSB0(1'b0), .CSB1(1'b0), .CSB2(1'b0),
-         |    ${pins("DOB", n)(i => s"rdata[${s * w + i}]")}
-         |  );""".stripMargin
-    }.mkString("\n")
+    val init = if (params.isEmpty) "" else ",\n    " + params.grouped(2).map(_.mkString(", ")).mkString(",\n    ")
+    s"""  DP16KD #(
+       |    .DATA_WIDTH_A($w), .DATA_WIDTH_B($w), .REGMODE_A("NOREG"), .REGMODE_B("OUTREG"),
+       |    .RESETMODE("SYNC"), .ASYNC_RESET_RELEASE("SYNC"), .CSDECODE_A("0b000"), .CSDECODE_B("0b000"),
+       |    .WRITEMODE_A("NORMAL"), .WRITEMODE_B("NORMAL"), .GSR("DISABLED")$init
+       |  ) $inst (
+       |    ${pins("DIA", 18)(i => if (i < n) din(i) else "1'b0")},
+       |    ${pins("ADA", 14)(addr(waddr, "1'b1"))},
+       |    .CLKA(clock), .CEA(1'b1), .OCEA(1'b1), .WEA($wen), .RSTA(1'b0), .CSA0(1'b0), .CSA1(1'b0), .CSA2(1'b0),
+       |    ${pins("DIB", 18)(_ => "1'b0")},
+       |    ${pins("ADB", 14)(addr(raddr, "1'b0"))},
+       |    .CLKB(clock), .CEB(1'b1), .OCEB(1'b1), .WEB(1'b0), .RSTB(1'b0), .CSB0(1'b0), .CSB1(1'b0), .CSB2(1'b0),
+       |    ${pins("DOB", n)(dout)}
+       |  );""".stripMargin
   }
 }
