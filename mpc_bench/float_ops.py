@@ -1,7 +1,8 @@
 """Fmax of the floating-point operators on the LFE5U-85F (docs/float.md, the MINRES section of `make bench`).
 
 Each operator of the formats the cores use (e8m17, binary32) at its default latency and fully pipelined (latency
-`steps`: a register after every step), with a register on every input and output so that every path counts;
+`steps`: a register after every step), and the e8m17 multiplier for target ecp5 (its product on a MULT18X18D with its
+registers), with a register on every input and output so that every path counts;
 Yosys synth_ecp5 and nextpnr-ecp5 (speed 8), the median over placement seeds 1, 2 and 3 (QUICK: seed 1).
 
     python -m mpc_bench.float_ops [--quick] [--out build/bench] [--jobs 2]
@@ -35,6 +36,7 @@ class OpCore:
     latency: str              # "default" or "steps" as asked; info["latency"] is the number
     out: Path
     seeds: tuple = FULL_SEEDS
+    target: str = "generic"   # ecp5: the multiplier's product on a MULT18X18D with its registers
     info: dict = field(default_factory=dict)
     ecp5: dict | None = None
     pnr: dict | None = None
@@ -46,13 +48,14 @@ class OpCore:
 
     @property
     def tag(self) -> str:
-        return f"{self.op} {self.fmt} {self.latency}"
+        return f"{self.op} {self.fmt} {self.latency}" + ("" if self.target == "generic" else f" {self.target}")
 
 
 def plan(root: Path, quick: bool) -> list[OpCore]:
     seeds = QUICK_SEEDS if quick else FULL_SEEDS
     return [OpCore(op, e, m, lat, root / f"{op}_e{e}m{m}_{lat}", seeds)
-            for (e, m) in FORMATS for op in OPS for lat in LATENCIES]
+            for (e, m) in FORMATS for op in OPS for lat in LATENCIES] + \
+        [OpCore("mul", 8, 17, lat, root / f"mul_e8m17_{lat}_ecp5", seeds, target="ecp5") for lat in LATENCIES]
 
 
 def wrapper_sv(info: dict) -> str:
@@ -80,7 +83,7 @@ def generate(cores: list[OpCore]) -> None:
     args = []
     for c in cores:
         c.out.mkdir(parents=True, exist_ok=True)
-        args += [c.op, str(c.expW), str(c.manW), c.latency, str(c.out.resolve())]
+        args += [c.op, str(c.expW), str(c.manW), c.latency, c.target, str(c.out.resolve())]
     run_generator("float.FloatMain", args)
     for c in cores:
         c.info = json.loads((c.out / "float.json").read_text())

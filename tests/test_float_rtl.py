@@ -20,21 +20,28 @@ from verif.float import corners, rtl, suite
 BUILD = REPO / "build" / "tests" / "float"
 
 DEFAULT_UNITS = [(op, f, "default") for f in suite.FORMATS for op in suite.OPS]
+# the multiplier for target ecp5 (its product on a MULT18X18D with its registers): the fewest cycles, the fast
+# preset's and fully pipelined
+DSP_UNITS = [("mul", suite.E8M17, lat) for lat in (4, format_latencies(suite.E8M17, "fast", "ecp5")["lat_mul"],
+                                                   "steps")]
 UNITS = DEFAULT_UNITS + suite.LATENCY_VARIANTS + suite.PIPELINED
+TARGETS = ["generic"] * len(UNITS) + ["ecp5"] * len(DSP_UNITS)  # of UNITS + DSP_UNITS
 
-# refused by the generator: (op, expW, manW, latency) -> the rule in the message
+# refused by the generator: (op, expW, manW, latency, target) -> the rule in the message
 REFUSALS = {
-    ("add", 1, 23, "3"): "exponent width expW must be in [2, 16]: got expW=1",
-    ("mul", 8, 0, "3"): "mantissa width manW must be in [1, 62]: got manW=0",
-    ("div", 16, 50, "3"): "1 + expW + manW must be <= 64 (one 64-bit word): got expW=16, manW=50",
-    ("sqrt", 8, 23, "-1"): "latency must be >= 0: got latency=-1",
-    ("fma", 8, 23, "3"): "operator must be one of add, mul, div, sqrt, cmp: got 'fma'",
-    ("cmp", 8, 23, "two"): "latency must be an integer: got 'two'",
+    ("add", 1, 23, "3", "generic"): "exponent width expW must be in [2, 16]: got expW=1",
+    ("mul", 8, 0, "3", "generic"): "mantissa width manW must be in [1, 62]: got manW=0",
+    ("div", 16, 50, "3", "generic"): "1 + expW + manW must be <= 64 (one 64-bit word): got expW=16, manW=50",
+    ("sqrt", 8, 23, "-1", "generic"): "latency must be >= 0: got latency=-1",
+    ("fma", 8, 23, "3", "generic"): "operator must be one of add, mul, div, sqrt, cmp: got 'fma'",
+    ("cmp", 8, 23, "two", "generic"): "latency must be an integer: got 'two'",
+    ("mul", 8, 17, "3", "ecp5"): "the ecp5 multiplier in e8m17 needs latency >= 4",
+    ("add", 8, 17, "3", "virtex"): "target must be one of generic, ecp5, xilinx7: got 'virtex'",
 }
 
 
-def _uid(op, f, lat) -> str:
-    return f"{op}_{f.tag}_l{lat}"
+def _uid(op, f, lat, target="generic") -> str:
+    return f"{op}_{f.tag}_l{lat}" + ("" if target == "generic" else f"_{target}")
 
 
 def _vectors(op, f, lat):
@@ -46,8 +53,9 @@ def _vectors(op, f, lat):
 
 @pytest.fixture(scope="module")
 def float_session():
-    jobs = [(op, f.expW, f.manW, lat, BUILD / _uid(op, f, lat)) for op, f, lat in UNITS]
-    bad = [(op, e, m, lat, BUILD / "refused" / f"{op}_{e}_{m}_{lat}") for op, e, m, lat in REFUSALS]
+    jobs = [(op, f.expW, f.manW, lat, t, BUILD / _uid(op, f, lat, t))
+            for (op, f, lat), t in zip(UNITS + DSP_UNITS, TARGETS)]
+    bad = [(op, e, m, lat, t, BUILD / "refused" / f"{op}_{e}_{m}_{lat}_{t}") for op, e, m, lat, t in REFUSALS]
     for j in jobs + bad:
         shutil.rmtree(j[-1], ignore_errors=True)
     try:
@@ -63,7 +71,7 @@ def float_session():
         exe = pool.submit(rtl.build, units, BUILD / "sim")
         streams, expected = [], []
         rng = np.random.default_rng(5)
-        for (op, f, lat) in UNITS:  # the model's results while Verilator compiles
+        for (op, f, lat) in UNITS + DSP_UNITS:  # the model's results while Verilator compiles
             n, seed = _vectors(op, f, lat)
             a, b, o, _ = suite.operands(f, op, n, seed)
             expected.append(suite.model_results(f, op, n, seed))
@@ -84,14 +92,14 @@ def float_session():
             "refusals": refusal_msg}
 
 
-def _check(float_session, key):
-    k = UNITS.index(key)
+def _check(float_session, key, target="generic"):
+    k = UNITS.index(key) if target == "generic" else len(UNITS) + DSP_UNITS.index(key)
     u = float_session["units"][k]
     valid, o, a, b = float_session["streams"][k]
     out, flags = float_session["expected"][k]
     got = float_session["results"][k]
     op, f, lat = key
-    assert u.op == op and (u.fmt.expW, u.fmt.manW) == (f.expW, f.manW)
+    assert u.op == op and (u.fmt.expW, u.fmt.manW) == (f.expW, f.manW) and u.info["target"] == target
     if lat == "steps":
         assert u.latency == u.info["steps"]
     elif lat != "default":
@@ -138,6 +146,20 @@ def test_fully_pipelined(float_session, key):
     assert format_latencies(f, "compact")[f"lat_{op}"] == u.info["default_latency"]
 
 
+@pytest.mark.parametrize("key", DSP_UNITS, ids=[_uid(*k, "ecp5") for k in DSP_UNITS])
+def test_mul_on_ecp5_dsp(float_session, key):
+    """Target ecp5: the significand product on the MULT18X18D (its model here: input, pipeline and output
+    registers) gives the generic multiplier's words, with one cycle more than the generic multiplier with the same
+    placement of the other registers (`steps`: a register after every step as well)."""
+    n, u = _check(float_session, key, "ecp5")
+    assert n >= suite.N_LATENCY and u.module.endswith(f"_l{u.latency}_ecp5")
+    sv = u.sv.read_text()
+    assert "mpc_ecp5_mult18x18u" in sv and "SIGNEDA(1'b0)" in sv
+    if key[2] == "steps":
+        generic = float_session["units"][UNITS.index(("mul", key[1], "steps"))]
+        assert u.latency == u.info["steps"] == generic.latency + 1
+
+
 @pytest.mark.parametrize("f", [suite.E8M17, suite.BINARY32], ids=lambda f: f.tag)
 def test_mul_corners_reach_every_case(f):
     """The multiplier's directed pairs (verif/float/corners.py), among the vectors of every mul unit above, reach
@@ -174,6 +196,6 @@ def test_mul_corners_reach_every_case(f):
 
 def test_generator_refusals(float_session):
     msg = float_session["refusals"]
-    for (op, e, m, lat), rule in REFUSALS.items():
-        assert f"REFUSED {op} {e} {m} {lat}: " in msg and rule in msg, (rule, msg)
+    for (op, e, m, lat, t), rule in REFUSALS.items():
+        assert f"REFUSED {op} {e} {m} {lat} {t}: " in msg and rule in msg, (rule, msg)
     assert not (BUILD / "refused").exists() or not any((BUILD / "refused").iterdir())

@@ -207,10 +207,13 @@ def test_missing_spec_file(tmp_path):
     (("--core", "minres", "--problems", "2"),
      "CORE=minres takes the overrides P, iterations, lat_add, lat_mul, format, latency, target: got problems"),
     (("--core", "ipm", "--latency", "fastest"), "--latency: expected one of compact, fast, got 'fastest'"),
+    (("--core", "ipm", "--format", "e8m17", "--target", "ecp5", "--lat-mul", "3"),
+     "target ecp5 in e8m17 needs lat_mul >= 4 (the MULT18X18D's input, pipeline and output registers and the "
+     "output's): got lat_mul=3"),
     (("--bogus", "1"), "unrecognized arguments: --bogus 1"),
 ], ids=["B64", "B_text", "P_text", "P0", "P_frac", "lat_mul", "imax", "rounding", "tol", "tol_nan", "format_fgm",
         "target_name", "target_lat_mul", "target_x7_lat_mul", "problems_ipm",
-        "minres_P", "minres_format", "ipm_P", "ipm_imr", "problems_range", "problems_minres", "ipm_latency",
+        "minres_P", "minres_format", "ipm_P", "ipm_imr", "problems_range", "problems_minres", "ipm_latency", "ipm_ecp5_lat_mul",
         "unknown_option"])
 def test_overrides(args, expected):
     assert refusal("design", *args) == "error: " + expected

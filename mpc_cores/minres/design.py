@@ -11,7 +11,7 @@ import numpy as np
 
 from mpc_cores.errors import DesignError  # the error the command line reports
 from mpc_cores.float import vector as fv
-from mpc_cores.float.latency import LAT, format_latencies
+from mpc_cores.float.latency import LAT, format_latencies, min_lat_mul
 from mpc_cores.float.model import Format
 from mpc_cores.minres.band import BandPattern, band_pattern
 from mpc_cores.minres.kkt import Layout, const_rom, kkt_matrix, problem_matrices
@@ -107,11 +107,14 @@ def design_minres(problem, P: int | None = None, iterations: int | None = None, 
     fmt = parse_format(format if format not in (None, "") else solver.get("minres_format", "binary32"))
     preset = latency or solver.get("minres_latency", "compact")
     tgt = check_target(str(target or solver.get("target", "generic")))
-    lat = format_latencies(fmt, preset)
+    lat = format_latencies(fmt, preset, tgt)
     if lat_add is not None:
         lat["lat_add"] = int(lat_add)
     if lat_mul is not None:
         lat["lat_mul"] = int(lat_mul)
+    if lat["lat_mul"] < min_lat_mul(fmt, tgt):
+        raise DesignError(f"target {tgt} in {format_name(fmt)} needs lat_mul >= {min_lat_mul(fmt, tgt)} (the MULT18X18D's "
+                          f"input, pipeline and output registers and the output's): got lat_mul={lat['lat_mul']}")
     if lat["lat_add"] < 1:
         raise DesignError(f"lat_add must be >= 1 (the streaming accumulator): got {lat['lat_add']}")
     it = int(iterations or solver.get("minres_iterations", 0) or Layout(n, m, T).N)

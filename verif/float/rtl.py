@@ -33,11 +33,13 @@ class Unit:
     info: dict
 
 
-def generator_args(jobs: list[tuple[str, int, int, int | str, Path]]) -> list[str]:
-    """Arguments of float.FloatMain for jobs (op, expW, manW, latency or 'default', out_dir)."""
+def generator_args(jobs: list[tuple]) -> list[str]:
+    """Arguments of float.FloatMain for jobs (op, expW, manW, latency or 'default'|'steps', [target,] out_dir);
+    the target defaults to generic."""
     args = []
-    for op, e, m, lat, out in jobs:
-        args += [op, str(e), str(m), str(lat), str(Path(out).resolve())]
+    for op, e, m, lat, *rest in jobs:
+        target, out = rest if len(rest) == 2 else ("generic", rest[0])
+        args += [op, str(e), str(m), str(lat), target, str(Path(out).resolve())]
     return args
 
 

@@ -57,8 +57,8 @@ object FixedOps {
   private def ecp5Product(a: SInt, b: SInt): SInt = {
     val m = Module(new Ecp5Mult18)
     m.io.clk := Module.clock
-    m.io.a   := a.pad(18)
-    m.io.b   := b.pad(18)
+    m.io.a   := a.pad(18).asUInt
+    m.io.b   := b.pad(18).asUInt
     m.io.p(a.getWidth + b.getWidth - 1, 0).asSInt
   }
 

@@ -2,6 +2,7 @@ package float
 
 import chisel3._
 import chisel3.util._
+import dsp.{Ecp5Mult18, Target}
 
 /** a * b rounded to nearest even, in `latency` cycles, with its own rounding path (not RoundPack).
   *
@@ -18,8 +19,13 @@ import chisel3.util._
   * it is then below 2^(2 (1 - bias)), so tiny: its bits are taken at fixed weights (the subnormal ulp) whatever
   * their leading zeros, and the hidden-bit position is never assumed. The bits dropped below the kept
   * significand and the guard bit only matter through their OR.
+  *
+  * Target ecp5 (a significand of at most 18 bits): the product is an unsigned MULT18X18D with its input, pipeline
+  * and output registers on (Ecp5Mult18). Its input and output registers are the registers before and after the
+  * product step (forced there) and its pipeline register is one cycle more: the other steps share latency - 1
+  * registers (`FMul.minLatency`). Words are those of every target.
   */
-class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
+class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.Generic) extends Module {
   val in_valid  = IO(Input(Bool()))
   val a         = IO(Input(UInt(fmt.width.W)))
   val b         = IO(Input(UInt(fmt.width.W)))
@@ -27,9 +33,15 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
   val out       = IO(Output(UInt(fmt.width.W)))
   val flags     = IO(Output(new FloatFlags))
 
-  override def desiredName = s"FMul_${fmt.tag}_l$latency"
+  override def desiredName = s"FMul_${fmt.tag}_l$latency" + (if (FMul.onDsp(fmt, target)) s"_${target.name}" else "")
 
-  val stages = Stages(latency, FMul.weights(fmt))
+  private val onDsp = FMul.onDsp(fmt, target)
+  require(latency >= FMul.minLatency(fmt, target),
+    s"the ${target.name} multiplier in ${fmt.name} needs latency >= ${FMul.minLatency(fmt, target)} (the MULT18X18D's " +
+      s"input, pipeline and output registers and the output's): got latency=$latency")
+  val stages =
+    if (onDsp) Stages(latency - 1, FMul.weights(fmt), Set(FMul.productStep(fmt) - 1, FMul.productStep(fmt)))
+    else Stages(latency, FMul.weights(fmt))
   private val m      = fmt.manW
   private val w      = fmt.sigW
   private val winW   = m + 3                 // product bits kept past step 2: significand, guard, one below
@@ -114,7 +126,23 @@ class FMul(val fmt: FloatFormat, val latency: Int) extends Module {
     val e    = new Expo
     val spc  = new Special
   }
-  private val prod: Prod = if (w <= FMul.dspW) {
+  private val prod: Prod = if (onDsp) {
+    // the DSP's input registers stand for r1's x and y, its output register for this step's; the pipeline
+    // register between them is the cycle the other fields wait here
+    val dsp = Module(new Ecp5Mult18(signed = false))
+    dsp.io.clk := clock
+    dsp.io.a   := s1.x.pad(18)
+    dsp.io.b   := s1.y.pad(18)
+    val s = Wire(new Prod)
+    s.prod := 0.U
+    s.e    := RegNext(r1.e)
+    s.spc  := RegNext(r1.spc)
+    val r = cut(s)
+    val o = Wire(new Prod)
+    o      := r
+    o.prod := dsp.io.p(2 * w - 1, 0)
+    o
+  } else if (w <= FMul.dspW) {
     val s = Wire(new Prod)
     s.prod := r1.x * r1.y
     s.e    := r1.e
@@ -265,4 +293,10 @@ object FMul {
       (if (fmt.sigW <= dspW) Seq(6) else Seq(6, 4)) ++ Seq(3, 4, 4, 3, 3, 3)
   def steps(fmt: FloatFormat): Int = weights(fmt).length
   def defaultLatency(fmt: FloatFormat): Int = 3
+  /** the product's step: after classify, the normaliser's steps and the exponent */
+  def productStep(fmt: FloatFormat): Int = 2 + Unpack.normaliseSteps(fmt).length
+  /** whether the product is a MULT18X18D with its registers (ecp5, a significand of one DSP's width) */
+  def onDsp(fmt: FloatFormat, target: Target): Boolean = target == Target.Ecp5 && fmt.sigW <= dspW
+  /** the fewest cycles: on the DSP, its three registers and the output's */
+  def minLatency(fmt: FloatFormat, target: Target): Int = if (onDsp(fmt, target)) 4 else 0
 }

@@ -27,6 +27,8 @@ case class FloatFormat(expW: Int = 8, manW: Int = 23) {
 
   /** Suffix for module names, so that formats do not collide. */
   def tag: String = s"e${expW}_m$manW"
+  /** the name users write (binary32, or e<expW>m<manW>) */
+  def name: String = if (expW == 8 && manW == 23) "binary32" else s"e${expW}m$manW"
   override def toString: String = s"float(e=$expW, m=$manW)"
 }
 

@@ -32,7 +32,8 @@ object FloatOp {
   * `out` is the result, or for cmp [0] lt, [1] eq, [2] le, [3] unordered;
   * `flags` is [0] invalid, [1] divByZero, [2] overflow, [3] underflow, [4] inexact.
   */
-class FloatTop(val opName: String, val fmt: FloatFormat, val latency: Int) extends Module {
+class FloatTop(val opName: String, val fmt: FloatFormat, val latency: Int,
+               val target: dsp.Target = dsp.Target.Generic) extends Module {
   FloatOp.check(opName)
   require(latency >= 0, s"latency must be >= 0: got latency=$latency")
   val outW = math.max(fmt.width, 4)
@@ -45,7 +46,8 @@ class FloatTop(val opName: String, val fmt: FloatFormat, val latency: Int) exten
   val out       = IO(Output(UInt(outW.W)))
   val flags     = IO(Output(UInt(5.W)))
 
-  override def desiredName = s"FloatTop_${opName}_${fmt.tag}_l$latency"
+  override def desiredName = s"FloatTop_${opName}_${fmt.tag}_l$latency" +
+    (if (opName == "mul" && FMul.onDsp(fmt, target)) s"_${target.name}" else "")
 
   opName match {
     case "cmp" =>
@@ -74,7 +76,7 @@ class FloatTop(val opName: String, val fmt: FloatFormat, val latency: Int) exten
       out        := u.out
       flags      := u.flags.bits
     case "mul" =>
-      val u = Module(new FMul(fmt, latency))
+      val u = Module(new FMul(fmt, latency, target))
       u.in_valid := in_valid
       u.a        := a
       u.b        := b

@@ -271,7 +271,9 @@ class IpmCore(val p: IpmParams) extends Module {
   val mrCnt  = RegInit(0.U(log2Ceil(p.mr.outWords + 1).W))
   val mrSlot = Reg(UInt(cw.W))
   val extCnt = RegInit(0.U(log2Ceil(p.inWords + 1).W))
-  private val mrData = mrCnt =/= 0.U && mrCnt =/= (N + 1).U
+  // MINRES's word mrCnt is one of x's (not the id, not ||r_0||): a flag set from the count's next value, so that
+  // no compare of the count lies before MINRES's tready
+  private val mrData = RegInit(false.B)
   st1.s_axis.tvalid := Mux(inExt, s_axis.tvalid && extCnt =/= 0.U, mr.m_axis.tvalid && mrData)
   st1.s_axis.tdata  := Mux(inExt, s_axis.tdata, mr.m_axis.tdata)
   st1.s_axis.tlast  := false.B
@@ -284,7 +286,9 @@ class IpmCore(val p: IpmParams) extends Module {
     when(extCnt =/= 0.U && !finite(s_axis.tdata(W - 1, 0))) { badC(curC) := true.B }
   }
   when(mr.m_axis.fire) {
-    mrCnt := Mux(mrCnt === (p.mr.outWords - 1).U, 0.U, mrCnt + 1.U)
+    val nxt = Mux(mrCnt === (p.mr.outWords - 1).U, 0.U, mrCnt + 1.U)
+    mrCnt  := nxt
+    mrData := nxt =/= 0.U && nxt =/= (N + 1).U
     when(mrCnt === 0.U) {
       val c = mr.m_axis.tdata(cw - 1, 0)
       mrSlot := c

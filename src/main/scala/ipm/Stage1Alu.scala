@@ -72,7 +72,7 @@ class Stage1Alu(p: Stage1Params) extends Module {
   add.a        := addA
   add.b        := addB
   add.sub      := opIs(SUB)
-  private val mul = Module(new FMul(fmt, p.latMul))
+  private val mul = Module(new FMul(fmt, p.latMul, p.target))
   mul.in_valid := is(MUL)
   private val (mulA, mulB) = operands(MUL)
   mul.a        := mulA

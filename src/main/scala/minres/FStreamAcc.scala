@@ -45,7 +45,8 @@ class FStreamAcc(fmt: FloatFormat, nTerms: Int, latAdd: Int, shareTree: Boolean 
   if (shareTree && L > 1) {
     require(FStreamAcc.shares(nTerms, latAdd), s"FStreamAcc: $nTerms terms are too few for the shared reduction")
     val s  = FStreamAcc.treeSchedule(latAdd)
-    val sh = new SharedScalar(fmt, s, captured, parts.zipWithIndex.map { case (v, i) => s"p$i" -> v }.toMap)
+    val sh = new SharedScalar(fmt, s, captured, parts.zipWithIndex.map { case (v, i) => s"p$i" -> v }.toMap,
+      dsp.Target.Generic)
     io.sum  := sh.value(s.ops.last._1, s.latency)
     io.done := Stages.delayValid(captured, s.latency)
   } else {

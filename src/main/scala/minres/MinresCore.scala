@@ -24,6 +24,7 @@ class MinresCtl(p: MinresParams) extends Bundle {
 class MinresOutWord extends Bundle {
   val data  = UInt(32.W)
   val last  = Bool()
+  val final_ = Bool() // the last word of the bank's last problem: its fire releases the bank
   val badId = Bool() // an id word with bit 31 set (STATUS.NONFINITE when it is sent)
 }
 
@@ -104,7 +105,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val nonfinite = RegInit(false.B)
   val regs = new SolverRegs(s_axil, MinresRegs.map(p), Seq("NONFINITE" -> nonfinite))
 
-  private val ops = new TimedOps(fmt, p.latAdd, p.latMul, p.latDiv, p.latSqrt)
+  private val ops = new TimedOps(fmt, p.latAdd, p.latMul, p.latDiv, p.latSqrt, p.target)
   import ops.{add, div, mul, sqrt, sub}
   private val zero   = 0.U(W.W)
   private val one    = (BigInt(fmt.bias) << fmt.manW).U(W.W)
@@ -295,7 +296,7 @@ class MinresCore(val p: MinresParams) extends Module {
   // the row's key a cycle ahead (at rowPre), so that every per-key select below is a register at the row
   private val keyPre = RegNext(keyOf(rowAdr))
   private val dRead  = dmem.read(0, adr2(rowAdr.bank, rowAdr.slot, Mux(rowAdr.r < n.U, 0.U, rowAdr.prim), nPrimal))
-  val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd, p.dotMove))
+  val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd, p.dotMove, p.target))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
   private def perKey[T <: Data](f: Int => T): T = RegNext(VecInit((0 until p.keys).map(f))(keyPre))
   for (s <- 0 until p.K) {
@@ -374,7 +375,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private val srcs = Map("nrm" -> nrm2(sSlot), "delta" -> delta(sSlot), "c" -> cR(sSlot), "cp" -> cpR(sSlot),
     "s" -> sR(sSlot), "sp" -> spR(sSlot), "gamma" -> gamR(sSlot), "eta" -> etaR(sSlot))
   private val res: String => UInt = if (p.sharedScalar) {
-    val sh = new SharedScalar(fmt, p.scalarSchedule, ps.valid && sc.e === 0.U, srcs)
+    val sh = new SharedScalar(fmt, p.scalarSchedule, ps.valid && sc.e === 0.U, srcs, p.target)
     name => sh.value(name, tS)
   } else {
     val v = scala.collection.mutable.Map[String, Timed]() ++ srcs.map { case (k, x) => k -> at0(x) }
@@ -465,11 +466,13 @@ class MinresCore(val p: MinresParams) extends Module {
   private val pendWord = pend(Cat(oBad, ids(ob)))
   private val lastIdx  = (p.outWords - 1).U
   private val pendLast = pend(issIdx === lastIdx)
+  private val pendFin  = pend(issIdx === lastIdx && issSlot === count - 1.U)
   private val pendRes  = pend(issIdx === (N + 1).U)
   private val pendR0   = pend(res0R(ob))
   outQ.io.enq.valid      := pending
   outQ.io.enq.bits.data  := Mux(pendId, pendWord, Mux(pendRes && p.warm.B, pendR0, xOut))
   outQ.io.enq.bits.last  := pendLast
+  outQ.io.enq.bits.final_ := pendFin
   outQ.io.enq.bits.badId := pendId && pendWord(31)
   when(issue) {
     issIdx := Mux(issIdx === lastIdx, 0.U, issIdx + 1.U)
@@ -485,21 +488,18 @@ class MinresCore(val p: MinresParams) extends Module {
   bus.Protocol.streamOut("m_axis", m_axis)
   bus.Protocol.noOverflow("output queue", outQ.io.enq.valid, outQ.io.enq.ready)
   bus.Protocol.noOverflow("load bank", s_axis.fire, !full(ldBank))
-  val oSlot = RegInit(0.U(log2Ceil(P + 1).W))
+  // the bank is released by its final word's handshake, a flag carried with the word (no count compare after
+  // tready)
   when(m_axis.fire) {
     when(outQ.io.deq.bits.badId) { nonfinite := true.B }
-    when(outQ.io.deq.bits.last) {
-      regs.solveDone(batchCyc(outBank))
-      oSlot := oSlot + 1.U
-      when(oSlot === count - 1.U) {
-        oSlot            := 0.U
-        issSlot          := 0.U
-        issDone          := false.B
-        doneB(outBank)   := false.B
-        started(outBank) := false.B
-        full(outBank)    := false.B
-        outBank          := ~outBank
-      }
+    when(outQ.io.deq.bits.last) { regs.solveDone(batchCyc(outBank)) }
+    when(outQ.io.deq.bits.final_) {
+      issSlot          := 0.U
+      issDone          := false.B
+      doneB(outBank)   := false.B
+      started(outBank) := false.B
+      full(outBank)    := false.B
+      outBank          := ~outBank
     }
   }
 

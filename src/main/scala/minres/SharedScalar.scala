@@ -37,7 +37,8 @@ case class StaticSchedule(ops: Seq[(String, String, Seq[String])], lat: Map[Stri
   * `latency` cycles later. Each operation is rounded as on an operator of its own, so the results equal a fully pipelined
   * evaluation of the graph word for word.
   */
-class SharedScalar(fmt: FloatFormat, s: StaticSchedule, trigger: Bool, sources: Map[String, UInt]) {
+class SharedScalar(fmt: FloatFormat, s: StaticSchedule, trigger: Bool, sources: Map[String, UInt],
+                   target: dsp.Target) {
   require(sources.keySet == s.ready.keySet -- s.issue.keySet, "the sources must be the schedule's")
   private val L = s.latency
   // cycles since the trigger, one-hot (bit t: t cycles since the trigger, t in 1..L; none: idle), so that every
@@ -50,7 +51,7 @@ class SharedScalar(fmt: FloatFormat, s: StaticSchedule, trigger: Bool, sources: 
   private class Unit(kind: String) {
     val (in_valid, a, b, out, sub) = kind match {
       case "mul" =>
-        val u = Module(new FMul(fmt, lat("mul"))); (u.in_valid, u.a, u.b, u.out, None)
+        val u = Module(new FMul(fmt, lat("mul"), target)); (u.in_valid, u.a, u.b, u.out, None)
       case "add" =>
         val u = Module(new FAdd(fmt, lat("add"))); (u.in_valid, u.a, u.b, u.out, Some(u.sub))
       case "div" =>

@@ -17,7 +17,7 @@ object Timed {
 }
 
 /** Float operators on Timed values, one operator instance per operation (fully pipelined, no handshake). */
-class TimedOps(fmt: FloatFormat, latAdd: Int, latMul: Int, latDiv: Int, latSqrt: Int) {
+class TimedOps(fmt: FloatFormat, latAdd: Int, latMul: Int, latDiv: Int, latSqrt: Int, target: dsp.Target) {
   def at(x: Timed, t: Int): UInt =
     if (x.isConst) x.v
     else {
@@ -32,7 +32,7 @@ class TimedOps(fmt: FloatFormat, latAdd: Int, latMul: Int, latDiv: Int, latSqrt:
 
   def mul(a: Timed, b: Timed): Timed = {
     val t = meet(a, b)
-    val u = Module(new FMul(fmt, latMul))
+    val u = Module(new FMul(fmt, latMul, target))
     u.in_valid := true.B
     u.a        := at(a, t)
     u.b        := at(b, t)
