@@ -159,16 +159,19 @@ class MinresCore(val p: MinresParams) extends Module {
   s_axis.tready := !full(ldBank) && !(regs.ctrlHold && ldWord === 0.U)
   private val d = s_axis.tdata(W - 1, 0) // a data word: the format's word in the low bits
   private val lastWord = ldWord === (p.frameWords - 1).U
-  // one write port each: the load bank's words as they arrive
+  // one write port each: the load bank's words as they arrive, registered before the memories (the handshake
+  // fans out to every block RAM of the load path; a word lands a cycle after its handshake, and a batch reads its
+  // bank's last word no earlier than N - 1 cycles after its start)
   private val ldData = s_axis.fire && ldWord =/= 0.U
-  dmem.write(ldData && ldWord <= nPrimal.U, adr2(ldBank, ldSlot, ldWord - 1.U, nPrimal), d)
+  private def load(m: VecRam, en: Bool, a: UInt): Unit = m.write(RegNext(en, false.B), RegNext(a), RegNext(d))
+  load(dmem, ldData && ldWord <= nPrimal.U, adr2(ldBank, ldSlot, ldWord - 1.U, nPrimal))
   if (p.warm) {
     // id, diag (nPrimal), d (N), b (N), z0 (N)
     val o1 = nPrimal + 1; val o2 = o1 + N; val o3 = o2 + N
-    smem.get.write(ldData && ldWord >= o1.U && ldWord < o2.U, adr2(ldBank, ldSlot, ldWord - o1.U, N), d)
-    bmem.write(ldData && ldWord >= o2.U && ldWord < o3.U, adr2(ldBank, ldSlot, ldWord - o2.U, N), d)
-    zmem.get.write(ldData && ldWord >= o3.U, adr2(ldBank, ldSlot, ldWord - o3.U, N), d)
-  } else bmem.write(ldData && ldWord > nPrimal.U, adr2(ldBank, ldSlot, ldWord - (nPrimal + 1).U, N), d)
+    load(smem.get, ldData && ldWord >= o1.U && ldWord < o2.U, adr2(ldBank, ldSlot, ldWord - o1.U, N))
+    load(bmem, ldData && ldWord >= o2.U && ldWord < o3.U, adr2(ldBank, ldSlot, ldWord - o2.U, N))
+    load(zmem.get, ldData && ldWord >= o3.U, adr2(ldBank, ldSlot, ldWord - o3.U, N))
+  } else load(bmem, ldData && ldWord > nPrimal.U, adr2(ldBank, ldSlot, ldWord - (nPrimal + 1).U, N))
   when(s_axis.fire) {
     when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
     when(ldWord === 0.U) {
