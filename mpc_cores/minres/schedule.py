@@ -18,6 +18,8 @@ SCALAR_SOURCES = ("nrm", "delta", "c", "cp", "s", "sp", "gamma", "eta")
 READ_LATENCY = 2
 # registers carrying each matvec product to the adder tree (minres.MinresParams.dotMove)
 DOT_MOVE = 1
+# the register between a shared operator's operand select and the operator (minres.StaticSchedule.OperandReg)
+OPERAND_REG = 1
 
 
 def _log2ceil(x: int) -> int:
@@ -27,7 +29,8 @@ def _log2ceil(x: int) -> int:
 
 def _asap(ops, unit_lat: dict, sources) -> int:
     """minres.StaticSchedule: ASAP in program order, an operation issuing when its operands are ready and its
-    operator (one per kind, sub on the adder) is free; the cycle of the last result."""
+    operator (one per kind, sub on the adder) is free, its result OPERAND_REG + the operator's latency later; the
+    cycle of the last result."""
     ready = dict.fromkeys(sources, 0)
     busy = set()
     for name, kind, args in ops:
@@ -36,7 +39,7 @@ def _asap(ops, unit_lat: dict, sources) -> int:
         while (unit, t) in busy:
             t += 1
         busy.add((unit, t))
-        ready[name] = t + unit_lat[unit]
+        ready[name] = t + OPERAND_REG + unit_lat[unit]
     return max(ready[o[0]] for o in ops)
 
 

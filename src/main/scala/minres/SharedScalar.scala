@@ -7,8 +7,10 @@ import float.{FAdd, FDiv, FMul, FSqrt, FloatFormat}
 /** A static schedule of a small dataflow graph of float operations on one operator per kind: `ops` in program
   * order, each (name, kind, operand names), kind "mul", "add", "sub" (one FAdd for both), "div" or "sqrt";
   * operands are other operations or sources (valid at time 0). Each operation issues at the first cycle at which
-  * its operands are ready and its operator is free (ASAP list scheduling in program order); `ready` is the cycle
-  * its result appears. mpc_cores/minres/schedule.py computes the same schedule.
+  * its operands are ready and its operator is free (ASAP list scheduling in program order): its operands are
+  * selected on that cycle into the operator's operand registers (StaticSchedule.OperandReg), and `ready` is the
+  * cycle its result appears, OperandReg + the operator's latency later. mpc_cores/minres/schedule.py computes the
+  * same schedule.
   */
 case class StaticSchedule(ops: Seq[(String, String, Seq[String])], lat: Map[String, Int], sources: Set[String]) {
   private def unit(kind: String): String = if (kind == "sub") "add" else kind
@@ -22,7 +24,7 @@ case class StaticSchedule(ops: Seq[(String, String, Seq[String])], lat: Map[Stri
       while (busy((unit(kind), t))) t += 1
       busy += ((unit(kind), t))
       issue(name) = t
-      ready(name) = t + lat(unit(kind))
+      ready(name) = t + StaticSchedule.OperandReg + lat(unit(kind))
     }
     (issue.toMap, ready.toMap)
   }
@@ -31,8 +33,14 @@ case class StaticSchedule(ops: Seq[(String, String, Seq[String])], lat: Map[Stri
   def units: Seq[String] = ops.map(o => unit(o._2)).distinct
 }
 
+object StaticSchedule {
+  /** the register between an operator's operand select and the operator */
+  val OperandReg = 1
+}
+
 /** The hardware of a StaticSchedule: one FMul, FAdd, FDiv and FSqrt (those the graph uses), their operands
-  * selected (AND-OR) by a one-hot cycle count started by `trigger`. The sources are read on the trigger cycle;
+  * selected (AND-OR) by a one-hot cycle count started by `trigger` into a register ahead of the operator (no select
+  * before an operator's first step). The sources are read on the trigger cycle;
   * every value is kept in a register from its ready cycle until the next trigger, which must come at least
   * `latency` cycles later. Each operation is rounded as on an operator of its own, so the results equal a fully pipelined
   * evaluation of the graph word for word.
@@ -78,9 +86,10 @@ class SharedScalar(fmt: FloatFormat, s: StaticSchedule, trigger: Bool, sources: 
     def operand(i: Int): UInt = Mux1H(mine.map { case (name, _, args) =>
       at(s.issue(name)) -> value(args(math.min(i, args.length - 1)), s.issue(name))
     })
+    require(StaticSchedule.OperandReg == 1)
     hw.in_valid := true.B
-    hw.a := operand(0)
-    if (u != "sqrt") hw.b := operand(1)
-    hw.sub.foreach(_ := mine.filter(_._2 == "sub").map(o => at(s.issue(o._1))).foldLeft(false.B)(_ || _))
+    hw.a := RegNext(operand(0))
+    if (u != "sqrt") hw.b := RegNext(operand(1))
+    hw.sub.foreach(_ := RegNext(mine.filter(_._2 == "sub").map(o => at(s.issue(o._1))).foldLeft(false.B)(_ || _)))
   }
 }
