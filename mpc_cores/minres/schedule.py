@@ -18,7 +18,8 @@ SCALAR_SOURCES = ("nrm", "delta", "c", "cp", "s", "sp", "gamma", "eta")
 READ_LATENCY = 2
 # registers carrying each matvec product to the adder tree (minres.MinresParams.dotMove)
 DOT_MOVE = 1
-# the register between a shared operator's operand select and the operator (minres.StaticSchedule.OperandReg)
+# the register between a shared operator's operand select and the operator (minres.StaticSchedule.OperandReg), and
+# between an operation's operands and its own operator in the passes (minres.TimedOps.OperandReg)
 OPERAND_REG = 1
 
 
@@ -77,19 +78,21 @@ def schedule(N: int, M: int, K: int, lat: dict, P: int, warm: bool) -> dict:
     la, lm, ld, ls = lat["lat_add"], lat["lat_mul"], lat["lat_div"], lat["lat_sqrt"]
     lat_matvec = 1 + DOT_MOVE + lm + la * _log2ceil(K)
     acc_tail = acc_latency(N, la) + 1
-    lat_b = lm + 2 * la
-    lat_cx = 2 * lm + 3 * la + ld
-    t_row = M - 1 + READ_LATENCY + (lm if warm else 0)
-    t_b = t_row + N - 1 + lat_matvec + lm + acc_tail
-    t_s = t_b + N - 1 + lat_b + lm + acc_tail
+    # the passes' operations: operand register and operator (minres.MinresParams.opMul etc.)
+    om, oa, od, osq = (OPERAND_REG + v for v in (lm, la, ld, ls))
+    lat_b = om + 2 * oa
+    lat_cx = 2 * om + 3 * oa + od
+    t_row = M - 1 + READ_LATENCY + (om if warm else 0)
+    t_b = t_row + N - 1 + lat_matvec + om + acc_tail
+    t_s = t_b + N - 1 + lat_b + om + acc_tail
 
     def plan(lat_scalar: int) -> tuple[int, int, int]:
-        need = t_s + lat_scalar + 1 + ld + 1
+        need = t_s + lat_scalar + 1 + od + 1
         p = P or math.ceil(need / N)
         return need, p, max(N, math.ceil(need / p))
 
     shared = shared_latency(lat)
-    lat_scalar = shared if plan(shared)[2] > shared else 4 * lm + 2 * la + ls + ld
+    lat_scalar = shared if plan(shared)[2] > shared else 4 * om + 2 * oa + osq + od
     need, P_, S = plan(lat_scalar)
     t_c = t_s + lat_scalar + 1
     return {"P": P_, "P_eq15": math.ceil(need / N), "slot_cycles": S, "cycles_per_iteration": P_ * S,

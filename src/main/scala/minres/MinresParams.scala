@@ -83,8 +83,13 @@ case class MinresParams(
   val latMatvec: Int = 1 + dotMove + latMul + latAdd * depth
   /** from the last term entering an accumulator to its result readable in the per-problem register */
   val accTail: Int = FStreamAcc.latency(latAdd, shareAcc) + 1
+  /** an operation of the passes (TimedOps): its operand register and its operator */
+  val opMul: Int  = TimedOps.OperandReg + latMul
+  val opAdd: Int  = TimedOps.OperandReg + latAdd
+  val opDiv: Int  = TimedOps.OperandReg + latDiv
+  val opSqrt: Int = TimedOps.OperandReg + latSqrt
   /** pass B: u = (y - delta v_j) - gamma v_{j-1} */
-  val latB: Int = latMul + 2 * latAdd
+  val latB: Int = opMul + 2 * opAdd
   /** the scalar part (gamma_{j+1}, the Givens rotation, its coefficients) in program order: (name, kind, operands);
     * sources nrm = ||u||^2, delta, c, cp (c_{j-1}), s, sp (s_{j-1}), gamma, eta; mpc_cores/minres/schedule.py
     * holds the same list */
@@ -99,22 +104,22 @@ case class MinresParams(
     Map("mul" -> latMul, "add" -> latAdd, "div" -> latDiv, "sqrt" -> latSqrt),
     Set("nrm", "delta", "c", "cp", "s", "sp", "gamma", "eta"))
   /** the scalar part on one operator per operation: its critical path */
-  val latScalarParallel: Int = 4 * latMul + 2 * latAdd + latSqrt + latDiv
+  val latScalarParallel: Int = 4 * opMul + 2 * opAdd + opSqrt + opDiv
   /** pass C: v_{j+1} (a divide), w_{j+1} and x */
-  val latCv: Int = latDiv
-  val latCw: Int = latMul + 2 * latAdd + latDiv
-  val latCx: Int = 2 * latMul + 3 * latAdd + latDiv
+  val latCv: Int = opDiv
+  val latCw: Int = opMul + 2 * opAdd + opDiv
+  val latCx: Int = 2 * opMul + 3 * opAdd + opDiv
 
   /** the interior-point form (`warm`): the feed multiplies v_j by d (z0 in the init pass), each row's product
     * is scaled by d_i before it is stored */
-  val latFeed: Int = if (warm) latMul else 0
+  val latFeed: Int = if (warm) opMul else 0
 
   // ---- schedule, offsets from a slot's first feed cycle
   /** the row of the feed's first word: its read (VecRam.ReadLatency) and the window's M - 1 shifts */
   val tRow: Int   = M - 1 + VecRam.ReadLatency + latFeed
-  val tDelta: Int = tRow + N - 1 + latMatvec + latMul + accTail
+  val tDelta: Int = tRow + N - 1 + latMatvec + opMul + accTail
   val tB: Int     = tDelta
-  val tNrm: Int   = tB + N - 1 + latB + latMul + accTail
+  val tNrm: Int   = tB + N - 1 + latB + opMul + accTail
   val tS: Int     = tNrm
   /** need, P and S for a scalar part of `ls` cycles: the first v_{j+1} word must be written before the slot's
     * next feed reads it */

@@ -16,7 +16,10 @@ object Timed {
   def const(v: UInt): Timed = Timed(v, Always)
 }
 
-/** Float operators on Timed values, one operator instance per operation (fully pipelined, no handshake). */
+/** Float operators on Timed values, one operator instance per operation (fully pipelined, no handshake). Each
+  * operation registers its operands (TimedOps.OperandReg) before the operator, so that whatever selects them is
+  * never in series with the operator's first step: its result is valid OperandReg + the operator's latency after
+  * its operands. */
 class TimedOps(fmt: FloatFormat, latAdd: Int, latMul: Int, latDiv: Int, latSqrt: Int, target: dsp.Target) {
   def at(x: Timed, t: Int): UInt =
     if (x.isConst) x.v
@@ -30,22 +33,26 @@ class TimedOps(fmt: FloatFormat, latAdd: Int, latMul: Int, latDiv: Int, latSqrt:
     ts.max
   }
 
+  private val R = TimedOps.OperandReg
+  /** an operand of an operation whose operands meet at t, through the operand register */
+  private def in(x: Timed, t: Int): UInt = if (x.isConst) x.v else at(x, t + R)
+
   def mul(a: Timed, b: Timed): Timed = {
     val t = meet(a, b)
     val u = Module(new FMul(fmt, latMul, target))
     u.in_valid := true.B
-    u.a        := at(a, t)
-    u.b        := at(b, t)
-    Timed(u.out, t + latMul)
+    u.a        := in(a, t)
+    u.b        := in(b, t)
+    Timed(u.out, t + R + latMul)
   }
   private def addsub(a: Timed, b: Timed, sub: Boolean): Timed = {
     val t = meet(a, b)
     val u = Module(new FAdd(fmt, latAdd))
     u.in_valid := true.B
-    u.a        := at(a, t)
-    u.b        := at(b, t)
+    u.a        := in(a, t)
+    u.b        := in(b, t)
     u.sub      := sub.B
-    Timed(u.out, t + latAdd)
+    Timed(u.out, t + R + latAdd)
   }
   def add(a: Timed, b: Timed): Timed = addsub(a, b, sub = false)
   def sub(a: Timed, b: Timed): Timed = addsub(a, b, sub = true)
@@ -53,19 +60,24 @@ class TimedOps(fmt: FloatFormat, latAdd: Int, latMul: Int, latDiv: Int, latSqrt:
     val t = meet(a, b)
     val u = Module(new FDiv(fmt, latDiv))
     u.in_valid := true.B
-    u.a        := at(a, t)
-    u.b        := at(b, t)
-    Timed(u.out, t + latDiv)
+    u.a        := in(a, t)
+    u.b        := in(b, t)
+    Timed(u.out, t + R + latDiv)
   }
   def sqrt(a: Timed): Timed = {
     val t = meet(a)
     val u = Module(new FSqrt(fmt, latSqrt))
     u.in_valid := true.B
-    u.a        := at(a, t)
-    Timed(u.out, t + latSqrt)
+    u.a        := in(a, t)
+    Timed(u.out, t + R + latSqrt)
   }
   /** sign flip (exact) */
   def neg(a: Timed): Timed = Timed(a.v ^ (BigInt(1) << (fmt.width - 1)).U, a.t)
   /** a word valid at the time of x */
   def delayTo[T <: Data](x: T, from: Int, to: Int): T = { require(to >= from); Stages.delay(x, to - from) }
+}
+
+object TimedOps {
+  /** the register between an operation's operands and its operator */
+  val OperandReg = 1
 }
