@@ -108,10 +108,12 @@ class IpmCore(val p: IpmParams) extends Module {
   // adapters' progress (below)
   val toArmed  = RegInit(false.B)
   val toCnt    = RegInit(0.U(log2Ceil(p.mr.frameWords + 1).W))
+  val toAt0    = RegInit(true.B)  // toCnt === 0, kept with the count: the stream to MINRES selects from a register
+  val toAtLast = RegInit((p.mr.frameWords == 1).B) // toCnt === frameWords - 1
   val outArmed = RegInit(false.B)
   val outCnt   = RegInit(0.U(log2Ceil(p.outWordsAll + 1).W))
   val outAll   = RegInit(false.B) // the answer being sent carries z and the steady state (CTRL.OUT_ALL)
-  private val toIdle  = !toArmed && toCnt === 0.U
+  private val toIdle  = !toArmed && toAt0
   private val outIdle = !outArmed && outCnt === 0.U
 
   private val headOk  = s_axis.tvalid && !regs.ctrlHold && !busyC(headCh)
@@ -299,13 +301,16 @@ class IpmCore(val p: IpmParams) extends Module {
 
   // ---- Stage 1 output: the MINRES frame (id c, then linearise's words) or the answer frame (id, output's words,
   // ||r_0||, status)
-  private val toLast = toCnt === (p.mr.frameWords - 1).U
-  mr.s_axis.tvalid := Mux(toCnt === 0.U, toArmed, !outExt && st1.m_axis.tvalid)
-  mr.s_axis.tdata  := Mux(toCnt === 0.U, curC.pad(32), st1.m_axis.tdata)
+  private val toLast = toAtLast
+  mr.s_axis.tvalid := Mux(toAt0, toArmed, !outExt && st1.m_axis.tvalid)
+  mr.s_axis.tdata  := Mux(toAt0, curC.pad(32), st1.m_axis.tdata)
   mr.s_axis.tlast  := toLast
   when(mr.s_axis.fire) {
-    toCnt := Mux(toLast, 0.U, toCnt + 1.U)
-    when(toCnt === 0.U) { toArmed := false.B }
+    val nxt = Mux(toLast, 0.U, toCnt + 1.U)
+    toCnt    := nxt
+    toAt0    := nxt === 0.U
+    toAtLast := nxt === (p.mr.frameWords - 1).U
+    when(toAt0) { toArmed := false.B }
   }
 
   val outBad = Reg(Bool())
@@ -327,7 +332,7 @@ class IpmCore(val p: IpmParams) extends Module {
     Mux(oPass, st1.m_axis.tdata, Mux(oRes, resC(curC).pad(32), status)))
   m_axis.tlast  := oStat
   bus.Protocol.streamOut("m_axis", m_axis)
-  st1.m_axis.tready := Mux(outExt, oPass && m_axis.tready, toCnt =/= 0.U && mr.s_axis.tready)
+  st1.m_axis.tready := Mux(outExt, oPass && m_axis.tready, !toAt0 && mr.s_axis.tready)
   when(m_axis.fire) {
     outCnt := Mux(oStat, 0.U, outCnt + 1.U)
     cnt0   := oStat

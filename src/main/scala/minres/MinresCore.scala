@@ -151,18 +151,21 @@ class MinresCore(val p: MinresParams) extends Module {
   val ldBank = RegInit(0.U(1.W))
   val ldSlot = RegInit(0.U(log2Ceil(P + 1).W))
   val ldWord = RegInit(0.U(log2Ceil(p.frameWords + 1).W))
+  // ldWord === 0 and ldWord === frameWords - 1, kept with the count (tready and the word's kind from registers)
+  val ldAt0   = RegInit(true.B)
+  val ldAtEnd = RegInit((p.frameWords == 1).B)
   val full   = RegInit(VecInit(false.B, false.B))
   val cnt    = Reg(Vec(2, UInt(log2Ceil(P + 1).W)))
   val ids    = Reg(Vec(2 * P, UInt(31.W))) // bank * P + slot
   val inBad  = Reg(Vec(2 * P, Bool()))
 
-  s_axis.tready := !full(ldBank) && !(regs.ctrlHold && ldWord === 0.U)
+  s_axis.tready := !full(ldBank) && !(regs.ctrlHold && ldAt0)
   private val d = s_axis.tdata(W - 1, 0) // a data word: the format's word in the low bits
-  private val lastWord = ldWord === (p.frameWords - 1).U
+  private val lastWord = ldAtEnd
   // one write port each: the load bank's words as they arrive, registered before the memories (the handshake
   // fans out to every block RAM of the load path; a word lands a cycle after its handshake, and a batch reads its
   // bank's last word no earlier than N - 1 cycles after its start)
-  private val ldData = s_axis.fire && ldWord =/= 0.U
+  private val ldData = s_axis.fire && !ldAt0
   private def load(m: VecRam, en: Bool, a: UInt): Unit = m.write(RegNext(en, false.B), RegNext(a), RegNext(d))
   load(dmem, ldData && ldWord <= nPrimal.U, adr2(ldBank, ldSlot, ldWord - 1.U, nPrimal))
   if (p.warm) {
@@ -174,7 +177,7 @@ class MinresCore(val p: MinresParams) extends Module {
   } else load(bmem, ldData && ldWord > nPrimal.U, adr2(ldBank, ldSlot, ldWord - (nPrimal + 1).U, N))
   when(s_axis.fire) {
     when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
-    when(ldWord === 0.U) {
+    when(ldAt0) {
       ids(ldBank * P.U + ldSlot)   := s_axis.tdata(30, 0)
       inBad(ldBank * P.U + ldSlot) := false.B
     }.otherwise {
@@ -183,7 +186,10 @@ class MinresCore(val p: MinresParams) extends Module {
         nonfinite := true.B
       }
     }
-    ldWord := Mux(lastWord, 0.U, ldWord + 1.U)
+    val nxt = Mux(lastWord, 0.U, ldWord + 1.U)
+    ldWord  := nxt
+    ldAt0   := nxt === 0.U
+    ldAtEnd := nxt === (p.frameWords - 1).U
     when(lastWord) {
       when(ldSlot === (P - 1).U) {
         full(ldBank) := true.B
@@ -210,7 +216,7 @@ class MinresCore(val p: MinresParams) extends Module {
 
   // A partly filled bank is sent on after flushCycles idle cycles of the input while the solver has nothing to do.
   val idleCnt = RegInit(0.U(16.W))
-  val partial = ldWord === 0.U && ldSlot =/= 0.U && !full(ldBank)
+  val partial = ldAt0 && ldSlot =/= 0.U && !full(ldBank)
   private val closeNow = p.warm.B && partial && ipm.map(_.close).getOrElse(false.B)
   when(closeNow) {
     full(ldBank) := true.B
@@ -507,6 +513,6 @@ class MinresCore(val p: MinresParams) extends Module {
   }
 
   // ---- registers: the shared ones and STATUS.NONFINITE (MinresRegs)
-  regs.busy := started.asUInt.orR || full.asUInt.orR || ldWord =/= 0.U || ldSlot =/= 0.U || s_axis.fire
+  regs.busy := started.asUInt.orR || full.asUInt.orR || !ldAt0 || ldSlot =/= 0.U || s_axis.fire
   regs.writes()
 }
