@@ -210,7 +210,8 @@ class MinresCore(val p: MinresParams) extends Module {
   val curBank  = RegInit(0.U(1.W))                // bank of the batch started last
   val g        = Reg(Vec(2, UInt(32.W)))           // cycles since the batch's start
   val gEnd     = Reg(Vec(2, UInt(32.W)))           // its last x write
-  val gFeed    = Reg(Vec(2, UInt(32.W)))           // its feed's last element
+  val gFeed    = Reg(Vec(2, UInt(32.W)))           // its feed's last element, minus one
+  val fed      = RegInit(VecInit(false.B, false.B)) // g has reached the feed's last element (g >= gFeed + 1)
   val batchCyc = Reg(Vec(2, UInt(32.W)))
   val xBad     = Reg(Vec(2 * P, Bool()))
 
@@ -236,7 +237,7 @@ class MinresCore(val p: MinresParams) extends Module {
     }
   }.otherwise { idleCnt := 0.U }
 
-  private val prevFed  = !active(curBank) || g(curBank) >= gFeed(curBank)
+  private val prevFed  = !active(curBank) || fed(curBank)
   val startBatch = full(nextBank) && !started(nextBank) && prevFed
   private val imaxIn = ipm.map(_.imax).getOrElse(regs.imaxReg)
   when(startBatch) {
@@ -245,12 +246,14 @@ class MinresCore(val p: MinresParams) extends Module {
     g(nextBank)       := 0.U
     gEnd(nextBank)    := ~0.U(32.W) // set two cycles later, from the product registered in between
     gFeed(nextBank)   := ~0.U(32.W)
+    fed(nextBank)     := false.B
     for (q <- 0 until P) xBad(nextBank * P.U + q.U) := false.B
     curBank  := nextBank
     nextBank := ~nextBank
   }
   for (b <- 0 until 2) when(active(b)) {
     g(b) := g(b) + 1.U
+    when(g(b) === gFeed(b)) { fed(b) := true.B } // an equality: no carry chain before the batch start
     when(g(b) === gEnd(b)) {
       active(b)   := false.B
       doneB(b)    := true.B
@@ -278,7 +281,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private val imaxCyc = RegNext(feed.imax * p.cyclesPerIteration.U)
   for (b <- 0 until 2) when(active(b) && g(b) === 2.U) {
     gEnd(b)  := imaxCyc +& (p.batchCycles(0) - 1).U
-    gFeed(b) := imaxCyc +& (p.cyclesPerIteration - 1).U
+    gFeed(b) := imaxCyc +& (p.cyclesPerIteration - 2).U
   }
 
   // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
