@@ -144,16 +144,16 @@ def section_md(cores: list[OpCore]) -> list[str]:
            f"Each between registers on every input and output, Yosys synth_ecp5, nextpnr-ecp5 LFE5U-85F speed 8, "
            f"seed{'s' if len(seeds) > 1 else ''} {', '.join(map(str, seeds))}"
            + (" (median)" if len(seeds) > 1 else "") + "; `steps` is the fully pipelined operator "
-           "(docs/float.md).", "",
-           "| operator | format | latency | LUT4 | CCU2C | FF | MULT18X18D | Fmax MHz | seeds | critical path |",
-           "|---|---|---|---|---|---|---|---|---|---|"]
+           "(docs/float.md); target ecp5: the multiplier's product on a MULT18X18D with its registers.", "",
+           "| operator | format | target | latency | LUT4 | CCU2C | FF | MULT18X18D | Fmax MHz | seeds | critical path |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in cores:
         lat = f"{c.info.get('latency', '?')} ({c.latency})"
         if c.error or not c.pnr or not c.ecp5:
-            out.append(f"| {c.op} | {c.fmt} | {lat} | | | | | - | | {c.error or 'not run'} |")
+            out.append(f"| {c.op} | {c.fmt} | {c.target} | {lat} | | | | | - | | {c.error or 'not run'} |")
             continue
         r = c.ecp5
-        out.append(f"| {c.op} | {c.fmt} | {lat} | {r['LUT4']} | {r['CCU2C']} | {r['FF']} | {r['MULT18X18D']} | "
+        out.append(f"| {c.op} | {c.fmt} | {c.target} | {lat} | {r['LUT4']} | {r['CCU2C']} | {r['FF']} | {r['MULT18X18D']} | "
                    f"{c.pnr['fmax_mhz']:.1f} | {', '.join(f'{f:.1f}' for f in c.pnr['fmax_seeds'])} | {_path(c)} |")
     return out + [""]
 

@@ -9,9 +9,9 @@ from mpc_bench import float_ops
 
 def test_plan_covers_every_operator_format_and_latency():
     full = float_ops.plan(Path("build/x"), quick=False)
-    assert {(c.op, c.expW, c.manW, c.latency) for c in full} == {
-        (op, e, m, lat) for op in ("add", "mul", "div", "sqrt") for e, m in ((8, 17), (8, 23))
-        for lat in ("default", "steps")}
+    assert {(c.op, c.expW, c.manW, c.latency, c.target) for c in full} == {
+        (op, e, m, lat, "generic") for op in ("add", "mul", "div", "sqrt") for e, m in ((8, 17), (8, 23))
+        for lat in ("default", "steps")} | {("mul", 8, 17, lat, "ecp5") for lat in ("default", "steps")}
     assert all(c.seeds == (1, 2, 3) for c in full)
     assert all(c.seeds == (1,) for c in float_ops.plan(Path("build/x"), quick=True))
     assert len({c.out for c in full}) == len(full)
@@ -32,7 +32,8 @@ def test_table_gives_median_seeds_and_failures():
               "critical_path": {"signals": ["r1_x", "prod_rp_hh"], "from": "f", "to": "t"}}
     bad = float_ops.OpCore("div", 8, 17, "default", Path("b"), info={"latency": 13}, error="nextpnr failed (exit 1)")
     md = "\n".join(float_ops.section_md([ok, bad]))
-    assert "| mul | binary32 | 13 (steps) | 411 | 87 | 939 | 4 | 176.8 | 170.1, 176.8, 180.2 | r1_x -> prod_rp_hh |" in md
-    assert "| div | e8m17 | 13 (default) | | | | | - | | nextpnr failed (exit 1) |" in md
+    assert ("| mul | binary32 | generic | 13 (steps) | 411 | 87 | 939 | 4 | 176.8 | 170.1, 176.8, 180.2 | "
+            "r1_x -> prod_rp_hh |") in md
+    assert "| div | e8m17 | generic | 13 (default) | | | | | - | | nextpnr failed (exit 1) |" in md
     assert "seeds 1, 2, 3 (median)" in md
     assert float_ops.section_md([]) == []
