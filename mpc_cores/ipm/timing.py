@@ -6,10 +6,12 @@ frames waiting at the input in a given channel order. It gives each answer's lat
 The hand-offs, in cycles (IpmCore, MinresCore):
   a program started on the cycle its predecessor is done runs back to back (sample, cold/warm, linearise;
   receive, receive, ..., update, linearise or output);
-  the last word of a MINRES frame is taken one cycle after linearise is done; the sequencer sees the frame sent
-  one cycle later, and acts on the next (another frame of the forming group: its id word on the cycle after;
-  the next problem's update likewise); else it closes the batch and decides in its idle state a cycle later;
-  MINRES starts a full batch the cycle after its last word (a closed partial batch one cycle later), but no
+  the last word of a MINRES frame is taken (by the register slice in front of MINRES) one cycle after linearise is
+  done; the sequencer sees the frame sent one cycle later, and acts on the next (another frame of the forming
+  group: its id word on the cycle after; the next problem's update likewise); else it closes the batch and
+  decides in its idle state a cycle later;
+  MINRES takes each word TO_MINRES cycles after the slice, and starts a full batch the cycle after its last word
+  (a closed partial batch one cycle later), but no
   earlier than (I_MR + 1) P S cycles after it started the previous batch (when that batch's feed has taken its
   last element: batches overlap), and streams its answers (batch cycles) + READ_LATENCY cycles later (a word is
   issued that far ahead of its read), or the cycle after the previous batch's last answer word was taken if that
@@ -30,6 +32,8 @@ from mpc_cores.ipm.isa import ISSUE_GAP, PROGRAM_START
 from mpc_cores.minres.schedule import READ_LATENCY
 
 ID_STALL = max(0, 2 - ISSUE_GAP - PROGRAM_START)
+# the register slice between the core's sequencer and MINRES's input (ipm.IpmCore, bus.RegSlice)
+TO_MINRES = 1
 
 
 def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | None = None,
@@ -54,7 +58,7 @@ def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | 
 
     def close(g: int, f: int) -> int:
         """the batch's last word taken on cycle f: queued in MINRES; the sequencer decides 2 cycles later"""
-        fifo.append((g, f + 1 if len(chans[g]) == P else f + 2))
+        fifo.append((g, f + TO_MINRES + (1 if len(chans[g]) == P else 2)))
         return f + 2
 
     t = 0                                # the cycle of the sequencer's next decision (idle state)

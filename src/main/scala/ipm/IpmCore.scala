@@ -301,11 +301,19 @@ class IpmCore(val p: IpmParams) extends Module {
 
   // ---- Stage 1 output: the MINRES frame (id c, then linearise's words) or the answer frame (id, output's words,
   // ||r_0||, status)
+  // The MINRES frame reaches MINRES through a register slice (Stage 1's output queue and MINRES's load logic lie
+  // apart on the device): MINRES takes each word a cycle after the slice does; the sequencer counts the slice's
+  // handshakes, and MINRES holds a partial batch's close until that batch's last word is in.
   private val toLast = toAtLast
-  mr.s_axis.tvalid := Mux(toAt0, toArmed, !outExt && st1.m_axis.tvalid)
-  mr.s_axis.tdata  := Mux(toAt0, curC.pad(32), st1.m_axis.tdata)
-  mr.s_axis.tlast  := toLast
-  when(mr.s_axis.fire) {
+  private val toMr   = Module(new bus.RegSlice(new bus.StreamWord(32)))
+  toMr.io.enq.valid     := Mux(toAt0, toArmed, !outExt && st1.m_axis.tvalid)
+  toMr.io.enq.bits.data := Mux(toAt0, curC.pad(32), st1.m_axis.tdata)
+  toMr.io.enq.bits.last := toLast
+  mr.s_axis.tvalid      := toMr.io.deq.valid
+  mr.s_axis.tdata       := toMr.io.deq.bits.data
+  mr.s_axis.tlast       := toMr.io.deq.bits.last
+  toMr.io.deq.ready     := mr.s_axis.tready
+  when(toMr.io.enq.fire) {
     val nxt = Mux(toLast, 0.U, toCnt + 1.U)
     toCnt    := nxt
     toAt0    := nxt === 0.U
@@ -332,7 +340,7 @@ class IpmCore(val p: IpmParams) extends Module {
     Mux(oPass, st1.m_axis.tdata, Mux(oRes, resC(curC).pad(32), status)))
   m_axis.tlast  := oStat
   bus.Protocol.streamOut("m_axis", m_axis)
-  st1.m_axis.tready := Mux(outExt, oPass && m_axis.tready, !toAt0 && mr.s_axis.tready)
+  st1.m_axis.tready := Mux(outExt, oPass && m_axis.tready, !toAt0 && toMr.io.enq.ready)
   when(m_axis.fire) {
     outCnt := Mux(oStat, 0.U, outCnt + 1.U)
     cnt0   := oStat

@@ -218,7 +218,12 @@ class MinresCore(val p: MinresParams) extends Module {
   // A partly filled bank is sent on after flushCycles idle cycles of the input while the solver has nothing to do.
   val idleCnt = RegInit(0.U(16.W))
   val partial = ldAt0 && ldSlot =/= 0.U && !full(ldBank)
-  private val closeNow = p.warm.B && partial && ipm.map(_.close).getOrElse(false.B)
+  // the interior-point core's close may come before the batch's last word is in (its stream has a register
+  // slice): it waits here until it is
+  private val closeReq  = ipm.map(_.close).getOrElse(false.B)
+  private val closePend = RegInit(false.B)
+  private val closeNow  = p.warm.B && partial && (closeReq || closePend)
+  when(closeNow) { closePend := false.B }.elsewhen(closeReq) { closePend := true.B }
   when(closeNow) {
     full(ldBank) := true.B
     cnt(ldBank)  := ldSlot
