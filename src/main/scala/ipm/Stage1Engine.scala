@@ -86,7 +86,12 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val finish = running && !issuing && gapOne && atEnd
   private val accept = start && (!running || finish) && prog < p.programs.length.U
   private val launch = running && !issuing && gapZero && !atEnd
-  private val code   = Rom("Stage1Code", p.code, InstrW, Mux(running && !finish, pc, entry(prog)), clock)
+  // the ROM word of pc, or a program's first word from a table of its own (a register either way): `prog` comes
+  // from the caller's decisions in the cycle of the start and meets only that table, not the ROM's decoder
+  private val firstWord = table(p.entries.init.map(e => p.code(e).U(InstrW.W)), 1 << p.progW, 0.U(InstrW.W))
+  private val codeAtPc  = Rom("Stage1Code", p.code, InstrW, pc, clock)
+  private val codeFirst = RegNext(firstWord(prog))
+  private val code      = Mux(RegNext(running && !finish), codeAtPc, codeFirst)
   busy := running
   done := finish
 
