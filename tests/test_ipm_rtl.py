@@ -72,14 +72,14 @@ def test_rtl_matches_golden_model(cid, ipm_cores):
     rec = [json.loads(ln) for ln in measure.read_text().splitlines()]
     assert next(r for r in rec if r["test"] == "bitexact_inflight")["answers"] > 0
     # the cycle contract: every answer's latency (id word to status word) equals the cycle model's, for 2P
-    # problems sent back to back from cold starts, again warm, warm at I_MR = 1 and at a large I_MR, and with the
-    # answers carrying z (CTRL.OUT_ALL)
+    # problems sent back to back from cold starts, again warm, warm at I_MR = 1 and at a large I_MR, with the
+    # answers carrying z (CTRL.OUT_ALL), and P + 1 problems (a full batch and a partial one, closed at once)
     lat = next(r for r in rec if r["test"] == "latency")["rounds"]
-    order = list(range(2 * core["P"]))
-    assert [lat[r]["i_mr"] for r in "01234"] == [core["iterations"]] * 2 + [1, 2 * core["iterations"] + 3,
-                                                                             core["iterations"]]
-    assert [lat[r]["out_all"] for r in "01234"] == [False] * 4 + [True]
-    for rnd in "01234":
+    assert [lat[r]["i_mr"] for r in "012345"] == [core["iterations"]] * 2 + [1, 2 * core["iterations"] + 3,
+                                                                              core["iterations"], core["iterations"]]
+    assert [lat[r]["out_all"] for r in "012345"] == [False] * 4 + [True, False]
+    for rnd in "012345":
+        order = list(range(core["P"] + 1 if rnd == "5" else 2 * core["P"]))
         want = {str(c): v["latency"] for c, v in simulate(core, order, warm=set() if rnd == "0" else set(order),
                                                            i_nw=lat[rnd]["i_nw"], i_mr=lat[rnd]["i_mr"],
                                                            out_all=lat[rnd]["out_all"]).items()}

@@ -148,17 +148,18 @@ async def latency(dut):
     took, answered = {}, {}
     cocotb.start_soon(_handshakes(dut, now, tb.core["in_words"], took, answered))
     rec = {}
-    # cold, warm, then warm at I_MR = 1 (Stage 1 sets the pace), at a large I_MR with I_NW = 2 (MINRES does), and
-    # with CTRL.OUT_ALL (longer answers)
+    # cold, warm, then warm at I_MR = 1 (Stage 1 sets the pace), at a large I_MR with I_NW = 2 (MINRES does),
+    # with CTRL.OUT_ALL (longer answers), and P + 1 problems: the second group's batch is partial (closed at once)
     i_nw, i_mr = tb.model.i_nw, tb.model.i_mr
-    settings = [None, None, (i_nw, 1, False), (2, 2 * i_mr + 3, False), (i_nw, i_mr, True)]
+    settings = [None, None, (i_nw, 1, False), (2, 2 * i_mr + 3, False), (i_nw, i_mr, True), (i_nw, i_mr, False)]
     for rnd, setting in enumerate(settings):
         if setting:
             tb.model.i_nw, tb.model.i_mr, tb.out_all = setting
             await tb.set_reg("INW", setting[0])
             await tb.set_reg("IMAX", setting[1])
             await tb.set_ctrl()
-        jobs = [(ch, 100 * rnd + ch, tb.words(*tb.state())) for ch in range(tb.C)]
+        chans = range(tb.C // 2 + 1) if rnd == 5 else range(tb.C)
+        jobs = [(ch, 100 * rnd + ch, tb.words(*tb.state())) for ch in chans]
         t0 = now[0]
         await tb.round(jobs, f"latency {rnd}")
         rec[rnd] = {"all_done": now[0] - t0, "i_nw": tb.model.i_nw, "i_mr": tb.model.i_mr, "out_all": tb.out_all,

@@ -59,7 +59,9 @@ class IpmCore(val p: IpmParams) extends Module {
   mr.s_axil.arvalid := false.B; mr.s_axil.araddr := 0.U; mr.s_axil.arprot := 0.U; mr.s_axil.rready := true.B
   private val close = WireDefault(false.B)
   mr.ipm.get.imax  := regs.imaxReg
-  mr.ipm.get.close := close
+  // registered: MINRES takes the close once the batch's last word is in, a cycle after the slice's handshake
+  // (MinresCore's closePend), so the register costs no cycle
+  mr.ipm.get.close := RegNext(close, false.B)
 
   // ---- per channel (problem slot) and per group
   private val cw    = log2Ceil(slots + 1)
