@@ -334,7 +334,9 @@ class IpmCore(val p: IpmParams) extends Module {
   private val oPass = RegInit(false.B)
   private val oRes  = RegInit(false.B)
   private val oStat = RegInit(false.B)
-  private val conv   = atMost(outMu, muTol(W - 1, 0)) && atMost(resC(curC), resTol(W - 1, 0))
+  // registered: mu is captured at word m + 1 and the residual long before the answer, and the status word comes
+  // at least two handshakes after mu (no compare between the answer's registers and its status word)
+  private val conv   = RegNext(atMost(outMu, muTol(W - 1, 0)) && atMost(resC(curC), resTol(W - 1, 0)))
   private val bad    = outBad || badC(curC)
   private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)
   m_axis.tvalid := Mux(cnt0, outArmed, Mux(oPass, outExt && st1.m_axis.tvalid, true.B))
