@@ -109,9 +109,8 @@ class IpmCore(val p: IpmParams) extends Module {
 
   // adapters' progress (below)
   val toArmed  = RegInit(false.B)
-  val toCnt    = RegInit(0.U(log2Ceil(p.mr.frameWords + 1).W))
-  val toAt0    = RegInit(true.B)  // toCnt === 0, kept with the count: the stream to MINRES selects from a register
-  val toAtLast = RegInit((p.mr.frameWords == 1).B) // toCnt === frameWords - 1
+  private val to = new bus.FrameCount(p.mr.frameWords) // the stream to MINRES selects from its flags
+  private val toAt0 = to.at0
   val outArmed = RegInit(false.B)
   val outCnt   = RegInit(0.U(log2Ceil(p.outWordsAll + 1).W))
   val outAll   = RegInit(false.B) // the answer being sent carries z and the steady state (CTRL.OUT_ALL)
@@ -306,7 +305,7 @@ class IpmCore(val p: IpmParams) extends Module {
   // The MINRES frame reaches MINRES through a register slice (Stage 1's output queue and MINRES's load logic lie
   // apart on the device): MINRES takes each word a cycle after the slice does; the sequencer counts the slice's
   // handshakes, and MINRES holds a partial batch's close until that batch's last word is in.
-  private val toLast = toAtLast
+  private val toLast = to.atLast
   private val toMr   = Module(new bus.RegSlice(new bus.StreamWord(32)))
   toMr.io.enq.valid     := Mux(toAt0, toArmed, !outExt && st1.m_axis.tvalid)
   toMr.io.enq.bits.data := Mux(toAt0, curC.pad(32), st1.m_axis.tdata)
@@ -316,10 +315,7 @@ class IpmCore(val p: IpmParams) extends Module {
   mr.s_axis.tlast       := toMr.io.deq.bits.last
   toMr.io.deq.ready     := mr.s_axis.tready
   when(toMr.io.enq.fire) {
-    val nxt = Mux(toLast, 0.U, toCnt + 1.U)
-    toCnt    := nxt
-    toAt0    := nxt === 0.U
-    toAtLast := nxt === (p.mr.frameWords - 1).U
+    to.step()
     when(toAt0) { toArmed := false.B }
   }
 

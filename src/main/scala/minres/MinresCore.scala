@@ -150,10 +150,9 @@ class MinresCore(val p: MinresParams) extends Module {
   // ---- input: frames into the load bank
   val ldBank = RegInit(0.U(1.W))
   val ldSlot = RegInit(0.U(log2Ceil(P + 1).W))
-  val ldWord = RegInit(0.U(log2Ceil(p.frameWords + 1).W))
-  // ldWord === 0 and ldWord === frameWords - 1, kept with the count (tready and the word's kind from registers)
-  val ldAt0   = RegInit(true.B)
-  val ldAtEnd = RegInit((p.frameWords == 1).B)
+  private val ld = new bus.FrameCount(p.frameWords) // tready and the word's kind from its flags
+  private val ldWord = ld.value
+  private val ldAt0 = ld.at0
   val full   = RegInit(VecInit(false.B, false.B))
   val cnt    = Reg(Vec(2, UInt(log2Ceil(P + 1).W)))
   val ids    = Reg(Vec(2 * P, UInt(31.W))) // bank * P + slot
@@ -161,7 +160,7 @@ class MinresCore(val p: MinresParams) extends Module {
 
   s_axis.tready := !full(ldBank) && !(regs.ctrlHold && ldAt0)
   private val d = s_axis.tdata(W - 1, 0) // a data word: the format's word in the low bits
-  private val lastWord = ldAtEnd
+  private val lastWord = ld.atLast
   // one write port each: the load bank's words as they arrive, registered before the memories (the handshake
   // fans out to every block RAM of the load path; a word lands a cycle after its handshake, and a batch reads its
   // bank's last word no earlier than N - 1 cycles after its start)
@@ -186,10 +185,7 @@ class MinresCore(val p: MinresParams) extends Module {
         nonfinite := true.B
       }
     }
-    val nxt = Mux(lastWord, 0.U, ldWord + 1.U)
-    ldWord  := nxt
-    ldAt0   := nxt === 0.U
-    ldAtEnd := nxt === (p.frameWords - 1).U
+    ld.step()
     when(lastWord) {
       when(ldSlot === (P - 1).U) {
         full(ldBank) := true.B
