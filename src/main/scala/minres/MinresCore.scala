@@ -7,64 +7,6 @@ import float.{FloatFormat, Stages}
 import linalg.FDotProduct
 import shell.SolverRegs
 
-/** Control word of one element of a pass: problem slot, element (row) index, iteration (0 = the init pass), and
-  * for the feed the position of the row in the MPC structure (row r of stage k, primal index).
-  */
-class MinresCtl(p: MinresParams) extends Bundle {
-  val bank = UInt(1.W) // the batch's bank of the double-buffered memories
-  val e    = UInt(log2Ceil(p.S + 1).W)
-  val slot = UInt(math.max(1, log2Ceil(p.P)).W)
-  val j    = UInt(16.W)
-  val r    = UInt(log2Ceil(p.period + 1).W)
-  val k    = UInt(log2Ceil(p.T + 2).W)
-  val prim = UInt(log2Ceil(p.nPrimal + 1).W)
-}
-
-/** A word of the output stream on its way to m_axis. */
-class MinresOutWord extends Bundle {
-  val data  = UInt(32.W)
-  val last  = Bool()
-  val final_ = Bool() // the last word of the bank's last problem: its fire releases the bank
-  val badId = Bool() // an id word with bit 31 set (STATUS.NONFINITE when it is sent)
-}
-
-/** Counter of a pass: elements 0..S-1 of slots 0..P-1 of iterations 0..Imax of one batch, one element per cycle.
-  * It latches the batch's Imax and bank at its start, so that it finishes its own batch while the next one
-  * starts: a batch starts no earlier than the cycle on which the previous batch's feed takes its last element,
-  * so each pass starts the next batch on or after its own last cycle of the previous one.
-  */
-class PassCounter(p: MinresParams) {
-  val run  = RegInit(false.B)
-  val c    = RegInit(0.U.asTypeOf(new MinresCtl(p)))
-  val imax = RegInit(0.U(16.W))
-  /** an element of the matrix order is processed this cycle */
-  def valid: Bool = run && c.e < p.N.U
-  def tick(start: Bool, imaxIn: UInt, bank: UInt): Unit = {
-    when(start) {
-      run    := true.B
-      c      := 0.U.asTypeOf(c)
-      c.bank := bank
-      imax   := imaxIn
-    }.elsewhen(run) {
-      val lastE = c.e === (p.S - 1).U
-      c.e := Mux(lastE, 0.U, c.e + 1.U)
-      // position in the MPC structure: rows r = 0..2n+m-1 of stages k = 0..T, primal rows counted
-      val lastR = c.r === (p.period - 1).U
-      c.r    := Mux(lastE, 0.U, Mux(lastR, 0.U, c.r + 1.U))
-      c.k    := Mux(lastE, 0.U, Mux(lastR, c.k + 1.U, c.k))
-      c.prim := Mux(lastE, 0.U, Mux(c.r >= p.n.U, c.prim + 1.U, c.prim))
-      when(lastE) {
-        val lastSlot = c.slot === (p.P - 1).U
-        c.slot := Mux(lastSlot, 0.U, c.slot + 1.U)
-        when(lastSlot) {
-          c.j := c.j + 1.U
-          when(c.j === imax) { run := false.B }
-        }
-      }
-    }
-  }
-}
-
 /** MINRES solver for the banded KKT system of section VI-A of 001, P problems interleaved (Fig. 1 of 001).
   *
   * A batch of up to P problems arrives on s_axis: per problem an id word, the variable part of the matrix (the
