@@ -1,7 +1,7 @@
 package bus
 
 import chisel3._
-import chisel3.util.{Decoupled, DecoupledIO}
+import chisel3.util.Decoupled
 
 /** A register slice of a ready/valid stream: every output (deq's valid and bits, enq's ready) comes from a
   * register, so no combinational path crosses it. Full throughput, one cycle of latency: a word taken on cycle t
@@ -33,13 +33,4 @@ class RegSlice[T <: Data](gen: T) extends Module {
 class StreamWord(w: Int) extends Bundle {
   val data = UInt(w.W)
   val last = Bool()
-}
-
-object RegSlice {
-  /** `in` through a register slice; returns the slice's output */
-  def apply[T <: Data](in: DecoupledIO[T]): DecoupledIO[T] = {
-    val s = Module(new RegSlice(chiselTypeOf(in.bits)))
-    s.io.enq <> in
-    s.io.deq
-  }
 }

@@ -36,9 +36,7 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   override def desiredName = s"FMul_${fmt.tag}_l$latency" + (if (FMul.onDsp(fmt, target)) s"_${target.name}" else "")
 
   private val onDsp = FMul.onDsp(fmt, target)
-  require(latency >= FMul.minLatency(fmt, target),
-    s"the ${target.name} multiplier in ${fmt.name} needs latency >= ${FMul.minLatency(fmt, target)} (the MULT18X18D's " +
-      s"input, pipeline and output registers and the output's): got latency=$latency")
+  FMul.checkLatency(fmt, target, latency, "latency")
   val stages =
     if (onDsp) Stages(latency - 1, FMul.weights(fmt), Set(FMul.productStep(fmt) - 1, FMul.productStep(fmt)))
     else Stages(latency, FMul.weights(fmt))
@@ -133,14 +131,11 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     dsp.io.clk := clock
     dsp.io.a   := s1.x.pad(18)
     dsp.io.b   := s1.y.pad(18)
-    val s = Wire(new Prod)
-    s.prod := 0.U
-    s.e    := RegNext(r1.e)
-    s.spc  := RegNext(r1.spc)
-    val r = cut(s)
+    val late = cut(RegNext(r1)) // its x and y are unused: the DSP holds them
     val o = Wire(new Prod)
-    o      := r
     o.prod := dsp.io.p(2 * w - 1, 0)
+    o.e    := late.e
+    o.spc  := late.spc
     o
   } else if (w <= FMul.dspW) {
     val s = Wire(new Prod)
@@ -299,4 +294,9 @@ object FMul {
   def onDsp(fmt: FloatFormat, target: Target): Boolean = target == Target.Ecp5 && fmt.sigW <= dspW
   /** the fewest cycles: on the DSP, its three registers and the output's */
   def minLatency(fmt: FloatFormat, target: Target): Int = if (onDsp(fmt, target)) 4 else 0
+  /** refuses a multiplier latency (`key`: its name where it is set) below minLatency */
+  def checkLatency(fmt: FloatFormat, target: Target, latency: Int, key: String): Unit =
+    require(latency >= minLatency(fmt, target), s"the ${target.name} multiplier in ${fmt.name} needs $key >= " +
+      s"${minLatency(fmt, target)} (the MULT18X18D's input, pipeline and output registers and the output's): got " +
+      s"$key=$latency")
 }

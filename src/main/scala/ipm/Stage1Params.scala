@@ -37,8 +37,7 @@ case class Stage1Params(
   require(tables.flatten.forall(v => v >= 0 && v < (1 << AddrW)), "table entries must be in [0, 2^16)")
   require(programs.nonEmpty && programs.forall(_._2.nonEmpty), "need at least one program, each of one instruction or more")
   require(latAdd >= 1, s"lat_add must be >= 1 (the streaming accumulator feeds the adder's output back): got $latAdd")
-  require(latMul >= float.FMul.minLatency(fmt, target), s"target ${target.name} in ${fmt.name} needs lat_mul >= " +
-    s"${float.FMul.minLatency(fmt, target)} (the MULT18X18D's registers and the output's): got lat_mul=$latMul")
+  float.FMul.checkLatency(fmt, target, latMul, "lat_mul")
   require(latMul >= 0 && latDiv >= 0 && latSqrt >= 0 && latCmp >= 0,
     s"latencies must be >= 0: got lat_mul=$latMul, lat_div=$latDiv, lat_sqrt=$latSqrt, lat_cmp=$latCmp")
 

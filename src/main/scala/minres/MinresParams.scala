@@ -42,8 +42,7 @@ case class MinresParams(
   require(n >= 1 && m >= 1 && T >= 1, s"need n >= 1, m >= 1, T >= 1: got n=$n, m=$m, T=$T")
   require(latAdd >= 1, s"lat_add must be >= 1 (the streaming accumulator feeds the adder's output back): got $latAdd")
   require(latMul >= 0 && latDiv >= 0 && latSqrt >= 0, s"latencies must be >= 0: got lat_mul=$latMul, lat_div=$latDiv, lat_sqrt=$latSqrt")
-  require(latMul >= float.FMul.minLatency(fmt, target), s"target ${target.name} in ${fmt.name} needs lat_mul >= " +
-    s"${float.FMul.minLatency(fmt, target)} (the MULT18X18D's registers and the output's): got lat_mul=$latMul")
+  float.FMul.checkLatency(fmt, target, latMul, "lat_mul")
   require(imaxDefault >= 1 && imaxDefault <= 65535, s"iterations must be in [1, 65535]: got $imaxDefault")
   require(flushCycles >= 1 && flushCycles <= 65535, s"flush_cycles must be in [1, 65535]: got $flushCycles")
   require(pRequested >= 0 && pRequested <= 64, s"P must be in [1, 64] (0: from eq. (15)): got P=$pRequested")
