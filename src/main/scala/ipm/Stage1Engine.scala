@@ -18,7 +18,8 @@ import float.Stages
   *
   * Pipeline, one element per cycle:
   *   T  issue: element index; index-table ROMs read (one per role d, a, b that gathers or scatters) at the
-  *      instruction's table base (registered when the instruction word was fetched) + the index
+  *      instruction's table base (registered when the instruction word was fetched) + the index (a register
+  *      counting from the base, so the ROM address is a select between two registers)
   *   G  table words out of their ROMs, registered
   *   M  addresses: operand base (the slot's base + the operand's address, registered at the instruction's
   *      launch) + the index or the table word, registered
@@ -107,7 +108,6 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val nxtLeft   = RegNext(word.n - 1.U) // elements after the first
   private val nxtIn     = RegNext(word.op === IN.U)
   private val nxtOut    = RegNext(word.op === OUT.U)
-  private val curTab    = Reg(Vec(3, UInt(17.W)))
   private val curIn     = RegInit(false.B)
   private val curOut    = RegInit(false.B)
   private val isLast    = Reg(Bool()) // element i of cur is its last
@@ -115,7 +115,6 @@ class Stage1Engine(p: Stage1Params) extends Module {
 
   // ---- T: issue
   private val ins     = Mux(launch, nxt, cur)
-  private val tabT    = Mux(launch, nxtTab, curTab)
   private val iT      = Mux(launch, 0.U, i)
   private val lastT   = Mux(launch, nxtOne, isLast)
   private val insIn   = Mux(launch, nxtIn, curIn)
@@ -135,7 +134,6 @@ class Stage1Engine(p: Stage1Params) extends Module {
   }
   when(launch) {
     cur     := ins
-    curTab  := nxtTab
     curIn   := nxtIn
     curOut  := nxtOut
     isLast  := nxtOne
@@ -171,8 +169,17 @@ class Stage1Engine(p: Stage1Params) extends Module {
     slotBase := slotBases(slot)
   }
 
+  // the table address of the element at T (the instruction's base + iT) is kept in a register (the next element's address: the
+  // instruction's base + 1 registered with it at fetch) so that no adder lies between the issue decision and the ROM
+  private val nxtTab1 = RegNext(VecInit(bases(word).map(_ + 1.U)))
+  private val tabAdr  = Reg(Vec(3, UInt(17.W)))
+  when(launch) {
+    tabAdr := Mux(issue, nxtTab1, nxtTab)
+  }.elsewhen(issue) {
+    tabAdr := VecInit(tabAdr.map(_ + 1.U))
+  }
   private def tableRom(role: String, used: Boolean, k: Int): UInt =
-    if (used) Rom(s"Stage1Table$role", p.tableWords.map(BigInt(_)), p.tableW, tabT(k) + iT, clock)
+    if (used) Rom(s"Stage1Table$role", p.tableWords.map(BigInt(_)), p.tableW, Mux(launch, nxtTab(k), tabAdr(k)), clock)
     else 0.U(p.tableW.W)
   private val tabD = tableRom("D", p.gatherD, 0)
   private val tabA = tableRom("A", p.gatherA, 1)
