@@ -211,14 +211,18 @@ class MinresCore(val p: MinresParams) extends Module {
     else if (t == 1) RegNext(startBatch, false.B)
     else RegNext(active(curBank) && g(curBank) === (t - 2).U, false.B)
 
-  // The memories' words arrive RL cycles after their address: passes B and C count RL cycles ahead (address
-  // phase, counters pbA and pcA) and their words and control meet at the offsets tB and tC (bc, cc). The feed's
+  // The memories' words arrive RL cycles after their address: passes B and C count RL + 1 cycles ahead
+  // (counters pbA and pcA; their addresses a cycle later, registered) and their words and control meet at the offsets tB and tC (bc, cc). The feed's
   // words enter the shift register RL cycles after its count (tRow counts them).
   private val RL = VecRam.ReadLatency
   val feed = new PassCounter(p); feed.tick(startAt(0), imaxIn, nextBank)
-  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - RL), feed.imax, curBank)
+  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - RL - 1), feed.imax, curBank)
   val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, curBank)
-  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - RL), feed.imax, curBank)
+  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - RL - 1), feed.imax, curBank)
+  /** a pass's address phase, a cycle behind its counter (which starts a cycle earlier): the counter's word and its
+    * read addresses (in a slot's vector; in a bank's slot's vector) registered, so no adder meets a memory */
+  private def addressPhase(pc: PassCounter): (MinresCtl, UInt, UInt) =
+    (RegNext(pc.c), RegNext(adr1(pc.c.slot, inN(pc.c.e))), RegNext(adr2(pc.c.bank, pc.c.slot, inN(pc.c.e), N)))
   // the batch's last cycles, I_MR P S + c: from the I_MR the feed latched at the start, the multiplier between
   // registers, set on the batch's third cycle (g = 2; until then they hold the largest count)
   private val imaxCyc = RegNext(feed.imax * p.cyclesPerIteration.U)
@@ -257,14 +261,17 @@ class MinresCore(val p: MinresParams) extends Module {
   for (s <- 0 until p.K) {
     val cands = p.candidates(s)
     val sel   = perKey(q => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W))
-    val used  = perKey(q => p.offsets(q)(s).isDefined.B)
     val diag  = perKey(q => p.offsets(q)(s).contains(0).B)
     val coef  = perKey(q => p.coefs(q)(s).U(W.W))
-    // the window word at offset o and whether column e + o is inside the matrix, per candidate offset
+    // the window word at offset o
     val word  = VecInit(cands.map(o => sr(M - 1 - o)))(sel)
-    val ins   = RegNext(VecInit(cands.map(o => if (o >= 0) rowPre.e < (N - o).U else rowPre.e >= (-o).U)))
-    val in    = ins(sel)
-    val ok    = used && in
+    // whether the slot holds a term: it is used and column e + o is inside the matrix, from compares registered
+    // two cycles ahead and the key's offset a cycle ahead, so that the operands' clear is one register
+    val insPre = RegNext(VecInit(cands.map(o => if (o >= 0) rowAdr.e < (N - o).U else rowAdr.e >= (-o).U)))
+    val selPre = VecInit((0 until p.keys).map(q =>
+      p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W)))(keyPre)
+    val usedPre = VecInit((0 until p.keys).map(q => p.offsets(q)(s).isDefined.B))(keyPre)
+    val ok    = RegNext(usedPre && insPre(selPre))
     dot.io.a(s) := RegNext(Mux(ok, Mux(diag, dRead, coef), zero))
     dot.io.b(s) := RegNext(Mux(ok, word, zero))
   }
@@ -287,15 +294,14 @@ class MinresCore(val p: MinresParams) extends Module {
   when(dAcc.io.done) { delta(dSlot) := dAcc.io.sum }
 
   // ---- pass B: u = (y - delta v_j) - gamma v_{j-1}; ||u||^2; v_j copied into vpmem for the next iteration
-  private val bA     = pbA.c
-  private val bAdr   = adr1(bA.slot, inN(bA.e))
-  private val bRhs   = bmem.read(0, adr2(bA.bank, bA.slot, inN(bA.e), N))
+  private val (bA, bAdr, bAdrB) = addressPhase(pbA)
+  private val bRhs   = bmem.read(0, bAdrB)
   private val bY     = ymem.read(0, bAdr)
   private val bVj    = vmem.read(1, bAdr)
   private val bVjm1  = vpmem.read(0, bAdr)
   private val bA1    = Stages.delay(bA, RL - 1)
   private val bc     = RegNext(bA1)
-  private val bValid = Stages.delayValid(pbA.valid, RL)
+  private val bValid = Stages.delayValid(pbA.valid, RL + 1)
   // the selects of pass B and C from compares registered beside bc / cc (the same values, off the operand paths)
   private val bInit  = RegNext(bA1.j === 0.U)
   private val bFirst = RegNext(bA1.j <= 1.U)
@@ -362,17 +368,16 @@ class MinresCore(val p: MinresParams) extends Module {
 
   // ---- pass C: v_{j+1} = u / gamma_{j+1}; w_{j+1} = ((v_j - a3 w_{j-1}) - a2 w_j) / a1; x += c eta w_{j+1}
   // x is double-buffered by bank: copy 0 for pass C, copy 1 for the output stream of a finished batch.
-  private val cA     = pcA.c
-  private val cAdr   = adr1(cA.slot, inN(cA.e))
+  private val (cA, cAdr, cAdrB) = addressPhase(pcA)
   private val cU     = umem.read(0, cAdr)
   private val cVj    = vmem.read(2, cAdr)
   private val cW01   = wmem.map(_.read(0, cAdr))
-  private val cX0    = xmem.read(0, adr2(cA.bank, cA.slot, inN(cA.e), N))
+  private val cX0    = xmem.read(0, cAdrB)
   private val cA1    = Stages.delay(cA, RL - 1)
   private val cc     = RegNext(cA1)
   private val cLe1   = RegNext(cA1.j <= 1.U)
   private val cLe2   = RegNext(cA1.j <= 2.U)
-  private val cValid = Stages.delayValid(pcA.valid, RL)
+  private val cValid = Stages.delayValid(pcA.valid, RL + 1)
   private val par    = cc.j(0)  // bank of w_j; w_{j-1} and w_{j+1} are in the other
   val uC    = at0(cU)
   val vjC   = at0(cVj)
@@ -400,7 +405,8 @@ class MinresCore(val p: MinresParams) extends Module {
   val outBank = RegInit(0.U(1.W))
   val issSlot = RegInit(0.U(log2Ceil(P + 1).W)) // output position: problem issSlot, word issIdx (0: the id word)
   val issIdx  = RegInit(0.U(log2Ceil(N + 2).W))
-  private val outAdr = adr2(outBank, issSlot, Mux(issIdx === 0.U, 0.U, issIdx - 1.U), N)
+  // the read address of the next word, base(outBank, issSlot) + max(issIdx - 1, 0), kept in a register
+  private val outAdr = RegInit(0.U(adr2(outBank, issSlot, 0.U, N).getWidth.W))
   private val xOut   = xmem.read(1, outAdr)
   private val ob     = outBank * P.U + issSlot
   private val count  = cnt(outBank)
@@ -431,6 +437,7 @@ class MinresCore(val p: MinresParams) extends Module {
   outQ.io.enq.bits.badId := pendId && pendWord(31)
   when(issue) {
     issIdx := Mux(issIdx === lastIdx, 0.U, issIdx + 1.U)
+    outAdr := Mux(issIdx === lastIdx, adr2(outBank, issSlot + 1.U, 0.U, N), Mux(issIdx === 0.U, outAdr, outAdr + 1.U))
     when(issIdx === lastIdx) {
       issSlot := issSlot + 1.U
       when(issSlot === count - 1.U) { issDone := true.B }
@@ -455,6 +462,7 @@ class MinresCore(val p: MinresParams) extends Module {
       started(outBank) := false.B
       full(outBank)    := false.B
       outBank          := ~outBank
+      outAdr           := adr2(~outBank, 0.U, 0.U, N)
     }
   }
 
