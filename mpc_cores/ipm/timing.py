@@ -16,7 +16,7 @@ The hand-offs, in cycles (IpmCore, MinresCore):
   last element: batches overlap), and streams its answers (batch cycles) + READ_LATENCY cycles later (a word is
   issued that far ahead of its read), or the cycle after the previous batch's last answer word was taken if that
   is later;
-  a receive waiting for MINRES is done N + 2 + ISSUE_GAP cycles after MINRES starts streaming (its k-th problem
+  a receive waiting for MINRES is done N + 2 + ISSUE_GAP + FROM_MINRES cycles after MINRES starts streaming (its k-th problem
   N + 2 cycles later each), ISSUE_GAP after it takes the last word, else after its own cycles, from the second
   problem on ID_STALL more (the norm and id words between two problems' solutions, which arrive 3 cycles after
   the previous problem's last word while the next receive takes its first word ISSUE_GAP + PROGRAM_START + 1
@@ -34,6 +34,9 @@ from mpc_cores.minres.schedule import READ_LATENCY
 ID_STALL = max(0, 2 - ISSUE_GAP - PROGRAM_START)
 # the register slice between the core's sequencer and MINRES's input (ipm.IpmCore, bus.RegSlice)
 TO_MINRES = 1
+# the register slice between MINRES's output and Stage 1's input (ipm.IpmCore): a word MINRES streams reaches
+# Stage 1 one cycle later
+FROM_MINRES = 1
 
 
 def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | None = None,
@@ -86,7 +89,7 @@ def simulate(core: dict, order: list[int], warm: set | None = None, i_nw: int | 
         o = max(start + READ_LATENCY + batch, out_free)   # MINRES streams the answers
         done = t + 1
         for k in range(len(chans[g])):
-            done = max(done + C["receive"] + (k > 0) * ID_STALL, o + N + 2 + ISSUE_GAP + k * (N + 2))
+            done = max(done + C["receive"] + (k > 0) * ID_STALL, o + N + 2 + ISSUE_GAP + FROM_MINRES + k * (N + 2))
         out_free = done + 1
         for k, c in enumerate(chans[g]):
             last = k == len(chans[g]) - 1

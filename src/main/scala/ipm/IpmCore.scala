@@ -277,11 +277,22 @@ class IpmCore(val p: IpmParams) extends Module {
   // MINRES's word mrCnt is one of x's (not the id, not ||r_0||): a flag set from the count's next value, so that
   // no compare of the count lies before MINRES's tready
   private val mrData = RegInit(false.B)
-  st1.s_axis.tvalid := Mux(inExt, s_axis.tvalid && extCnt =/= 0.U, mr.m_axis.tvalid && mrData)
-  st1.s_axis.tdata  := Mux(inExt, s_axis.tdata, mr.m_axis.tdata)
-  st1.s_axis.tlast  := false.B
-  s_axis.tready := takeId || inExt && extCnt =/= 0.U && st1.s_axis.tready
-  mr.m_axis.tready := !mrData || !inExt && st1.s_axis.tready
+  // Stage 1's input words through a register slice per source (the frame's x words, MINRES's x words), so that
+  // Stage 1's issue meets registers and each source's tready is a register; each slice takes its source's words
+  // ahead of the IN that reads them, in order
+  private val extIn = Module(new bus.RegSlice(UInt(32.W)))
+  private val mrIn  = Module(new bus.RegSlice(UInt(32.W)))
+  extIn.io.enq.valid := s_axis.tvalid && inExt && extCnt =/= 0.U
+  extIn.io.enq.bits  := s_axis.tdata
+  mrIn.io.enq.valid  := mr.m_axis.tvalid && mrData
+  mrIn.io.enq.bits   := mr.m_axis.tdata
+  st1.s_axis.tvalid  := Mux(inExt, extIn.io.deq.valid, mrIn.io.deq.valid)
+  st1.s_axis.tdata   := Mux(inExt, extIn.io.deq.bits, mrIn.io.deq.bits)
+  st1.s_axis.tlast   := false.B
+  extIn.io.deq.ready := inExt && st1.s_axis.tready
+  mrIn.io.deq.ready  := !inExt && st1.s_axis.tready
+  s_axis.tready := takeId || inExt && extCnt =/= 0.U && extIn.io.enq.ready
+  mr.m_axis.tready := !mrData || mrIn.io.enq.ready
   when(s_axis.fire) {
     val lastWord = extCnt === (p.inWords - 1).U
     when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
@@ -332,12 +343,15 @@ class IpmCore(val p: IpmParams) extends Module {
   private val oStat = RegInit(false.B)
   // registered: mu is captured at word m + 1 and the residual long before the answer, and the status word comes
   // at least two handshakes after mu (no compare between the answer's registers and its status word)
-  private val conv   = RegNext(atMost(outMu, muTol(W - 1, 0)) && atMost(resC(curC), resTol(W - 1, 0)))
+  // curC's residual and start cycle, registered: curC holds from the output program's start to the answer's end
+  private val resCur = RegNext(resC(curC))
+  private val t0Cur  = RegNext(t0C(curC))
+  private val conv   = RegNext(atMost(outMu, muTol(W - 1, 0)) && atMost(resCur, resTol(W - 1, 0)))
   private val bad    = outBad || badC(curC)
   private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)
   m_axis.tvalid := Mux(cnt0, outArmed, Mux(oPass, outExt && st1.m_axis.tvalid, true.B))
   m_axis.tdata  := Mux(cnt0, tagC(curC).pad(32),
-    Mux(oPass, st1.m_axis.tdata, Mux(oRes, resC(curC).pad(32), status)))
+    Mux(oPass, st1.m_axis.tdata, Mux(oRes, resCur.pad(32), status)))
   m_axis.tlast  := oStat
   bus.Protocol.streamOut("m_axis", m_axis)
   st1.m_axis.tready := Mux(outExt, oPass && m_axis.tready, !toAt0 && toMr.io.enq.ready)
@@ -353,15 +367,16 @@ class IpmCore(val p: IpmParams) extends Module {
     }
     when(oPass && !finite(st1.m_axis.tdata(W - 1, 0))) { outBad := true.B }
     when(outCnt === (m + 1).U) { outMu := st1.m_axis.tdata(W - 1, 0) }
-    when(oStat) {
-      busyC(curC) := false.B
-      when(bad) {
-        nonfinite := true.B
-        started(curC) := false.B // the next sample of this channel starts cold
-      }
-      when(!conv) { notConv := true.B }
-      regs.solveDone(now - t0C(curC))
+  }
+  // the status word's handshake: its tvalid is high, so it is its tready alone (not through Stage 1's output)
+  when(oStat && m_axis.tready) {
+    busyC(curC) := false.B
+    when(bad) {
+      nonfinite := true.B
+      started(curC) := false.B // the next sample of this channel starts cold
     }
+    when(!conv) { notConv := true.B }
+    regs.solveDone(now - t0Cur)
   }
 
   // busy: a problem in flight, a frame half taken, or the sequencer between steps (not once the last answer has

@@ -85,7 +85,14 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val gapOne  = RegInit(false.B)
   private val atEnd   = RegInit(true.B)
   private val finish = running && !issuing && gapOne && atEnd
-  private val accept = start && (!running || finish) && prog < p.programs.length.U
+  // a start is taken into a register (with its program and slot) and acted on a cycle later, so the caller's
+  // decisions meet registers here; the first word is still read from its table in the cycle of the start, and
+  // the first launch stays two cycles after it
+  private val startR = RegInit(false.B)
+  startR := start && (!running && !startR || finish) && prog < p.programs.length.U
+  private val progR  = RegNext(prog)
+  private val slotR  = RegNext(slot)
+  private val accept = startR
   private val launch = running && !issuing && gapZero && !atEnd
   // the ROM word of pc, or a program's first word from a table of its own (a register either way): `prog` comes
   // from the caller's decisions in the cycle of the start and meets only that table, not the ROM's decoder
@@ -93,7 +100,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val codeAtPc  = Rom("Stage1Code", p.code, InstrW, pc, clock)
   private val codeFirst = RegNext(firstWord(prog))
   private val code      = Mux(RegNext(running && !finish), codeAtPc, codeFirst)
-  busy := running
+  busy := running || startR
   done := finish
 
   // the instruction at pc, decoded, and its table bases, registered ahead of its launch (the ROM word of the pc
@@ -157,16 +164,16 @@ class Stage1Engine(p: Stage1Params) extends Module {
     }
   }
   when(finish) { running := false.B }
-  when(accept) {
+  when(accept) { // a cycle after the start: the first instruction launches on the next cycle
     running  := true.B
     issuing  := false.B
-    gap      := Stage1Params.ProgramStart.U // the first instruction word is decoded first
-    gapZero  := false.B
-    gapOne   := true.B
-    pc       := entry(prog)
-    pcEnd    := ends(prog)
-    atEnd    := entry(prog) === ends(prog)
-    slotBase := slotBases(slot)
+    gap      := 0.U
+    gapZero  := true.B
+    gapOne   := false.B
+    pc       := entry(progR)
+    pcEnd    := ends(progR)
+    atEnd    := false.B // programs are not empty (Stage1Params)
+    slotBase := slotBases(slotR)
   }
 
   // the table address of the element at T (the instruction's base + iT) is kept in a register (the next element's address: the
