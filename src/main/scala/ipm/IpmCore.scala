@@ -117,7 +117,11 @@ class IpmCore(val p: IpmParams) extends Module {
   private val toIdle  = !toArmed && toAt0
   private val outIdle = !outArmed && outCnt === 0.U
 
-  private val headOk  = s_axis.tvalid && !regs.ctrlHold && !busyC(headCh)
+  // the head's channel is free, from a flag registered a cycle ahead: it holds for the head once the same word has
+  // waited a cycle (tvalid high and not taken), so no channel select lies in the sequencer's decisions
+  private val headSame = RegNext(s_axis.tvalid && !s_axis.tready, false.B)
+  private val headFree = RegNext(!busyC(headCh), false.B)
+  private val headOk  = s_axis.tvalid && headSame && headFree && !regs.ctrlHold
   /** another problem of the current group follows curC in its batch */
   private val more    = k + 1.U < gCnt(curG)
   // What picks the next program and its slot, registered a cycle ahead: a program runs for several cycles, and
