@@ -353,9 +353,10 @@ class MinresCore(val p: MinresParams) extends Module {
   private val Seq(g1d, a1d, a2d, a3d, c1d, s1d, cetaD) = Seq("g1", "a1", "a2", "a3", "c1", "s1", "ceta").map(res)
   private val eta1D = res("seta") ^ (BigInt(1) << (W - 1)).U // eta_{j+1} = -(s eta)
   private val scW = ops.delayTo(sc, 0, tS)
+  private val scInit = Stages.delay(sc.j === 0.U, tS) // the init pass, compared at the source (a register here)
   when(Stages.delayValid(ps.valid && sc.e === 0.U, tS)) {
     val q = scW.slot
-    when(scW.j === 0.U) {
+    when(scInit) {
       cR(q) := one; cpR(q) := one; sR(q) := zero; spR(q) := zero
       gamR(q) := g1d; etaR(q) := g1d; res0R(scW.bank * P.U + q) := g1d
     }.otherwise {
