@@ -32,7 +32,37 @@ object Shift {
     * before them: (x moved, free after them, the move of each level in the order of ks). A pipelined normaliser
     * runs its levels in groups (`groups`), its value, `free` and the moves so far registered between them.
     */
-  def normaliseLevels(x: UInt, free0: Bool, cap: Option[UInt], ks: Seq[Int]): (UInt, Bool, Seq[Bool]) = {
+  def normaliseLevels(x: UInt, free0: Bool, cap: Option[UInt], ks: Seq[Int]): (UInt, Bool, Seq[Bool]) =
+    if (ks.length > 1) normaliseGroup(x, free0, cap, ks) else normaliseSerial(x, free0, cap, ks)
+
+  /** The levels `ks` (contiguous, descending) at once, the same result as one level after another. Without a cap
+    * they move the value by c chunks of 2^ks.last bits, c the number of leading zero chunks among the top
+    * 2^ks.length - 1 (the zeros a move shifts in count as zero bits): the greedy levels' binary search for it.
+    * With a cap that binds (not `free0`) the levels move min(c, g), g the cap's bits of these levels, and the cap
+    * stops binding when g > c. The chunks' zero tests are parallel and one select moves the value, instead of a
+    * zero test on each level's moved value. */
+  private def normaliseGroup(x: UInt, free0: Bool, cap: Option[UInt], ks: Seq[Int]): (UInt, Bool, Seq[Bool]) = {
+    require(ks.zip(ks.tail).forall { case (a, b) => a == b + 1 }, s"levels ${ks.mkString(", ")} not contiguous descending")
+    val w      = x.getWidth
+    val chunk  = 1 << ks.last
+    val chunks = (1 << ks.length) - 1
+    val pad    = math.max(0, chunks * chunk - w)
+    val xp     = if (pad > 0) Cat(x, 0.U(pad.W)) else x
+    val wp     = w + pad
+    val zero   = (0 until chunks).map(j => xp(wp - 1 - j * chunk, wp - (j + 1) * chunk) === 0.U)
+    // the thermometer c >= i (chunks 0 .. i - 1 zero) and c in binary
+    val c      = PopCount((1 to chunks).map(i => zero.take(i).reduce(_ && _)))
+    val (m, free) = cap match {
+      case None     => (c, free0)
+      case Some(cp) =>
+        val g = Cat(ks.map(k => if (k < cp.getWidth) cp(k) else false.B))
+        (Mux(free0 || c <= g, c, g), free0 || g > c)
+    }
+    val moved  = (0 to chunks).map(i => if (i * chunk >= w) 0.U(w.W) else (x << (i * chunk))(w - 1, 0))
+    (VecInit(moved)(m), free, ks.map(k => m(k - ks.last)))
+  }
+
+  private def normaliseSerial(x: UInt, free0: Bool, cap: Option[UInt], ks: Seq[Int]): (UInt, Bool, Seq[Bool]) = {
     val w    = x.getWidth
     var v    = x
     var free = free0
