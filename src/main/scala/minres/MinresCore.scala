@@ -258,6 +258,11 @@ class MinresCore(val p: MinresParams) extends Module {
   val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd, p.dotMove, p.target))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
   private def perKey[T <: Data](f: Int => T): T = RegNext(VecInit((0 until p.keys).map(f))(keyPre))
+  /** f of the row key of c, from c's fields (the last stage's rows, or the position in the period) without the
+    * key's adder */
+  private def byKey[T <: Data](f: Int => T, c: MinresCtl): T =
+    Mux(c.k === T.U, VecInit((0 until p.keys - p.period).map(r => f(p.period + r)))(c.r),
+      VecInit((0 until p.period).map(f))(c.r))
   for (s <- 0 until p.K) {
     val cands = p.candidates(s)
     val sel   = perKey(q => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W))
@@ -267,11 +272,10 @@ class MinresCore(val p: MinresParams) extends Module {
     val word  = VecInit(cands.map(o => sr(M - 1 - o)))(sel)
     // whether the slot holds a term: it is used and column e + o is inside the matrix, from compares registered
     // two cycles ahead and the key's offset a cycle ahead, so that the operands' clear is one register
-    val insPre = RegNext(VecInit(cands.map(o => if (o >= 0) rowAdr.e < (N - o).U else rowAdr.e >= (-o).U)))
-    val selPre = VecInit((0 until p.keys).map(q =>
-      p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W)))(keyPre)
-    val usedPre = VecInit((0 until p.keys).map(q => p.offsets(q)(s).isDefined.B))(keyPre)
-    val ok    = RegNext(usedPre && insPre(selPre))
+    val insPre  = RegNext(VecInit(cands.map(o => if (o >= 0) rowAdr.e < (N - o).U else rowAdr.e >= (-o).U)))
+    val selPre  = RegNext(byKey(q => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W), rowAdr))
+    val usedPre = RegNext(byKey(q => p.offsets(q)(s).isDefined.B, rowAdr))
+    val ok      = RegNext(usedPre && insPre(selPre))
     dot.io.a(s) := RegNext(Mux(ok, Mux(diag, dRead, coef), zero))
     dot.io.b(s) := RegNext(Mux(ok, word, zero))
   }
@@ -336,7 +340,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private val srcs = Map("nrm" -> nrm2(sSlot), "delta" -> delta(sSlot), "c" -> cR(sSlot), "cp" -> cpR(sSlot),
     "s" -> sR(sSlot), "sp" -> spR(sSlot), "gamma" -> gamR(sSlot), "eta" -> etaR(sSlot))
   private val res: String => UInt = if (p.sharedScalar) {
-    val sh = new SharedScalar(fmt, p.scalarSchedule, ps.valid && sc.e === 0.U, srcs, p.target)
+    val sh = new SharedScalar(fmt, p.scalarSchedule, ps.first, srcs, p.target)
     name => sh.value(name, tS)
   } else {
     val v = scala.collection.mutable.Map[String, Timed]() ++ srcs.map { case (k, x) => k -> at0(x) }
@@ -354,7 +358,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private val eta1D = res("seta") ^ (BigInt(1) << (W - 1)).U // eta_{j+1} = -(s eta)
   private val scW = ops.delayTo(sc, 0, tS)
   private val scInit = Stages.delay(sc.j === 0.U, tS) // the init pass, compared at the source (a register here)
-  when(Stages.delayValid(ps.valid && sc.e === 0.U, tS)) {
+  when(Stages.delayValid(ps.first, tS)) {
     val q = scW.slot
     when(scInit) {
       cR(q) := one; cpR(q) := one; sR(q) := zero; spR(q) := zero

@@ -33,16 +33,22 @@ class PassCounter(p: MinresParams) {
   val run  = RegInit(false.B)
   val c    = RegInit(0.U.asTypeOf(new MinresCtl(p)))
   val imax = RegInit(0.U(16.W))
+  /** element 0 is next (a flag beside the count) */
+  val atE0 = RegInit(false.B)
   /** an element of the matrix order is processed this cycle */
   def valid: Bool = run && c.e < p.N.U
+  /** element 0 of a slot is processed this cycle (valid && c.e === 0, from registers) */
+  def first: Bool = run && atE0
   def tick(start: Bool, imaxIn: UInt, bank: UInt): Unit = {
     when(start) {
       run    := true.B
       c      := 0.U.asTypeOf(c)
       c.bank := bank
       imax   := imaxIn
+      atE0   := true.B
     }.elsewhen(run) {
       val lastE = c.e === (p.S - 1).U
+      atE0 := lastE
       c.e := Mux(lastE, 0.U, c.e + 1.U)
       // position in the MPC structure: rows r = 0..2n+m-1 of stages k = 0..T, primal rows counted
       val lastR = c.r === (p.period - 1).U
