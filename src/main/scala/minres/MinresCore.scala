@@ -187,7 +187,7 @@ class MinresCore(val p: MinresParams) extends Module {
     started(nextBank) := true.B
     active(nextBank)  := true.B
     g(nextBank)       := 0.U
-    gEnd(nextBank)    := ~0.U(32.W) // set two cycles later, from the product registered in between
+    gEnd(nextBank)    := ~0.U(32.W) // set on g = 2, from the product registered on both sides
     gFeed(nextBank)   := ~0.U(32.W)
     fed(nextBank)     := false.B
     for (q <- 0 until P) xBad(nextBank * P.U + q.U) := false.B
@@ -225,7 +225,7 @@ class MinresCore(val p: MinresParams) extends Module {
     (RegNext(pc.c), RegNext(adr1(pc.c.slot, inN(pc.c.e))), RegNext(adr2(pc.c.bank, pc.c.slot, inN(pc.c.e), N)))
   // the batch's last cycles, I_MR P S + c: from the I_MR the feed latched at the start, the multiplier between
   // registers, set on the batch's third cycle (g = 2; until then they hold the largest count)
-  private val imaxCyc = RegNext(feed.imax * p.cyclesPerIteration.U)
+  private val imaxCyc = RegNext(RegNext(feed.imax) * p.cyclesPerIteration.U) // registered on both sides
   for (b <- 0 until 2) when(active(b) && g(b) === 2.U) {
     gEnd(b)  := imaxCyc +& (p.batchCycles(0) - 1).U
     gFeed(b) := imaxCyc +& (p.cyclesPerIteration - 2).U
