@@ -20,11 +20,11 @@ import float.Stages
   *   T  issue: element index; index-table ROMs read (one per role d, a, b that gathers or scatters) at the
   *      instruction's table base (registered when the instruction word was fetched) + the index (a register
   *      counting from the base, so the ROM address is a select between two registers)
-  *   G  table words out of their ROMs, registered
+  *   G  table words out of their ROMs, registered (each ROM's second register: on the ECP5 its block RAM's own)
   *   M  addresses: operand base (the slot's base + the operand's address, registered at the instruction's
   *      launch) + the index or the table word, registered
   *   A  slot memory and constant ROMs read at them (one copy per operand a, b)
-  *   R  memory words out, registered per bank of the slot memory (SlotMem) and for the constant ROMs
+  *   R  memory words out, registered per bank of the slot memory (SlotMem) and in the constant ROMs (as the table ROMs)
   *   S  bank select and operand select (slot or constant), registered at the inputs of the op's unit (each
   *      unit has its own operand registers, Stage1Alu)
   *   U  operands ready; into the unit of the op (Stage1Alu), result written latency(op) cycles later.
@@ -53,6 +53,8 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val OutDepth = 7
   override def desiredName = p.moduleName
   private val w = p.fmt.width
+  /** block RAMs as DP16KD with their output register where they have one (SlotMem, the registered ROMs) */
+  private val ecp5 = p.target == dsp.Target.Ecp5
 
   val start  = IO(Input(Bool()))
   val prog   = IO(Input(UInt(p.progW.W)))
@@ -186,7 +188,8 @@ class Stage1Engine(p: Stage1Params) extends Module {
     tabAdr := VecInit(tabAdr.map(_ + 1.U))
   }
   private def tableRom(role: String, used: Boolean, k: Int): UInt =
-    if (used) Rom(s"Stage1Table$role", p.tableWords.map(BigInt(_)), p.tableW, Mux(launch, nxtTab(k), tabAdr(k)), clock)
+    if (used) Rom.registered(s"Stage1Table$role", p.tableWords.map(BigInt(_)), p.tableW,
+      Mux(launch, nxtTab(k), tabAdr(k)), clock, ecp5)
     else 0.U(p.tableW.W)
   private val tabD = tableRom("D", p.gatherD, 0)
   private val tabA = tableRom("A", p.gatherA, 1)
@@ -209,11 +212,9 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val dBase = RegNext(slotBase +& cur.d.addr)
 
   // ---- M: addresses, registered
-  private val tabAM = RegNext(tabA)
-  private val tabBM = RegNext(tabB)
-  private val tabDM = RegNext(tabD)
+  private val (tabAM, tabBM, tabDM) = (tabA, tabB, tabD) // registered in their ROMs
   private def offset(o: OperandBits, tab: UInt): UInt = Mux(o.isGather, tab, Mux(o.isVec, iM, 0.U))
-  private val mem    = new SlotMem(p.moduleName, p.slotMemWords, w, if (p.slotB) 2 else 1, ecp5 = p.target == dsp.Target.Ecp5)
+  private val mem    = new SlotMem(p.moduleName, p.slotMemWords, w, if (p.slotB) 2 else 1, ecp5 = ecp5)
   private val aOff   = offset(cur.a, tabAM)
   private val bOff   = offset(cur.b, tabBM)
   private val aAdr  = RegNext(aBase + aOff)
@@ -226,12 +227,11 @@ class Stage1Engine(p: Stage1Params) extends Module {
   // ---- A: the memories read at the registered addresses
   private val slotA  = mem.read(0, aAdr)
   private val slotBw = if (p.slotB) mem.read(1, bAdr) else 0.U(w.W)
-  private val constA = if (p.constA) Rom("Stage1ConstA", p.constWords, w, caAdr, clock) else 0.U(w.W)
-  private val constB = if (p.constB) Rom("Stage1ConstB", p.constWords, w, cbAdr, clock) else 0.U(w.W)
+  private val constA = if (p.constA) Rom.registered("Stage1ConstA", p.constWords, w, caAdr, clock, ecp5) else 0.U(w.W)
+  private val constB = if (p.constB) Rom.registered("Stage1ConstB", p.constWords, w, cbAdr, clock, ecp5) else 0.U(w.W)
 
   // ---- R: memory words out, registered (the slot memory's per bank, in SlotMem)
-  private val constAR = RegNext(constA)
-  private val constBR = RegNext(constB)
+  private val (constAR, constBR) = (constA, constB) // registered in their ROMs
 
   // ---- S: bank and operand selected, registered
 

@@ -69,13 +69,23 @@ object SlotMem {
 
 /** A read-only memory with its words written into the emitted Verilog (mem.InitRam without writes): one
   * registered read port, the word of the address of cycle t on cycle t + 1. Maps to block RAM or LUT ROM.
+  * `registered`: the word registered once more (cycle t + 2), in the block RAM's output register on the ECP5
+  * (`ecp5`, mem.InitRam), so that it leaves the block from a register.
   */
 object Rom {
   private def signed(v: BigInt, w: Int): BigInt = if (v >= (BigInt(1) << (w - 1))) v - (BigInt(1) << w) else v
 
-  def apply(name: String, words: Seq[BigInt], width: Int, addr: UInt, clock: Clock): UInt = {
+  def apply(name: String, words: Seq[BigInt], width: Int, addr: UInt, clock: Clock): UInt =
+    read(name, words, width, addr, clock, outReg = false, ecp5 = false)
+
+  def registered(name: String, words: Seq[BigInt], width: Int, addr: UInt, clock: Clock, ecp5: Boolean): UInt =
+    read(name, words, width, addr, clock, outReg = true, ecp5 = ecp5)
+
+  private def read(name: String, words: Seq[BigInt], width: Int, addr: UInt, clock: Clock, outReg: Boolean,
+      ecp5: Boolean): UInt = {
     val depth = math.max(1, words.length)
-    val ram   = Module(new mem.InitRam(name, depth, 1, width, words.map(w => Seq(signed(w, width)))))
+    val ram   = Module(new mem.InitRam(name, depth, 1, width, words.map(w => Seq(signed(w, width))), outReg = outReg,
+      ecp5 = ecp5))
     ram.io.clock := clock
     ram.io.raddr := addr.pad(ram.addrW)(ram.addrW - 1, 0)
     ram.io.wen   := false.B
