@@ -81,6 +81,10 @@ class MinresCore(val p: MinresParams) extends Module {
   }
   private def adr1(slot: UInt, e: UInt): UInt = adr2(0.U(1.W), slot, e, N)
   private def inN(e: UInt): UInt = Mux(e < N.U, e, 0.U)
+  /** the write addresses of a pass's control word c delayed by t >= 1 cycles: computed a cycle ahead and registered,
+    * so no adder meets a memory's write port */
+  private def adr1At(c: MinresCtl, t: Int): UInt = { val x = Stages.delay(c, t - 1); RegNext(adr1(x.slot, x.e)) }
+  private def adr2At(c: MinresCtl, t: Int): UInt = { val x = Stages.delay(c, t - 1); RegNext(adr2(x.bank, x.slot, x.e, N)) }
 
   // ---- per-problem scalars
   private def scal() = Reg(Vec(P, UInt(W.W)))
@@ -147,7 +151,8 @@ class MinresCore(val p: MinresParams) extends Module {
   val nextBank = RegInit(0.U(1.W))                // bank of the next batch to start
   val curBank  = RegInit(0.U(1.W))                // bank of the batch started last
   val g        = Reg(Vec(2, UInt(32.W)))           // cycles since the batch's start
-  val gEnd     = Reg(Vec(2, UInt(32.W)))           // its last x write
+  val gEnd     = Reg(Vec(2, UInt(32.W)))           // its last x write, minus one
+  val atEnd    = RegInit(VecInit(Seq.fill(2)(false.B))) // g = its last x write (a compare registered a cycle ahead)
   val gFeed    = Reg(Vec(2, UInt(32.W)))           // its feed's last element, minus one
   val fed      = RegInit(VecInit(false.B, false.B)) // g has reached the feed's last element (g >= gFeed + 1)
   val batchCyc = Reg(Vec(2, UInt(32.W)))
@@ -197,7 +202,9 @@ class MinresCore(val p: MinresParams) extends Module {
   for (b <- 0 until 2) when(active(b)) {
     g(b) := g(b) + 1.U
     when(g(b) === gFeed(b)) { fed(b) := true.B } // an equality: no carry chain before the batch start
-    when(g(b) === gEnd(b)) {
+    atEnd(b) := g(b) === gEnd(b)
+    when(atEnd(b)) {
+      atEnd(b)    := false.B
       active(b)   := false.B
       doneB(b)    := true.B
       batchCyc(b) := g(b) + 1.U
@@ -227,7 +234,7 @@ class MinresCore(val p: MinresParams) extends Module {
   // registers, set on the batch's third cycle (g = 2; until then they hold the largest count)
   private val imaxCyc = RegNext(RegNext(feed.imax) * p.cyclesPerIteration.U) // registered on both sides
   for (b <- 0 until 2) when(active(b) && g(b) === 2.U) {
-    gEnd(b)  := imaxCyc +& (p.batchCycles(0) - 1).U
+    gEnd(b)  := imaxCyc +& (p.batchCycles(0) - 2).U
     gFeed(b) := imaxCyc +& (p.cyclesPerIteration - 2).U
   }
 
@@ -285,8 +292,7 @@ class MinresCore(val p: MinresParams) extends Module {
     val pre = ops.delayTo(row, 0, ay.t - RL)
     mul(Timed(smem.get.read(1, adr2(pre.bank, pre.slot, inN(pre.e), N)), ay.t), ay)
   }
-  val rowY = ops.delayTo(row, 0, y.t)
-  ymem.write(Stages.delayValid(rowValid, y.t), adr1(rowY.slot, rowY.e), y.v)
+  ymem.write(Stages.delayValid(rowValid, y.t), adr1At(row, y.t), y.v)
   // delta = v_j . A v_j (warm form: (d v_j) . (A d v_j), the same sum on the feed's words)
   val dTerm = mul(Timed(sr(M - 1), 0), ay)
   val dAcc  = Module(new FStreamAcc(fmt, N, p.latAdd, p.shareAcc))
@@ -312,15 +318,14 @@ class MinresCore(val p: MinresParams) extends Module {
   val yIn   = Mux(bInit, bRhs, bY)
   val vjB   = Mux(bInit, zero, bVj)
   val vjm1B = Mux(bFirst, zero, bVjm1)
-  vpmem.write(bValid, adr1(bc.slot, bc.e), vjB)
+  vpmem.write(bValid, RegNext(adr1(bA1.slot, bA1.e)), vjB)
   // warm form, init pass: u = (b - 1 (d A z0)) - 0 0 = b - d A z0
   val dB    = Mux(bInit, if (p.warm) one else zero, delta(bc.slot))
   val mB    = if (p.warm) Mux(bInit, bY, bVj) else vjB
   val gB    = Mux(bInit, zero, gamR(bc.slot))
   val u     = sub(sub(Timed(yIn, 0), mul(Timed(dB, 0), Timed(mB, 0))), mul(Timed(gB, 0), Timed(vjm1B, 0)))
   require(u.t == p.latB, "pass B latency")
-  val bcU = ops.delayTo(bc, 0, u.t)
-  umem.write(Stages.delayValid(bValid, u.t), adr1(bcU.slot, bcU.e), u.v)
+  umem.write(Stages.delayValid(bValid, u.t), adr1At(bc, u.t), u.v)
   val nTerm = mul(u, u)
   val nAcc  = Module(new FStreamAcc(fmt, N, p.latAdd, p.shareAcc))
   nAcc.io.valid := Stages.delayValid(bValid, nTerm.t)
@@ -393,14 +398,14 @@ class MinresCore(val p: MinresParams) extends Module {
   val wNew  = div(sub(sub(vjC, mul(at0(a3R(cc.slot)), wjm1C)), mul(at0(a2R(cc.slot)), wjC)), at0(a1R(cc.slot)))
   val xNew  = add(xC, mul(at0(cetaR(cc.slot)), wNew))
   require(vNew.t == p.latCv && wNew.t == p.latCw && xNew.t == p.latCx, "pass C latency")
-  private val cV = ops.delayTo(cc, 0, vNew.t)
-  vmem.write(Stages.delayValid(cValid, vNew.t), adr1(cV.slot, cV.e), vNew.v)
+  vmem.write(Stages.delayValid(cValid, vNew.t), adr1At(cc, vNew.t), vNew.v)
   private val cW  = ops.delayTo(cc, 0, wNew.t)
   private val wEn = Stages.delayValid(cValid, wNew.t) && cW.j =/= 0.U
-  for (k <- 0 until 2) wmem(k).write(wEn && cW.j(0) =/= k.U, adr1(cW.slot, cW.e), wNew.v) // w_{j+1}: bank (j+1) % 2
+  private val wAdr = adr1At(cc, wNew.t)
+  for (k <- 0 until 2) wmem(k).write(wEn && cW.j(0) =/= k.U, wAdr, wNew.v) // w_{j+1}: bank (j+1) % 2
   private val cX  = ops.delayTo(cc, 0, xNew.t)
   private val xEn = Stages.delayValid(cValid, xNew.t) && cX.j =/= 0.U
-  xmem.write(xEn, adr2(cX.bank, cX.slot, cX.e, N), xNew.v)
+  xmem.write(xEn, adr2At(cc, xNew.t), xNew.v)
   when(xEn && !finite(xNew.v)) { xBad(cX.bank * P.U + cX.slot) := true.B }
 
   // ---- output: per problem the id word, then z (N words from xmem). Words are issued RL cycles ahead of their
