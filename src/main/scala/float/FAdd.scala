@@ -76,12 +76,16 @@ class FAdd(val fmt: FloatFormat, val latency: Int) extends Module {
     val dropped = Bool()
   }
   private val (wide, narrow) = (0 until dW).reverse.splitAt((dW + 1) / 2)
-  private val dCap = Mux(r0.diff > extW.U, extW.U, r0.diff(dW - 1, 0))
+  // a shift by 2^dW or more (a high bit of diff set) clears the value into the sticky bit, as every shift of at
+  // least extW does: the levels take diff's low bits, with no compare ahead of them
+  private val x0   = Cat(r0.smallSig, 0.U(3.W))
+  private val dBig = if (fmt.expW > dW) r0.diff(fmt.expW - 1, dW).orR else false.B
+  private val dLow = r0.diff(dW - 1, 0)
   val s1 = Wire(new Align)
-  private val (v1, st1) = Shift.rightStickyLevels(Cat(r0.smallSig, 0.U(3.W)), dCap, wide, false.B)
+  private val (v1, st1) = Shift.rightStickyLevels(Mux(dBig, 0.U(extW.W), x0), dLow, wide, dBig && x0.orR)
   s1.p       := r0.p
   s1.v       := v1
-  s1.d       := dCap
+  s1.d       := dLow
   s1.dropped := st1
   val r1 = stages.cut(1, s1)
 
