@@ -187,6 +187,7 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.Ma
     val rounded = UInt((m + 2).W)
     val inexact = Bool()
     val ovf     = Vec(4, Bool()) // field >= maxExpField if the significand adds c to it (c = 3 never occurs)
+    val fieldC  = Vec(3, UInt(eW.W)) // fieldM + c for c = 0, 1, 2, beside the rounding
   })
   s2.raw     := kept.raw
   s2.isZero  := kept.isZero
@@ -195,12 +196,13 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.Ma
   s2.rounded := kept.kept +& (kept.guard && (kept.rest || kept.kept(0)))
   s2.inexact := kept.guard || kept.rest
   for (c <- 0 until 4) s2.ovf(c) := kept.fieldM >= (fmt.maxExpField - math.min(c, 2)).U
+  for (c <- 0 until 3) s2.fieldC(c) := kept.fieldM + c.U
   val r2 = cut(s2)
 
-  // ---- pack (the significand's top bits, 0 to 2 with a rounding carry, add to the exponent field; the overflow
-  // test was made for each of the three beside the rounding)
+  // ---- pack (the significand's top bits, 0 to 2 with a rounding carry, add to the exponent field; the three
+  // sums and overflow tests were made beside the rounding, so the carry only selects)
   private val c        = r2.rounded(m + 1, m)
-  private val field    = r2.fieldM + c
+  private val field    = VecInit(r2.fieldC :+ (r2.fieldM + 3.U))(c)
   private val overflow = r2.ovf(c)
   private val raw      = r2.raw
   private val packed   = Cat(field(fmt.expW - 1, 0), r2.rounded(m - 1, 0))
