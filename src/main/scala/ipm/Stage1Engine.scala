@@ -13,7 +13,7 @@ import float.Stages
   * mpc_cores.ipm.isa.cycles when the streams do not stall (1 + the sum over the instructions of n + latency + 5); its
   * last result is written on the cycle after `done`, before any read of a program started on the `done`
   * cycle, so back-to-back programs run as one. IN takes words from `s_axis` (the format's word in the low bits
-  * of tdata), OUT writes them to `m_axis` (tlast on an instruction's last word) through a 4-word buffer; both
+  * of tdata), OUT writes them to `m_axis` (tlast on an instruction's last word) through an 8-word buffer; both
   * wait for the other side, the only data-dependent timing.
   *
   * Pipeline, one element per cycle:
@@ -25,6 +25,7 @@ import float.Stages
   *      launch) + the index or the table word, registered
   *   A  slot memory and constant ROMs read at them (one copy per operand a, b)
   *   R  memory words out, registered per bank of the slot memory (SlotMem) and in the constant ROMs (as the table ROMs)
+  *   Q  the words registered once more in the fabric next to their block RAMs, which lie far from the units
   *   S  bank select and operand select (slot or constant), registered at the inputs of the op's unit (each
   *      unit has its own operand registers, Stage1Alu)
   *   U  operands ready; into the unit of the op (Stage1Alu), result written latency(op) cycles later.
@@ -34,7 +35,7 @@ import float.Stages
   * table bases) before its launch, so a program's first instruction launches two cycles after `start` (one cycle
   * per program, Stage1Params.ProgramStart).
   * An instruction issues its n elements on consecutive cycles (IN: when a word is there; OUT: when the output
-  * buffer has room for the words in flight, a credit counter) and the next one issues latency + 6 cycles after
+  * buffer has room for the words in flight, a credit counter) and the next one issues latency + 7 cycles after
   * its last element, that is on the cycle its last result is written: its first read is three cycles after. The
   * sequencer decides from flags registered a cycle ahead (gap = 0 or 1, last element, last instruction, IN or
   * OUT), so no compare or adder lies between its registers and the issue. So instructions run
@@ -49,8 +50,8 @@ import float.Stages
   */
 class Stage1Engine(p: Stage1Params) extends Module {
   import Isa._
-  /** output buffer: one word per pipeline stage (G, M, A, R, S, U) and one more, so that OUT streams without a gap */
-  private val OutDepth = 7
+  /** output buffer: one word per pipeline stage (G, M, A, R, Q, S, U) and one more, so that OUT streams without a gap */
+  private val OutDepth = 8
   override def desiredName = p.moduleName
   private val w = p.fmt.width
   /** block RAMs as DP16KD with their output register where they have one (SlotMem, the registered ROMs) */
@@ -195,16 +196,16 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val tabA = tableRom("A", p.gatherA, 1)
   private val tabB = tableRom("B", p.gatherB, 2)
 
-  // ---- G: table words registered (the element in G, M, A, R and S belongs to `cur`: the next instruction
-  // launches at least 6 cycles after the last element issues); the operands' bases registered from the launch on
+  // ---- G: table words registered (the element in G, M, A, R, Q and S belongs to `cur`: the next instruction
+  // launches at least 7 cycles after the last element issues); the operands' bases registered from the launch on
   // the element's valid bit, index, last flag and input word travel beside it: `at(k)` is the element k stages
-  // after T (1: G, 2: M, 3: A, 4: R, 5: S, 6: U)
+  // after T (1: G, 2: M, 3: A, 4: R, 5: Q, 6: S, 7: U)
   private val eT = Wire(new Stage1Elem(w))
   eT.i    := iT
   eT.last := lastT
   eT.in   := s_axis.tdata(w - 1, 0)
-  private val at = (1 to 6).scanLeft(eT)((x, _) => RegNext(x))
-  private val vS = Stages.delayValid(issue, 5)
+  private val at = (1 to 7).scanLeft(eT)((x, _) => RegNext(x))
+  private val vS = Stages.delayValid(issue, 6)
   private val vU = RegNext(vS, false.B)
   private val iM = at(2).i
   private val aBase = RegNext(slotBase +& cur.a.addr)
@@ -231,15 +232,16 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val constB = if (p.constB) Rom.registered("Stage1ConstB", p.constWords, w, cbAdr, clock, ecp5) else 0.U(w.W)
 
   // ---- R: memory words out, registered (the slot memory's per bank, in SlotMem)
-  private val (constAR, constBR) = (constA, constB) // registered in their ROMs
+  // ---- Q: memory words registered once more, in the fabric next to their block RAMs (the slot memory's in SlotMem)
+  private val (constAR, constBR) = (RegNext(constA), RegNext(constB))
 
   // ---- S: bank and operand selected, registered
 
   // ---- U: operands, units, write-back (the element in U still belongs to `cur`: a new instruction is
   // loaded into `cur` at the end of its first issue cycle, at the earliest the cycle its predecessor's last
   // element is here)
-  private val eU    = at(6)
-  private val addrU = Stages.delay(dAdr, 3) // registered at M, here at U
+  private val eU    = at(7)
+  private val addrU = Stages.delay(dAdr, 4) // registered at M, here at U
   private val aS    = Mux(cur.a.inConst, constAR, slotA)
   private val bS    = Mux(cur.b.inConst, constBR, slotBw)
   private val aU    = RegEnable(aS, vS && curOut) // the OUT word; the units register their own operands

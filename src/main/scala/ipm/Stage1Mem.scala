@@ -18,7 +18,10 @@ import chisel3.util.{isPow2, log2Ceil}
   *
   * With `ecp5`, the banks are mem.Ecp5SdpRam: the output register is the DP16KD's own.
   *
-  * Read timing: the address of cycle t gives its word on cycle t + 2 (SlotMem.ReadLatency).
+  * A bank's word is registered once more in the fabric (next to its block RAMs, which lie far from the units that
+  * take the word), and the bank is selected after that register.
+  *
+  * Read timing: the address of cycle t gives its word on cycle t + 3 (SlotMem.ReadLatency).
   */
 class SlotMem(prefix: String, depth: Int, width: Int, copies: Int, bankWords: Int = SlotMem.BankWords,
     ecp5: Boolean = false) {
@@ -56,15 +59,15 @@ class SlotMem(prefix: String, depth: Int, width: Int, copies: Int, bankWords: In
   }
 
   def read(copy: Int, addr: UInt): UInt = {
-    val words = rams(copy).map(ram => ram.read(low(addr, ram)))
-    if (banks == 1) words.head else VecInit(words)(RegNext(RegNext(bank(addr))))
+    val words = rams(copy).map(ram => RegNext(ram.read(low(addr, ram))))
+    if (banks == 1) words.head else VecInit(words)(float.Stages.delay(bank(addr), SlotMem.ReadLatency))
   }
 }
 
 object SlotMem {
   /** words per bank: 2048 x 26 bits (e8m17) is three DP16KD in the 2048 x 9 mode */
   val BankWords   = 2048
-  val ReadLatency = 2
+  val ReadLatency = 3
 }
 
 /** A read-only memory with its words written into the emitted Verilog (mem.InitRam without writes): one
