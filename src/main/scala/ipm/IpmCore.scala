@@ -180,9 +180,6 @@ class IpmCore(val p: IpmParams) extends Module {
       when(takeId) {
         curC := headCh
         busyC(headCh) := true.B
-        tagC(headCh)  := s_axis.tdata(29, 0)
-        badC(headCh)  := false.B
-        t0C(headCh)   := now
         when(headChRaw >= slots.U) { chanErr := true.B }
         k := gCnt(curG)
         gOrd(curG * P.U +& gCnt(curG)) := headCh
@@ -297,11 +294,24 @@ class IpmCore(val p: IpmParams) extends Module {
   mrIn.io.deq.ready  := !inExt && st1.s_axis.tready
   s_axis.tready := takeId || inExt && extCnt =/= 0.U && extIn.io.enq.ready
   mr.m_axis.tready := !mrData || mrIn.io.enq.ready
+  // the id word's tag, start cycle and cleared flag are written a cycle after its handshake, and an x word's
+  // non-finite flag a cycle after its own (all read at the answer, long after): the handshake meets registers, not
+  // the channel decode of every tag and start cycle
+  private val idTaken = RegNext(takeId, false.B)
+  private val idCh    = RegNext(headCh)
+  private val idTag   = RegNext(s_axis.tdata(29, 0))
+  private val idT0    = RegNext(now)
+  when(idTaken) {
+    tagC(idCh) := idTag
+    badC(idCh) := false.B
+    t0C(idCh)  := idT0
+  }
+  private val xBadSet = RegNext(s_axis.fire && extCnt =/= 0.U && !finite(s_axis.tdata(W - 1, 0)), false.B)
+  when(xBadSet) { badC(curC) := true.B }
   when(s_axis.fire) {
     val lastWord = extCnt === (p.inWords - 1).U
     when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
     extCnt := Mux(lastWord, 0.U, extCnt + 1.U)
-    when(extCnt =/= 0.U && !finite(s_axis.tdata(W - 1, 0))) { badC(curC) := true.B }
   }
   when(mr.m_axis.fire) {
     val nxt = Mux(mrCnt === (p.mr.outWords - 1).U, 0.U, mrCnt + 1.U)
@@ -351,7 +361,7 @@ class IpmCore(val p: IpmParams) extends Module {
   private val resCur = RegNext(resC(curC))
   private val t0Cur  = RegNext(t0C(curC))
   private val conv   = RegNext(atMost(outMu, muTol(W - 1, 0)) && atMost(resCur, resTol(W - 1, 0)))
-  private val bad    = outBad || badC(curC)
+  private val bad    = outBad || RegNext(badC(curC)) // curC's flag settled long before its answer
   private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)
   m_axis.tvalid := Mux(cnt0, outArmed, Mux(oPass, outExt && st1.m_axis.tvalid, true.B))
   m_axis.tdata  := Mux(cnt0, tagC(curC).pad(32),
