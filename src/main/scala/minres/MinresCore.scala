@@ -256,20 +256,16 @@ class MinresCore(val p: MinresParams) extends Module {
   // ---- the sparse row (mpc_cores/minres/band.py): the row's key (position in the period, or a row of the last
   // stage) selects, per slot, an offset o of the window and a coefficient: a constant, or the variable diagonal
   // (dmem) at o = 0. Operands are registered before the products (latMatvec counts that cycle).
-  private val keyW   = log2Ceil(p.keys)
-  private def keyOf(c: MinresCtl): UInt =
-    Mux(c.k === T.U, (p.period).U(keyW.W) +& c.r, c.r.pad(keyW))(keyW - 1, 0)
-  // the row's key a cycle ahead (at rowPre), so that every per-key select below is a register at the row
-  private val keyPre = RegNext(keyOf(rowAdr))
   private val dRead  = dmem.read(0, adr2(rowAdr.bank, rowAdr.slot, Mux(rowAdr.r < n.U, 0.U, rowAdr.prim), nPrimal))
   val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd, p.dotMove, p.target))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
-  private def perKey[T <: Data](f: Int => T): T = RegNext(VecInit((0 until p.keys).map(f))(keyPre))
-  /** f of the row key of c, from c's fields (the last stage's rows, or the position in the period) without the
-    * key's adder */
+  /** f of the row key of c (q: a position in the period, or period + a row of the last stage), read from c's
+    * fields (no key adder) */
   private def byKey[T <: Data](f: Int => T, c: MinresCtl): T =
     Mux(c.k === T.U, VecInit((0 until p.keys - p.period).map(r => f(p.period + r)))(c.r),
       VecInit((0 until p.period).map(f))(c.r))
+  /** f of the row's key, registered at the row from the row's fields a cycle ahead */
+  private def perKey[T <: Data](f: Int => T): T = RegNext(byKey(f, rowPre))
   for (s <- 0 until p.K) {
     val cands = p.candidates(s)
     val sel   = perKey(q => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W))
