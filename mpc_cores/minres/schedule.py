@@ -21,6 +21,8 @@ DOT_MOVE = 1
 # the register between a shared operator's operand select and the operator (minres.StaticSchedule.OperandReg), and
 # between an operation's operands and its own operator in the passes (minres.TimedOps.OperandReg)
 OPERAND_REG = 1
+# the batch's start decision registered before the passes' counters (MinresParams.StartReg): a cycle per batch
+START_REG = 1
 
 
 def _log2ceil(x: int) -> int:
@@ -96,4 +98,4 @@ def schedule(N: int, M: int, K: int, lat: dict, P: int, warm: bool) -> dict:
     need, P_, S = plan(lat_scalar)
     t_c = t_s + lat_scalar + 1
     return {"P": P_, "P_eq15": math.ceil(need / N), "slot_cycles": S, "cycles_per_iteration": P_ * S,
-            "batch_cycles_imax0": P_ * S - S + t_c + N + lat_cx}
+            "batch_cycles_imax0": P_ * S - S + t_c + N + lat_cx + START_REG}

@@ -210,19 +210,20 @@ class MinresCore(val p: MinresParams) extends Module {
       batchCyc(b) := g(b) + 1.U
     }
   }
-  /** the cycle t of the batch started last (t = 0: its start), from a flag registered a cycle ahead: a pass starts
-    * within the first iteration, when no other batch can start (its feed is not done), so the bank a cycle ahead
-    * is the bank of that cycle */
+  /** the cycle t of the batch started last (t = 0: the cycle after its start decision, MinresParams.StartReg),
+    * from a flag registered a cycle ahead: a pass starts within the first iteration, when no other batch can
+    * start (its feed is not done), so the bank a cycle ahead is the bank of that cycle */
+  private val go = RegNext(startBatch, false.B)
   private def startAt(t: Int): Bool =
-    if (t == 0) startBatch
-    else if (t == 1) RegNext(startBatch, false.B)
-    else RegNext(active(curBank) && g(curBank) === (t - 2).U, false.B)
+    if (t == 0) go else RegNext(active(curBank) && g(curBank) === (t - 1).U, false.B)
+  /** the batch's I_MR, latched at its start decision */
+  private val imaxS = RegEnable(imaxIn, startBatch)
 
   // The memories' words arrive RL cycles after their address: passes B and C count RL + 1 cycles ahead
   // (counters pbA and pcA; their addresses a cycle later, registered) and their words and control meet at the offsets tB and tC (bc, cc). The feed's
   // words enter the shift register RL cycles after its count (tRow counts them).
   private val RL = VecRam.ReadLatency
-  val feed = new PassCounter(p); feed.tick(startAt(0), imaxIn, nextBank)
+  val feed = new PassCounter(p); feed.tick(startAt(0), imaxS, curBank)
   val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - RL - 1), feed.imax, curBank)
   val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, curBank)
   val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - RL - 1), feed.imax, curBank)
@@ -232,7 +233,7 @@ class MinresCore(val p: MinresParams) extends Module {
     (RegNext(pc.c), RegNext(adr1(pc.c.slot, inN(pc.c.e))), RegNext(adr2(pc.c.bank, pc.c.slot, inN(pc.c.e), N)))
   // the batch's last cycles, I_MR P S + c: from the I_MR the feed latched at the start, the multiplier between
   // registers, set on the batch's third cycle (g = 2; until then they hold the largest count)
-  private val imaxCyc = RegNext(RegNext(feed.imax) * p.cyclesPerIteration.U) // registered on both sides
+  private val imaxCyc = RegNext(imaxS * p.cyclesPerIteration.U) // registered on both sides
   for (b <- 0 until 2) when(active(b) && g(b) === 2.U) {
     gEnd(b)  := imaxCyc +& (p.batchCycles(0) - 2).U
     gFeed(b) := imaxCyc +& (p.cyclesPerIteration - 2).U
@@ -383,6 +384,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private val cc     = RegNext(cA1)
   private val cLe1   = RegNext(cA1.j <= 1.U)
   private val cLe2   = RegNext(cA1.j <= 2.U)
+  private val cJnz   = RegNext(cA1.j =/= 0.U) // not the init pass: w and x are written (delayed to their writes)
   private val cValid = Stages.delayValid(pcA.valid, RL + 1)
   private val par    = cc.j(0)  // bank of w_j; w_{j-1} and w_{j+1} are in the other
   val uC    = at0(cU)
@@ -396,11 +398,11 @@ class MinresCore(val p: MinresParams) extends Module {
   require(vNew.t == p.latCv && wNew.t == p.latCw && xNew.t == p.latCx, "pass C latency")
   vmem.write(Stages.delayValid(cValid, vNew.t), adr1At(cc, vNew.t), vNew.v)
   private val cW  = ops.delayTo(cc, 0, wNew.t)
-  private val wEn = Stages.delayValid(cValid, wNew.t) && cW.j =/= 0.U
+  private val wEn = Stages.delayValid(cValid, wNew.t) && Stages.delay(cJnz, wNew.t)
   private val wAdr = adr1At(cc, wNew.t)
   for (k <- 0 until 2) wmem(k).write(wEn && cW.j(0) =/= k.U, wAdr, wNew.v) // w_{j+1}: bank (j+1) % 2
   private val cX  = ops.delayTo(cc, 0, xNew.t)
-  private val xEn = Stages.delayValid(cValid, xNew.t) && cX.j =/= 0.U
+  private val xEn = Stages.delayValid(cValid, xNew.t) && Stages.delay(cJnz, xNew.t)
   xmem.write(xEn, adr2At(cc, xNew.t), xNew.v)
   when(xEn && !finite(xNew.v)) { xBad(cX.bank * P.U + cX.slot) := true.B }
 

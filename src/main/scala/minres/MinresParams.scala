@@ -144,7 +144,7 @@ case class MinresParams(
   // MinresCore's feed flag: the compare value (set on the batch's third cycle) lies beyond it
   require(cyclesPerIteration >= 5, s"an iteration must take at least 5 cycles: got P S = $cyclesPerIteration")
   /** cycles of a batch of P problems: the init pass and Imax iterations, up to the last x write */
-  def batchCycles(imax: Int): Int = (imax + 1) * P * S - S + tC + N + latCx
+  def batchCycles(imax: Int): Int = (imax + 1) * P * S - S + tC + N + latCx + MinresParams.StartReg
 
   val multipliers: Int = K + 1 + 3 + (if (sharedScalar) 1 else 10) + 3 + (if (warm) 2 else 0) // matvec, delta, B, scalar, C, scaling
   /** "binary32", "binary16" or e<E>m<M> (the names of mpc_cores/minres/design.py) */
@@ -174,6 +174,8 @@ case class MinresParams(
 }
 
 object MinresParams {
+  /** cycles from a batch's start decision to its time 0: the decision is registered before the passes' counters */
+  val StartReg = 1
   def fromJson(text: String): MinresParams = {
     val j = ujson.read(text)
     require(j("core").str == "minres", s"not a MINRES configuration: core=${j("core").str}")
