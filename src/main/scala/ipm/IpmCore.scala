@@ -357,11 +357,13 @@ class IpmCore(val p: IpmParams) extends Module {
   private val oStat = RegInit(false.B)
   // registered: mu is captured at word m + 1 and the residual long before the answer, and the status word comes
   // at least two handshakes after mu (no compare between the answer's registers and its status word)
-  // curC's residual and start cycle, registered: curC holds from the output program's start to the answer's end
-  private val resCur = RegNext(resC(curC))
-  private val t0Cur  = RegNext(t0C(curC))
+  // curC's residual, start cycle and flag, read through a copy of curC and registered: curC holds from the
+  // output program's start to the answer's end, and these are read at its last words
+  private val curCR  = RegNext(curC)
+  private val resCur = RegNext(resC(curCR))
+  private val t0Cur  = RegNext(t0C(curCR))
   private val conv   = RegNext(atMost(outMu, muTol(W - 1, 0)) && atMost(resCur, resTol(W - 1, 0)))
-  private val bad    = outBad || RegNext(badC(curC)) // curC's flag settled long before its answer
+  private val bad    = outBad || RegNext(badC(curCR)) // curC's flag settled long before its answer
   private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)
   m_axis.tvalid := Mux(cnt0, outArmed, Mux(oPass, outExt && st1.m_axis.tvalid, true.B))
   m_axis.tdata  := Mux(cnt0, tagC(curC).pad(32),
