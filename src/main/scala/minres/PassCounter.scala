@@ -35,6 +35,11 @@ class PassCounter(p: MinresParams) {
   val imax = RegInit(0.U(16.W))
   /** element 0 is next (a flag beside the count) */
   val atE0 = RegInit(false.B)
+  // the count's last element, last slot and last iteration as flags beside it, set a cycle ahead, so that the
+  // counter's decisions are registers
+  private val lastE    = RegInit(false.B)
+  private val lastSlot = RegInit(false.B)
+  private val lastJ    = RegInit(false.B)
   /** an element of the matrix order is processed this cycle */
   def valid: Bool = run && c.e < p.N.U
   /** element 0 of a slot is processed this cycle (valid && c.e === 0, from registers) */
@@ -46,9 +51,12 @@ class PassCounter(p: MinresParams) {
       c.bank := bank
       imax   := imaxIn
       atE0   := true.B
+      lastE    := (p.S == 1).B
+      lastSlot := (p.P == 1).B
+      lastJ    := imaxIn === 0.U
     }.elsewhen(run) {
-      val lastE = c.e === (p.S - 1).U
-      atE0 := lastE
+      atE0  := lastE
+      lastE := (if (p.S == 1) true.B else !lastE && c.e === (p.S - 2).U)
       c.e := Mux(lastE, 0.U, c.e + 1.U)
       // position in the MPC structure: rows r = 0..2n+m-1 of stages k = 0..T, primal rows counted
       val lastR = c.r === (p.period - 1).U
@@ -56,11 +64,12 @@ class PassCounter(p: MinresParams) {
       c.k    := Mux(lastE, 0.U, Mux(lastR, c.k + 1.U, c.k))
       c.prim := Mux(lastE, 0.U, Mux(c.r >= p.n.U, c.prim + 1.U, c.prim))
       when(lastE) {
-        val lastSlot = c.slot === (p.P - 1).U
-        c.slot := Mux(lastSlot, 0.U, c.slot + 1.U)
+        c.slot   := Mux(lastSlot, 0.U, c.slot + 1.U)
+        lastSlot := (if (p.P == 1) true.B else !lastSlot && c.slot === (p.P - 2).U)
         when(lastSlot) {
-          c.j := c.j + 1.U
-          when(c.j === imax) { run := false.B }
+          c.j   := c.j + 1.U
+          lastJ := c.j + 1.U === imax
+          when(lastJ) { run := false.B }
         }
       }
     }
