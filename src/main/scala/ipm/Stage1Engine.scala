@@ -179,8 +179,9 @@ class Stage1Engine(p: Stage1Params) extends Module {
     slotBase := slotBases(slotR)
   }
 
-  // the table address of the element at T (the instruction's base + iT) is kept in a register (the next element's address: the
-  // instruction's base + 1 registered with it at fetch) so that no adder lies between the issue decision and the ROM
+  // the table address of the element at T (the instruction's base + iT) is kept in a register (the next
+  // element's address; the instruction's base + 1 is registered with it at fetch), so that no adder lies between
+  // the issue decision and the ROMs
   private val nxtTab1 = RegNext(VecInit(bases(word).map(_ + 1.U)))
   private val tabAdr  = Reg(Vec(3, UInt(17.W)))
   when(launch) {

@@ -43,7 +43,8 @@ case class Stage1Params(
 
   val code: Seq[BigInt]  = programs.flatMap(_._2)
   val instrs: Seq[Instr] = code.map(decode)
-  require(programs.forall(_._2.nonEmpty), s"Stage 1 programs must not be empty: ${programs.filter(_._2.isEmpty).map(_._1).mkString(", ")}")
+  require(programs.forall(_._2.nonEmpty),
+    s"Stage 1 programs must not be empty: ${programs.filter(_._2.isEmpty).map(_._1).mkString(", ")}")
   val entries: Seq[Int]  = programs.map(_._2.length).scanLeft(0)(_ + _)
   val constLen: Int      = constWords.length
 

@@ -220,8 +220,9 @@ class MinresCore(val p: MinresParams) extends Module {
   private val imaxS = RegEnable(imaxIn, startBatch)
 
   // The memories' words arrive RL cycles after their address: passes B and C count RL + 1 cycles ahead
-  // (counters pbA and pcA; their addresses a cycle later, registered) and their words and control meet at the offsets tB and tC (bc, cc). The feed's
-  // words enter the shift register RL cycles after its count (tRow counts them).
+  // (counters pbA and pcA; their addresses a cycle later, registered) and their words and control meet at the
+  // offsets tB and tC (bc, cc). The feed's words enter the shift register RL cycles after its count (tRow counts
+  // them).
   private val RL = VecRam.ReadLatency
   val feed = new PassCounter(p); feed.tick(startAt(0), imaxS, curBank)
   val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - RL - 1), feed.imax, curBank)
@@ -277,7 +278,8 @@ class MinresCore(val p: MinresParams) extends Module {
   private def perKey[T <: Data](f: Int => T): T = RegNext(byKey(f, rowPre))
   for (s <- 0 until p.K) {
     val cands = p.candidates(s)
-    val sel   = perKey(q => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W))
+    val selOf = (q: Int) => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W)
+    val sel   = perKey(selOf)
     val diag  = perKey(q => p.offsets(q)(s).contains(0).B)
     val coef  = perKey(q => p.coefs(q)(s).U(W.W))
     // the window word at offset o
@@ -285,7 +287,7 @@ class MinresCore(val p: MinresParams) extends Module {
     // whether the slot holds a term: it is used and column e + o is inside the matrix, from compares registered
     // two cycles ahead and the key's offset a cycle ahead, so that the operands' clear is one register
     val insPre  = RegNext(VecInit(cands.map(o => if (o >= 0) rowAdr.e < (N - o).U else rowAdr.e >= (-o).U)))
-    val selPre  = RegNext(byKey(q => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W), rowAdr))
+    val selPre  = RegNext(byKey(selOf, rowAdr))
     val usedPre = RegNext(byKey(q => p.offsets(q)(s).isDefined.B, rowAdr))
     val ok      = RegNext(usedPre && insPre(selPre))
     dot.io.a(s) := RegNext(Mux(ok, Mux(diag, dRead, coef), zero))
