@@ -355,13 +355,13 @@ class IpmCore(val p: IpmParams) extends Module {
   private val oPass = RegInit(false.B)
   private val oRes  = RegInit(false.B)
   private val oStat = RegInit(false.B)
-  // registered: mu is captured at word m + 1 and the residual long before the answer, and the status word comes
-  // at least two handshakes after mu (no compare between the answer's registers and its status word)
   // curC's residual, start cycle and flag, read through a copy of curC and registered: curC holds from the
   // output program's start to the answer's end, and these are read at its last words
   private val curCR  = RegNext(curC)
   private val resCur = RegNext(resC(curCR))
   private val t0Cur  = RegNext(t0C(curCR))
+  // registered: mu is captured at word m + 1 and the residual long before the answer, and the status word comes
+  // at least two handshakes after mu (no compare between the answer's registers and its status word)
   private val conv   = RegNext(atMost(outMu, muTol(W - 1, 0)) && atMost(resCur, resTol(W - 1, 0)))
   private val bad    = outBad || RegNext(badC(curCR)) // curC's flag settled long before its answer
   private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)

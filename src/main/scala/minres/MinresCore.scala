@@ -192,7 +192,7 @@ class MinresCore(val p: MinresParams) extends Module {
     started(nextBank) := true.B
     active(nextBank)  := true.B
     g(nextBank)       := 0.U
-    gEnd(nextBank)    := ~0.U(32.W) // set on g = 3, from the product
+    gEnd(nextBank)    := ~0.U(32.W) // set from the product when it is ready
     gFeed(nextBank)   := ~0.U(32.W)
     fed(nextBank)     := false.B
     for (q <- 0 until P) xBad(nextBank * P.U + q.U) := false.B
@@ -232,18 +232,13 @@ class MinresCore(val p: MinresParams) extends Module {
     * read addresses (in a slot's vector; in a bank's slot's vector) registered, so no adder meets a memory */
   private def addressPhase(pc: PassCounter): (MinresCtl, UInt, UInt) =
     (RegNext(pc.c), RegNext(adr1(pc.c.slot, inN(pc.c.e))), RegNext(adr2(pc.c.bank, pc.c.slot, inN(pc.c.e), N)))
-  // the batch's last cycles, I_MR P S + c: from the I_MR latched at the start decision times a constant, on a
-  // MULT18X18D with its three registers on the ECP5, else one multiplier between registers; set on the batch's
-  // fourth cycle (g = 3; until then they hold the largest count)
-  private val imaxCyc: UInt =
-    if (p.target == dsp.Target.Ecp5 && p.cyclesPerIteration < (1 << 18)) {
-      val m = Module(new dsp.Ecp5Mult18(signed = false))
-      m.io.clk := clock
-      m.io.a   := imaxS.pad(18)
-      m.io.b   := p.cyclesPerIteration.U(18.W)
-      m.io.p(33, 0)
-    } else RegNext(imaxS * p.cyclesPerIteration.U)
-  for (b <- 0 until 2) when(active(b) && g(b) === 3.U) {
+  // the batch's last cycles, I_MR P S + c: the I_MR latched at the start decision times a constant, a product of
+  // the target's pipelined multiplier (on the ECP5 a MULT18X18D with its registers), set when it is ready on the
+  // batch's fourth cycle (g = 3; until then they hold the largest count)
+  private val cpi     = p.cyclesPerIteration.S((BigInt(p.cyclesPerIteration).bitLength + 1).W)
+  private val latCyc  = p.target.minLatency(imaxS.getWidth + 1, cpi.getWidth).max(3)
+  private val imaxCyc = fixed.FixedOps.mulPipelined(imaxS.zext, cpi, latCyc, target = p.target).asUInt
+  for (b <- 0 until 2) when(active(b) && g(b) === latCyc.U) {
     gEnd(b)  := imaxCyc +& (p.batchCycles(0) - 2).U
     gFeed(b) := imaxCyc +& (p.cyclesPerIteration - 2).U
   }

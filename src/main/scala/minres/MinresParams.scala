@@ -141,7 +141,8 @@ case class MinresParams(
   val S: Int = math.max(N, (need + P - 1) / P)
   require(!sharedScalar || S > latScalar, "the shared scalar part must finish within a slot")
   val cyclesPerIteration: Int = P * S
-  // MinresCore's feed flag: the compare value (set on the batch's fourth cycle) lies beyond it
+  // MinresCore's feed flag: the compare value (set on the batch's fourth cycle; later only for a P S beyond 2^17)
+  // lies beyond it
   require(cyclesPerIteration >= 6, s"an iteration must take at least 6 cycles: got P S = $cyclesPerIteration")
   /** cycles of a batch of P problems: the init pass and Imax iterations, up to the last x write */
   def batchCycles(imax: Int): Int = (imax + 1) * P * S - S + tC + N + latCx + MinresParams.StartReg
