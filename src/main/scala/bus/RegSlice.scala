@@ -19,13 +19,14 @@ class RegSlice[T <: Data](gen: T) extends Module {
   io.enq.ready := !skidV
   io.deq.valid := outV
   io.deq.bits  := outD
+  // the skid register follows the input while it is empty, so its enable is a register (not the handshake)
+  when(!skidV) { skidD := io.enq.bits }
   when(io.deq.ready || !outV) { // the output register takes a word (or empties)
     outV  := skidV || io.enq.valid
     outD  := Mux(skidV, skidD, io.enq.bits)
     skidV := false.B
   }.elsewhen(io.enq.fire) {     // the output stalls: the word waits in the skid register
     skidV := true.B
-    skidD := io.enq.bits
   }
 }
 

@@ -18,6 +18,8 @@ class FAdd(val fmt: FloatFormat, val latency: Int) extends Module {
   val sub       = IO(Input(Bool()))
   val out_valid = IO(Output(Bool()))
   val out       = IO(Output(UInt(fmt.width.W)))
+  /** latency >= 1: `out` a cycle early, for a register beside the output's (an accumulator's feedback) */
+  val outEarly  = if (latency >= 1) Some(IO(Output(UInt(fmt.width.W)))) else None
   val flags     = IO(Output(new FloatFlags))
 
   override def desiredName = s"FAdd_${fmt.tag}_l$latency"
@@ -124,6 +126,7 @@ class FAdd(val fmt: FloatFormat, val latency: Int) extends Module {
   rp.in        := r3.raw
   rp.cap.get   := r3.cap
   out          := rp.out
+  outEarly.foreach(_ := rp.outEarly.get)
   flags        := rp.flags
   out_valid    := Stages.delayValid(in_valid, latency)
 }

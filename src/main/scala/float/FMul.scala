@@ -8,10 +8,11 @@ import dsp.{Ecp5Mult18, Target}
   *
   * Steps (`FMul.weights`): classify and pick the operand to normalise; its leading-zero normalisation, two
   * levels a step; the exponent as the right shift needs it (a register after it lands on the multiplier's
-  * inputs); the significand product (wider than 18 x 18: registered partial products, then their sum); the
-  * product cut to its top manW + 3 bits and a sticky bit; the 1-bit normalisation and the shift into the
-  * subnormal range, both as one right shift that drops its bits into the sticky bit (wide levels, then narrow
-  * ones); round to nearest even; exponent field with the rounding carry, overflow; specials and flags.
+  * inputs); the significand product (wider than 18 x 18: registered partial products, then their sum) beside
+  * the operands' trailing zeros; the product cut to its top manW + 3 bits, and the sticky bit of each shift it
+  * may take from the trailing zeros; the 1-bit normalisation and the shift into the subnormal range, both as one
+  * right shift (wide levels, then narrow ones); round to nearest even; exponent field with the rounding carry,
+  * overflow; specials and flags.
   *
   * Why it is exact: one normaliser suffices. If exactly one operand is subnormal, it is normalised (its leading
   * one moved to the hidden bit), and the product of two [1, 2) significands lies in [1, 4): its MSB or the bit
@@ -47,6 +48,8 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   private val fieldW = fmt.expW + 2          // exponent field before the overflow test, with its carry
   // signed width of the product's biased exponent: from 3 - bias - manW (two subnormals) to 2^(expW+1) - bias
   private val pW     = math.max(fmt.expW + 2, log2Ceil(fmt.bias + m + 1) + 1)
+  private val tzW    = log2Ceil(2 * w + 1)
+  private val lowW   = 2 * w - winW          // product bits below the window
 
   /** What decides the result besides the significand. */
   class Special extends Bundle {
@@ -121,9 +124,12 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   // in a step of their own
   class Prod extends Bundle {
     val prod = UInt((2 * w).W)
+    val tz   = UInt(tzW.W) // the product's trailing zeros (2 w when zero), from the operands'
     val e    = new Expo
     val spc  = new Special
   }
+  private def tz(v: UInt): UInt = Mux(v === 0.U, w.U, PriorityEncoder(v))
+  private def tzSum(x: UInt, y: UInt): UInt = tz(x) +& tz(y)
   private val prod: Prod = if (onDsp) {
     // the DSP's input registers stand for r1's x and y, its output register for this step's; the pipeline
     // register between them is the cycle the other fields wait here
@@ -131,15 +137,18 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     dsp.io.clk := clock
     dsp.io.a   := s1.x.pad(18)
     dsp.io.b   := s1.y.pad(18)
-    val late = cut(RegNext(r1)) // its x and y are unused: the DSP holds them
+    val pipe = RegNext(r1) // its x and y only give the trailing zeros: the DSP holds them
+    val late = cut(pipe)
     val o = Wire(new Prod)
     o.prod := dsp.io.p(2 * w - 1, 0)
+    o.tz   := stages.cut(step - 1, tzSum(pipe.x, pipe.y))
     o.e    := late.e
     o.spc  := late.spc
     o
   } else if (w <= FMul.dspW) {
     val s = Wire(new Prod)
     s.prod := r1.x * r1.y
+    s.tz   := tzSum(r1.x, r1.y)
     s.e    := r1.e
     s.spc  := r1.spc
     cut(s)
@@ -147,6 +156,7 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     val l  = w - FMul.dspW // low limb bits
     class Parts extends Bundle {
       val hh  = UInt((2 * FMul.dspW).W)
+      val tz  = UInt(tzW.W)
       val hl  = UInt((FMul.dspW + l).W)
       val lh  = UInt((FMul.dspW + l).W)
       val ll  = UInt((2 * l).W)
@@ -159,27 +169,35 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     pp.hl  := xh * yl
     pp.lh  := xl * yh
     pp.ll  := xl * yl
+    pp.tz  := tzSum(r1.x, r1.y)
     pp.e   := r1.e
     pp.spc := r1.spc
     val rp = cut(pp)
     val s = Wire(new Prod)
     s.prod := ((rp.hh ## rp.ll) + ((rp.hl +& rp.lh) << l))(2 * w - 1, 0)
+    s.tz   := rp.tz
     s.e    := rp.e
     s.spc  := rp.spc
     cut(s)
   }
 
-  // ---- the product cut to its top winW bits and the OR of the rest
+  // ---- the product cut to its top winW bits. The sticky bit of the right shift below (shift 0 .. winW) is the OR
+  // of the product's bits under lowW + shift, which are all zero exactly when the product has that many trailing
+  // zeros: tz(x y) = tz(x) + tz(y), compared here for the three shifts it can take (shTiny, 0, 1), so that no OR of
+  // the product's bits follows the multiplier
   val s2 = Wire(new Bundle {
-    val win    = UInt(winW.W)
-    val sticky = Bool()
-    val e      = new Expo
-    val spc    = new Special
+    val win     = UInt(winW.W)
+    val stTiny  = Bool() // sticky after a shift of shTiny
+    val stShift = Vec(2, Bool()) // after a shift of 0, 1
+    val e       = new Expo
+    val spc     = new Special
   })
-  s2.win    := prod.prod(2 * w - 1, 2 * w - winW)
-  s2.sticky := (if (2 * w > winW) prod.prod(2 * w - winW - 1, 0).orR else false.B)
-  s2.e      := prod.e
-  s2.spc    := prod.spc
+  s2.win        := prod.prod(2 * w - 1, 2 * w - winW)
+  s2.stTiny     := prod.tz < (lowW.U +& prod.e.shTiny)
+  s2.stShift(0) := prod.tz < lowW.U
+  s2.stShift(1) := prod.tz < (lowW + 1).U
+  s2.e          := prod.e
+  s2.spc        := prod.spc
   val r2 = cut(s2)
 
   // ---- one right shift normalises by one bit or moves into the subnormal range: its wide levels, then the
@@ -196,11 +214,11 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   private val top   = r2.win(winW - 1)
   private val tiny  = r2.e.low || (r2.e.edge && !top)
   private val shift = Mux(r2.e.low, r2.e.shTiny, (r2.e.edge || top).asUInt)
-  private val (shA, dropA) = Shift.rightStickyLevels(r2.win, shift, wide, r2.sticky)
+  private val (shA, _) = Shift.rightStickyLevels(r2.win, shift, wide, false.B)
   val sa = Wire(new Shifting)
   sa.v      := shA
   sa.shift  := shift
-  sa.sticky := dropA
+  sa.sticky := Mux(r2.e.low, r2.stTiny, r2.stShift((r2.e.edge || top).asUInt))
   sa.tiny   := tiny
   sa.fieldM := Mux(tiny, 0.U, r2.e.base + top)
   sa.spc    := r2.spc
@@ -214,10 +232,10 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     val fieldM = UInt(fieldW.W)
     val spc    = new Special
   })
-  private val (sh, dropped) = Shift.rightStickyLevels(ra.v, ra.shift, narrow, ra.sticky)
+  private val (sh, _) = Shift.rightStickyLevels(ra.v, ra.shift, narrow, false.B)
   s3.kept   := sh(w, 1)
   s3.guard  := sh(0)
-  s3.sticky := dropped
+  s3.sticky := ra.sticky
   s3.tiny   := ra.tiny
   s3.fieldM := ra.fieldM
   s3.spc    := ra.spc

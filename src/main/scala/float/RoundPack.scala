@@ -61,6 +61,8 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.Ma
   /** tinyExact only: in.exp + bias - 1 (>= 0), the normaliser's cap. */
   val cap = if (tinyExact) Some(IO(Input(UInt(fmt.expW.W)))) else None
   val out = IO(Output(UInt(fmt.width.W)))
+  /** with a register after the last step: `out` a cycle early (the input of its last register) */
+  val outEarly = if (regs.last >= 1) Some(IO(Output(UInt(fmt.width.W)))) else None
   val flags = IO(Output(new FloatFlags))
 
   override def desiredName = s"RoundPack_${fmt.tag}_s$sigW" + (if (tinyExact) "_x" else "") +
@@ -220,6 +222,7 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.Ma
   f.inexact   := !special && (r2.inexact || overflow)
   private val last = regs(step)
   out   := Stages.delay(o, last)
+  outEarly.foreach(_ := Stages.delay(o, last - 1))
   flags := Stages.delay(f, last)
   require(step + 1 == nSteps, s"RoundPack: $step steps built, ${nSteps - 1} expected before the last")
 }

@@ -345,7 +345,7 @@ class IpmCore(val p: IpmParams) extends Module {
   }
 
   val outBad = Reg(Bool())
-  val outMu  = Reg(UInt(W.W))
+  val muOk   = Reg(Bool()) // the answer's mu at most MU_TOL
   private val oLen   = Mux(outAll, (p.outWordsAll - 3).U, (p.outWords - 3).U) // Stage 1's words of the answer
   // the answer's word kinds as flags of outCnt, set from compares of its value before a handshake (so that no
   // compare lies between the count and m_axis, nor between tready and what the handshake updates):
@@ -360,9 +360,9 @@ class IpmCore(val p: IpmParams) extends Module {
   private val curCR  = RegNext(curC)
   private val resCur = RegNext(resC(curCR))
   private val t0Cur  = RegNext(t0C(curCR))
-  // registered: mu is captured at word m + 1 and the residual long before the answer, and the status word comes
-  // at least two handshakes after mu (no compare between the answer's registers and its status word)
-  private val conv   = RegNext(atMost(outMu, muTol(W - 1, 0)) && atMost(resCur, resTol(W - 1, 0)))
+  // registered: mu's test is made the cycle after its word's handshake (word m + 1) and lands a cycle later, the
+  // residual's long before the answer; the status word comes at least two handshakes after mu
+  private val conv   = muOk && RegNext(atMost(resCur, resTol(W - 1, 0)))
   private val bad    = outBad || RegNext(badC(curCR)) // curC's flag settled long before its answer
   private val status = Cat(gIter(curG), 0.U(14.W), !conv, bad)
   m_axis.tvalid := Mux(cnt0, outArmed, Mux(oPass, outExt && st1.m_axis.tvalid, true.B))
@@ -381,9 +381,14 @@ class IpmCore(val p: IpmParams) extends Module {
       outArmed := false.B
       outBad   := false.B
     }
-    when(oPass && !finite(st1.m_axis.tdata(W - 1, 0))) { outBad := true.B }
-    when(outCnt === (m + 1).U) { outMu := st1.m_axis.tdata(W - 1, 0) }
   }
+  // the answer's words tested a cycle after their handshake (from registers: Stage 1's output and the handshake
+  // lie apart from these flags); a flag set lands before the status word, which comes two handshakes later
+  private val oWord  = RegNext(st1.m_axis.tdata(W - 1, 0))
+  private val oBadW  = RegNext(m_axis.fire && oPass, false.B)
+  private val oMuW   = RegNext(m_axis.fire && outCnt === (m + 1).U, false.B)
+  when(oBadW && !finite(oWord)) { outBad := true.B }
+  when(oMuW) { muOk := atMost(oWord, muTol(W - 1, 0)) }
   // the status word's handshake: its tvalid is high, so it is its tready alone (not through Stage 1's output)
   when(oStat && m_axis.tready) {
     busyC(curC) := false.B

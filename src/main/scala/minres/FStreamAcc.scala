@@ -31,10 +31,11 @@ class FStreamAcc(fmt: FloatFormat, nTerms: Int, latAdd: Int, shareTree: Boolean 
   val add = Module(new FAdd(fmt, latAdd))
   add.in_valid := io.valid
   add.a        := io.term
-  // terms 0 .. L-1 are added to +0: the flag is registered from the previous cycle, as a stream is gapless (after
-  // term k < nTerms - 1 comes term k + 1; after the last term or an idle cycle, term 0 of the next stream)
-  val zeroB = RegNext(!io.valid || io.index < (L - 1).U || io.index === (nTerms - 1).U, true.B)
-  add.b        := Mux(zeroB, 0.U, add.out)
+  // terms 0 .. L-1 are added to +0: the flag is known a cycle ahead, as a stream is gapless (after term
+  // k < nTerms - 1 comes term k + 1; after the last term or an idle cycle, term 0 of the next stream), so the
+  // operand is a register beside the adder's output register, loaded with the sum or cleared
+  private val zeroNext = !io.valid || io.index < (L - 1).U || io.index === (nTerms - 1).U
+  add.b        := RegNext(Mux(zeroNext, 0.U, add.outEarly.get), 0.U)
   add.sub      := false.B
   val idxOut = Stages.delay(io.index, latAdd)
   val vOut   = Stages.delayValid(io.valid, latAdd)

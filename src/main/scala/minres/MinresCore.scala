@@ -244,10 +244,11 @@ class MinresCore(val p: MinresParams) extends Module {
   }
 
   // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
-  private val sr0 = vmem.read(0, adr1(feed.c.slot, inN(feed.c.e)))
+  // (the read addresses registered from the counter's next value)
+  private val sr0 = vmem.read(0, feed.ahead(c => adr1(c.slot, inN(c.e))))
   // warm form: d v_j (z0 in the init pass), latFeed = lat_mul cycles later
   private val feedWord = if (!p.warm) sr0 else {
-    val fAdr = adr2(feed.c.bank, feed.c.slot, inN(feed.c.e), N)
+    val fAdr = feed.ahead(c => adr2(c.bank, c.slot, inN(c.e), N))
     val dv   = mul(Timed(smem.get.read(0, fAdr), 0), Timed(sr0, 0))
     Mux(Stages.delay(RegNext(feed.c.j === 0.U), RL - 1 + p.latFeed), Stages.delay(zmem.get.read(0, fAdr), p.latFeed),
       dv.v)
@@ -274,19 +275,18 @@ class MinresCore(val p: MinresParams) extends Module {
   for (s <- 0 until p.K) {
     val cands = p.candidates(s)
     val selOf = (q: Int) => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W)
-    val sel   = perKey(selOf)
     val diag  = perKey(q => p.offsets(q)(s).contains(0).B)
     val coef  = perKey(q => p.coefs(q)(s).U(W.W))
-    // the window word at offset o
-    val word  = VecInit(cands.map(o => sr(M - 1 - o)))(sel)
     // whether the slot holds a term: it is used and column e + o is inside the matrix, from compares registered
     // two cycles ahead and the key's offset a cycle ahead, so that the operands' clear is one register
     val insPre  = RegNext(VecInit(cands.map(o => if (o >= 0) rowAdr.e < (N - o).U else rowAdr.e >= (-o).U)))
     val selPre  = RegNext(byKey(selOf, rowAdr))
     val usedPre = RegNext(byKey(q => p.offsets(q)(s).isDefined.B, rowAdr))
     val ok      = RegNext(usedPre && insPre(selPre))
+    // the window word at the key's offset, zero without a term: an AND-OR select by one-hot registers
+    val hot     = RegNext(VecInit(cands.indices.map(i => usedPre && insPre(i) && selPre === i.U)))
     dot.io.a(s) := RegNext(Mux(ok, Mux(diag, dRead, coef), zero))
-    dot.io.b(s) := RegNext(Mux(ok, word, zero))
+    dot.io.b(s) := RegNext(cands.indices.map(i => Mux(hot(i), sr(M - 1 - cands(i)), zero)).reduce(_ | _))
   }
   val ay   = Timed(dot.io.sum, p.latMatvec)
   // warm form: row i scaled by d_i (its read addressed RL cycles ahead)
@@ -409,7 +409,11 @@ class MinresCore(val p: MinresParams) extends Module {
   private val cX  = ops.delayTo(cc, 0, xNew.t)
   private val xEn = Stages.delayValid(cValid, xNew.t) && Stages.delay(cJnz, xNew.t)
   xmem.write(xEn, adr2At(cc, xNew.t), xNew.v)
-  when(xEn && !finite(xNew.v)) { xBad(cX.bank * P.U + cX.slot) := true.B }
+  // set a cycle after the write (the output reads the flag RL - 1 cycles after an issue, which comes no earlier than
+  // the batch's last write)
+  private val xBadSet = RegNext(xEn && !finite(xNew.v), false.B)
+  private val xBadAt  = RegNext(cX.bank * P.U + cX.slot)
+  when(xBadSet) { xBad(xBadAt) := true.B }
 
   // ---- output: per problem the id word, then z (N words from xmem). Words are issued RL cycles ahead of their
   // read into an (RL + 2)-word queue (enough for one word per cycle under any backpressure: a word is issued only
@@ -434,10 +438,12 @@ class MinresCore(val p: MinresParams) extends Module {
   private val inFlight = earlier :+ pending
   private val issue = doneB(outBank) && !issDone && (outQ.io.count +& PopCount(inFlight)) < outQn.U
   issueW := issue
-  private val oBad  = inBad(ob) || xBad(ob)
+  require(RL >= 2, "the output reads its flags a cycle after the issue")
+  private val obLate = Stages.delay(ob, RL - 1) // the flags are read a cycle before the word (xBad's set is late)
+  private val oBad   = RegNext(inBad(obLate) || xBad(obLate))
   private def pend[T <: Data](x: T): T = Stages.delay(x, RL)
   private val pendId   = pend(issIdx === 0.U)
-  private val pendWord = pend(Cat(oBad, ids(ob)))
+  private val pendWord = Cat(oBad, pend(ids(ob)))
   private val lastIdx  = (p.outWords - 1).U
   private val pendLast = pend(issIdx === lastIdx)
   private val pendFin  = pend(issIdx === lastIdx && issSlot === count - 1.U)

@@ -32,9 +32,10 @@ class MinresOutWord extends Bundle {
 class PassCounter(p: MinresParams) {
   val run  = RegInit(false.B)
   val c    = RegInit(0.U.asTypeOf(new MinresCtl(p)))
+  // the count's next value (tick assigns it), so that functions of the count can be registered from it
+  private val nxt = WireDefault(c)
+  c := nxt
   val imax = RegInit(0.U(16.W))
-  /** element 0 is next (a flag beside the count) */
-  val atE0 = RegInit(false.B)
   // the count's last element, last slot and last iteration as flags beside it, set a cycle ahead, so that the
   // counter's decisions are registers
   private val lastE    = RegInit(false.B)
@@ -42,36 +43,40 @@ class PassCounter(p: MinresParams) {
   private val lastJ    = RegInit(false.B)
   /** an element of the matrix order is processed this cycle */
   def valid: Bool = run && c.e < p.N.U
-  /** element 0 of a slot is processed this cycle (valid && c.e === 0, from registers) */
-  def first: Bool = run && atE0
+  /** element 0 of a slot is processed this cycle (valid && c.e === 0): a register of its own, set a cycle ahead */
+  val first = RegInit(false.B)
+  /** f(c), registered: computed from the count's next value, so that no logic lies between the count and it */
+  def ahead[T <: Data](f: MinresCtl => T): T = RegNext(f(nxt))
   def tick(start: Bool, imaxIn: UInt, bank: UInt): Unit = {
     when(start) {
-      run    := true.B
-      c      := 0.U.asTypeOf(c)
-      c.bank := bank
-      imax   := imaxIn
-      atE0   := true.B
+      run      := true.B
+      nxt      := 0.U.asTypeOf(c)
+      nxt.bank := bank
+      imax     := imaxIn
+      first    := true.B
       lastE    := (p.S == 1).B
       lastSlot := (p.P == 1).B
       lastJ    := imaxIn === 0.U
     }.elsewhen(run) {
-      atE0  := lastE
+      first := lastE && !(lastSlot && lastJ) // run stays on after this cycle
       lastE := (if (p.S == 1) true.B else !lastE && c.e === (p.S - 2).U)
-      c.e := Mux(lastE, 0.U, c.e + 1.U)
+      nxt.e := Mux(lastE, 0.U, c.e + 1.U)
       // position in the MPC structure: rows r = 0..2n+m-1 of stages k = 0..T, primal rows counted
       val lastR = c.r === (p.period - 1).U
-      c.r    := Mux(lastE, 0.U, Mux(lastR, 0.U, c.r + 1.U))
-      c.k    := Mux(lastE, 0.U, Mux(lastR, c.k + 1.U, c.k))
-      c.prim := Mux(lastE, 0.U, Mux(c.r >= p.n.U, c.prim + 1.U, c.prim))
+      nxt.r    := Mux(lastE, 0.U, Mux(lastR, 0.U, c.r + 1.U))
+      nxt.k    := Mux(lastE, 0.U, Mux(lastR, c.k + 1.U, c.k))
+      nxt.prim := Mux(lastE, 0.U, Mux(c.r >= p.n.U, c.prim + 1.U, c.prim))
       when(lastE) {
-        c.slot   := Mux(lastSlot, 0.U, c.slot + 1.U)
+        nxt.slot := Mux(lastSlot, 0.U, c.slot + 1.U)
         lastSlot := (if (p.P == 1) true.B else !lastSlot && c.slot === (p.P - 2).U)
         when(lastSlot) {
-          c.j   := c.j + 1.U
+          nxt.j := c.j + 1.U
           lastJ := c.j + 1.U === imax
           when(lastJ) { run := false.B }
         }
       }
+    }.otherwise {
+      first := false.B
     }
   }
 }

@@ -1,7 +1,7 @@
 package minres
 
 import chisel3._
-import chisel3.util.{Mux1H, RegEnable}
+import chisel3.util.{Cat, Mux1H, RegEnable}
 import float.{FAdd, FDiv, FMul, FSqrt, FloatFormat}
 
 /** A static schedule of a small dataflow graph of float operations on one operator per kind: `ops` in program
@@ -49,10 +49,13 @@ class SharedScalar(fmt: FloatFormat, s: StaticSchedule, trigger: Bool, sources: 
                    target: dsp.Target) {
   require(sources.keySet == s.ready.keySet -- s.issue.keySet, "the sources must be the schedule's")
   private val L = s.latency
+  require(L >= 2, s"SharedScalar: a schedule of at least 2 cycles: got $L")
   // cycles since the trigger, one-hot (bit t: t cycles since the trigger, t in 1..L; none: idle), so that every
-  // select below is a register bit
+  // select below is a register bit. A plain shift register: as triggers come at least L cycles apart, a trigger
+  // finds bits 1 .. L - 1 clear, and only bit 1 depends on it
   private val hot = RegInit(0.U((L + 1).W))
-  hot := Mux(trigger, 2.U((L + 1).W), (hot << 1)(L, 0))
+  hot := Cat(hot(L - 1, 1), trigger, 0.U(1.W))
+  assert(!(trigger && hot(L - 1, 1).orR), "SharedScalar: a trigger within %d cycles of the previous one", L.U)
   private def at(t: Int): Bool = if (t == 0) trigger else hot(t)
   private val lat = s.lat
 
