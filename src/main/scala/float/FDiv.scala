@@ -65,11 +65,13 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
     stages.cut(1 + g, s)
   }
 
-  // the recurrence's start; the quotient's MSB weighs 2^(ea - eb) (formed beside the first quotient bit)
+  // the recurrence's start; the quotient's MSB weighs 2^(ea - eb), formed beside the quotient bits: each operand's
+  // normalised exponent beside the first bit, their difference beside the last
   class Rec extends Bundle {
     val rem = UInt((fmt.sigW + 1).W)
     val d   = UInt(fmt.sigW.W)
     val q   = UInt(qW.W)
+    val eb  = SInt(fmt.expIntW.W) // b's normalised exponent, until the difference is formed
     val raw = new RawFloat(fmt, 1)
   }
   private val bit0 = 1 + groups.length
@@ -78,7 +80,8 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
   s1.d       := pre.nb.sig
   s1.q       := 0.U
   s1.raw     := pre.raw
-  s1.raw.exp := (pre.ea - pre.na.lz.zext) - (pre.eb - pre.nb.lz.zext)
+  s1.raw.exp := pre.ea - pre.na.lz.zext
+  s1.eb      := pre.eb - pre.nb.lz.zext
   private val r1 = s1
 
   // ---- then one quotient bit a step (rem < 2d holds throughout)
@@ -89,7 +92,9 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
     s.rem := (Mux(ge, diff.asUInt, r.rem) << 1)(fmt.sigW, 0)
     s.d   := r.d
     s.q   := (r.q << 1)(qW - 1, 0) | ge
+    s.eb  := r.eb
     s.raw := r.raw
+    if (i == qW - 1) s.raw.exp := r.raw.exp - r.eb
     stages.cut(bit0 + i, s)
   }
 
