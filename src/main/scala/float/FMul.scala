@@ -9,7 +9,7 @@ import dsp.{Ecp5Mult18, Target}
   * Steps (`FMul.weights`): classify and pick the operand to normalise; its leading-zero normalisation, two
   * levels a step; the exponent as the right shift needs it (a register after it lands on the multiplier's
   * inputs); the significand product (wider than 18 x 18: registered partial products, then their sum) beside
-  * the operands' trailing zeros; the product cut to its top manW + 3 bits, and the sticky bit of each shift it
+  * its trailing zeros (the operands', counted at classification, plus the normalisation's shift); the product cut to its top manW + 3 bits, and the sticky bit of each shift it
   * may take from the trailing zeros; the 1-bit normalisation and the shift into the subnormal range, both as one
   * right shift (wide levels, then narrow ones); round to nearest even; exponent field with the rounding carry,
   * overflow; specials and flags.
@@ -50,6 +50,8 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   private val pW     = math.max(fmt.expW + 2, log2Ceil(fmt.bias + m + 1) + 1)
   private val tzW    = log2Ceil(2 * w + 1)
   private val lowW   = 2 * w - winW          // product bits below the window
+  /** trailing zeros of a significand (w for zero) */
+  private def tz(v: UInt): UInt = Mux(v === 0.U, w.U, PriorityEncoder(v))
 
   /** What decides the result besides the significand. */
   class Special extends Bundle {
@@ -79,6 +81,7 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     val x    = new Unpack.NormSig(fmt) // the operand being normalised
     val y    = UInt(w.W)
     val eSum = SInt(pW.W) // beP + lz
+    val tz   = UInt(tzW.W) // the operands' trailing zeros (the normalisation adds lz)
     val spc  = new Special
   }
   private val ua   = Unpack(fmt, a)
@@ -90,6 +93,7 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   s0.x           := Unpack.startNormalise(fmt, Mux(aSub, ua.sig, ub.sig))
   s0.y           := Mux(aSub, ub.sig, ua.sig)
   s0.eSum        := ((expField(a) +& expField(b)).zext.pad(pW) - (fmt.bias - 1).S)(pW - 1, 0).asSInt
+  s0.tz          := tz(ua.sig) +& tz(ub.sig)
   s0.spc.sign    := ua.sign ^ ub.sign
   s0.spc.isNaN   := ua.isNaN || ub.isNaN || zeroTimesInf
   s0.spc.isInf   := ua.isInf || ub.isInf
@@ -107,6 +111,7 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     val x   = UInt(w.W)
     val y   = UInt(w.W)
     val e   = new Expo
+    val tz  = UInt(tzW.W)
     val spc = new Special
   })
   private val beP = Wire(SInt(pW.W))
@@ -117,6 +122,7 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   s1.e.edge   := beP === 1.S
   s1.e.shTiny := Mux(beP <= (2 - winW).S, winW.U, (2.S - beP).asUInt(shW - 1, 0))
   s1.e.base   := (beP - 2.S).asUInt(fieldW - 1, 0)
+  s1.tz       := norm.tz + norm.x.lz // the normalised operand's trailing zeros grow by its shift
   s1.spc      := norm.spc
   val r1 = cut(s1)
 
@@ -128,8 +134,7 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     val e    = new Expo
     val spc  = new Special
   }
-  private def tz(v: UInt): UInt = Mux(v === 0.U, w.U, PriorityEncoder(v))
-  private def tzSum(x: UInt, y: UInt): UInt = tz(x) +& tz(y)
+
   private val prod: Prod = if (onDsp) {
     // the DSP's input registers stand for r1's x and y, its output register for this step's; the pipeline
     // register between them is the cycle the other fields wait here
@@ -137,18 +142,17 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     dsp.io.clk := clock
     dsp.io.a   := s1.x.pad(18)
     dsp.io.b   := s1.y.pad(18)
-    val pipe = RegNext(r1) // its x and y only give the trailing zeros: the DSP holds them
-    val late = cut(pipe)
+    val late = cut(RegNext(r1)) // its x and y are unused: the DSP holds them
     val o = Wire(new Prod)
     o.prod := dsp.io.p(2 * w - 1, 0)
-    o.tz   := stages.cut(step - 1, tzSum(pipe.x, pipe.y))
+    o.tz   := late.tz
     o.e    := late.e
     o.spc  := late.spc
     o
   } else if (w <= FMul.dspW) {
     val s = Wire(new Prod)
     s.prod := r1.x * r1.y
-    s.tz   := tzSum(r1.x, r1.y)
+    s.tz   := r1.tz
     s.e    := r1.e
     s.spc  := r1.spc
     cut(s)
@@ -169,7 +173,7 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     pp.hl  := xh * yl
     pp.lh  := xl * yh
     pp.ll  := xl * yl
-    pp.tz  := tzSum(r1.x, r1.y)
+    pp.tz  := r1.tz
     pp.e   := r1.e
     pp.spc := r1.spc
     val rp = cut(pp)
