@@ -3,31 +3,34 @@ package bus
 import chisel3._
 import chisel3.util.Decoupled
 
-/** A register slice of a ready/valid stream: every output (deq's valid and bits, enq's ready) comes from a
-  * register, so no combinational path crosses it. Full throughput, one cycle of latency: a word taken on cycle t
-  * is offered from cycle t + 1. A skid register holds the word taken while the output stalls.
+/** A register slice of a ready/valid stream: a two-word FIFO whose flags are registers, so no combinational path
+  * crosses it (enq's ready, deq's valid and the select of deq's bits are registers). Full throughput, one cycle of
+  * latency: a word taken on cycle t is offered from cycle t + 1. The words are written from the enq side alone
+  * (the free place follows the input), so deq's ready meets only the read pointer and the flags, not the data.
   */
 class RegSlice[T <: Data](gen: T) extends Module {
   val io = IO(new Bundle {
     val enq = Flipped(Decoupled(gen))
     val deq = Decoupled(gen)
   })
-  val outV  = RegInit(false.B)
-  val outD  = Reg(gen)
-  val skidV = RegInit(false.B)
-  val skidD = Reg(gen)
-  io.enq.ready := !skidV
-  io.deq.valid := outV
-  io.deq.bits  := outD
-  // the skid register follows the input while it is empty, so its enable is a register (not the handshake)
-  when(!skidV) { skidD := io.enq.bits }
-  when(io.deq.ready || !outV) { // the output register takes a word (or empties)
-    outV  := skidV || io.enq.valid
-    outD  := Mux(skidV, skidD, io.enq.bits)
-    skidV := false.B
-  }.elsewhen(io.enq.fire) {     // the output stalls: the word waits in the skid register
-    skidV := true.B
-  }
+  private val d        = Reg(Vec(2, gen))
+  private val wr       = RegInit(0.U(1.W))
+  private val rd       = RegInit(0.U(1.W))
+  private val count    = RegInit(0.U(2.W))
+  private val nonEmpty = RegInit(false.B)
+  private val full     = RegInit(false.B)
+  io.enq.ready := !full
+  io.deq.valid := nonEmpty
+  io.deq.bits  := d(rd)
+  private val push = io.enq.valid && !full
+  private val pop  = io.deq.ready && nonEmpty
+  when(!full) { d(wr) := io.enq.bits } // the free place follows the input; a push keeps it
+  when(push) { wr := ~wr }
+  when(pop) { rd := ~rd }
+  private val next = count + push.asUInt - pop.asUInt
+  count    := next
+  nonEmpty := next =/= 0.U
+  full     := next === 2.U
 }
 
 /** A word of a stream with its tlast, for a RegSlice of an AXI4-Stream. */
