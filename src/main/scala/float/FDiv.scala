@@ -66,7 +66,7 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
   }
 
   // the recurrence's start; the quotient's MSB weighs 2^(ea - eb), formed beside the quotient bits: each operand's
-  // normalised exponent beside the first bit, their difference beside the last
+  // normalised exponent beside the first bit, their difference beside the first bit after a register
   class Rec extends Bundle {
     val rem = UInt((fmt.sigW + 1).W)
     val d   = UInt(fmt.sigW.W)
@@ -85,6 +85,7 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
   private val r1 = s1
 
   // ---- then one quotient bit a step (rem < 2d holds throughout)
+  private val expAt = (1 until qW).find(i => stages.after(bit0 + i - 1) > 0).getOrElse(qW - 1)
   private val rec = (0 until qW).foldLeft(r1) { (r, i) =>
     val s  = Wire(new Rec)
     val diff = r.rem.zext - r.d.zext // one subtracter: its sign is the comparison
@@ -92,9 +93,9 @@ class FDiv(val fmt: FloatFormat, val latency: Int) extends Module {
     s.rem := (Mux(ge, diff.asUInt, r.rem) << 1)(fmt.sigW, 0)
     s.d   := r.d
     s.q   := (r.q << 1)(qW - 1, 0) | ge
-    s.eb  := r.eb
+    s.eb  := (if (i < expAt) r.eb else 0.S) // carried only until the difference is formed
     s.raw := r.raw
-    if (i == qW - 1) s.raw.exp := r.raw.exp - r.eb
+    if (i == expAt) s.raw.exp := r.raw.exp - r.eb
     stages.cut(bit0 + i, s)
   }
 
