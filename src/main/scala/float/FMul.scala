@@ -81,7 +81,8 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     val x    = new Unpack.NormSig(fmt) // the operand being normalised
     val y    = UInt(w.W)
     val eSum = SInt(pW.W) // beP + lz
-    val tz   = UInt(tzW.W) // the operands' trailing zeros (the normalisation adds lz)
+    val tz   = UInt(tzW.W) // the operands' trailing zeros (the normalisation adds lz): a's, then the sum
+    val tzB  = UInt(tzW.W) // b's, until the first normalisation step adds it to tz
     val spc  = new Special
   }
   private val ua   = Unpack(fmt, a)
@@ -93,16 +94,18 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   s0.x           := Unpack.startNormalise(fmt, Mux(aSub, ua.sig, ub.sig))
   s0.y           := Mux(aSub, ub.sig, ua.sig)
   s0.eSum        := ((expField(a) +& expField(b)).zext.pad(pW) - (fmt.bias - 1).S)(pW - 1, 0).asSInt
-  s0.tz          := tz(ua.sig) +& tz(ub.sig)
+  s0.tz          := tz(ua.sig)
+  s0.tzB         := tz(ub.sig)
   s0.spc.sign    := ua.sign ^ ub.sign
   s0.spc.isNaN   := ua.isNaN || ub.isNaN || zeroTimesInf
   s0.spc.isInf   := ua.isInf || ub.isInf
   s0.spc.isZero  := ua.isZero || ub.isZero
   s0.spc.invalid := ua.isSNaN || ub.isSNaN || zeroTimesInf
-  private val norm = Unpack.normaliseSteps(fmt).foldLeft(cut(s0)) { (r, ks) =>
+  private val norm = Unpack.normaliseSteps(fmt).zipWithIndex.foldLeft(cut(s0)) { case (r, (ks, i)) =>
     val s = Wire(new Norm)
     s   := r
     s.x := Unpack.normaliseStep(fmt, r.x, ks)
+    if (i == 0) { s.tz := r.tz + r.tzB; s.tzB := 0.U }
     cut(s)
   }
 

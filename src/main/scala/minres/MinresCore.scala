@@ -244,11 +244,11 @@ class MinresCore(val p: MinresParams) extends Module {
   }
 
   // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
-  // (the read addresses registered from the counter's next value)
-  private val sr0 = vmem.read(0, feed.ahead(c => adr1(c.slot, inN(c.e))))
+  // (the read addresses kept in registers beside the counter)
+  private val sr0 = vmem.read(0, feed.elementAdr((c, e) => adr1(c.slot, e), N))
   // warm form: d v_j (z0 in the init pass), latFeed = lat_mul cycles later
   private val feedWord = if (!p.warm) sr0 else {
-    val fAdr = feed.ahead(c => adr2(c.bank, c.slot, inN(c.e), N))
+    val fAdr = feed.elementAdr((c, e) => adr2(c.bank, c.slot, e, N), N)
     val dv   = mul(Timed(smem.get.read(0, fAdr), 0), Timed(sr0, 0))
     Mux(Stages.delay(RegNext(feed.c.j === 0.U), RL - 1 + p.latFeed), Stages.delay(zmem.get.read(0, fAdr), p.latFeed),
       dv.v)

@@ -45,9 +45,18 @@ class PassCounter(p: MinresParams) {
   def valid: Bool = run && c.e < p.N.U
   /** element 0 of a slot is processed this cycle (valid && c.e === 0): a register of its own, set a cycle ahead */
   val first = RegInit(false.B)
-  /** f(c), registered: computed from the count's next value, so that no logic lies between the count and it */
-  def ahead[T <: Data](f: MinresCtl => T): T = RegNext(f(nxt))
+  private val started = WireDefault(false.B) // tick's start
+  /** f(c, inN(c.e)) for an address f(c, e) = base(bank, slot) + e, with inN(e) = e for e < n, else 0: a register
+    * that counts up along a slot and is loaded with the base (f of the next count at e = 0) at a slot's start
+    * and once its element passes n - 1, so that no compare or adder lies between the count and it */
+  def elementAdr(f: (MinresCtl, UInt) => UInt, n: Int): UInt = {
+    val a = Reg(chiselTypeOf(f(c, c.e)))
+    when(started || run && (lastE || c.e >= (n - 1).U)) { a := f(nxt, 0.U) }
+      .elsewhen(run) { a := a + 1.U }
+    a
+  }
   def tick(start: Bool, imaxIn: UInt, bank: UInt): Unit = {
+    started := start
     when(start) {
       run      := true.B
       nxt      := 0.U.asTypeOf(c)
