@@ -9,10 +9,10 @@ import dsp.{Ecp5Mult18, Target}
   * Steps (`FMul.weights`): classify and pick the operand to normalise; its leading-zero normalisation, two
   * levels a step; the exponent as the right shift needs it (a register after it lands on the multiplier's
   * inputs); the significand product (wider than 18 x 18: registered partial products, then their sum) beside
-  * its trailing zeros (the operands', counted at classification, plus the normalisation's shift); the product cut to its top manW + 3 bits, and the sticky bit of each shift it
-  * may take from the trailing zeros; the 1-bit normalisation and the shift into the subnormal range, both as one
-  * right shift (wide levels, then narrow ones); round to nearest even; exponent field with the rounding carry,
-  * overflow; specials and flags.
+  * its trailing zeros (the operands', counted at classification, plus the normalisation's shift); the product
+  * cut to its top manW + 3 bits, and the sticky bit of each shift it may take from the trailing zeros; the 1-bit
+  * normalisation and the shift into the subnormal range, both as one right shift (wide levels, then narrow ones);
+  * round to nearest even; exponent field with the rounding carry, overflow; specials and flags.
   *
   * Why it is exact: one normaliser suffices. If exactly one operand is subnormal, it is normalised (its leading
   * one moved to the hidden bit), and the product of two [1, 2) significands lies in [1, 4): its MSB or the bit
@@ -137,7 +137,6 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     val e    = new Expo
     val spc  = new Special
   }
-
   private val prod: Prod = if (onDsp) {
     // the DSP's input registers stand for r1's x and y, its output register for this step's; the pipeline
     // register between them is the cycle the other fields wait here

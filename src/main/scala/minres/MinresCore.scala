@@ -283,7 +283,8 @@ class MinresCore(val p: MinresParams) extends Module {
     val selPre  = RegNext(byKey(selOf, rowAdr))
     val usedPre = RegNext(byKey(q => p.offsets(q)(s).isDefined.B, rowAdr))
     val ok      = RegNext(usedPre && insPre(selPre))
-    // the window word at the key's offset, zero without a term: an AND-OR select by one-hot registers
+    // the window word at the key's offset, zero without a term: an AND-OR select by one-hot registers (written out:
+    // chisel3.util.Mux1H ignores its select when it has a single input)
     val hot     = RegNext(VecInit(cands.indices.map(i => usedPre && insPre(i) && selPre === i.U)))
     dot.io.a(s) := RegNext(Mux(ok, Mux(diag, dRead, coef), zero))
     dot.io.b(s) := RegNext(cands.indices.map(i => Mux(hot(i), sr(M - 1 - cands(i)), zero)).reduce(_ | _))

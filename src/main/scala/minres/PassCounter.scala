@@ -32,7 +32,7 @@ class MinresOutWord extends Bundle {
 class PassCounter(p: MinresParams) {
   val run  = RegInit(false.B)
   val c    = RegInit(0.U.asTypeOf(new MinresCtl(p)))
-  // the count's next value (tick assigns it), so that functions of the count can be registered from it
+  // the count's next value (tick assigns it): what elementAdr loads at a slot's start
   private val nxt = WireDefault(c)
   c := nxt
   val imax = RegInit(0.U(16.W))
