@@ -50,8 +50,23 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   private val pW     = math.max(fmt.expW + 2, log2Ceil(fmt.bias + m + 1) + 1)
   private val tzW    = log2Ceil(2 * w + 1)
   private val lowW   = 2 * w - winW          // product bits below the window
-  /** trailing zeros of a significand (w for zero) */
-  private def tz(v: UInt): UInt = Mux(v === 0.U, w.U, PriorityEncoder(v))
+  /** Trailing zeros of a significand, counted in its two halves at classification and combined in the first
+    * normalisation step (a count over all w bits is too deep beside the operand unpacking). */
+  private val loW = w / 2
+  class Tz extends Bundle {
+    val loZero = Bool()                             // the low half is zero
+    val lo     = UInt(log2Ceil(loW).W)              // its trailing zeros when not
+    val hi     = UInt(log2Ceil(w - loW + 1).W)      // the high half's (w - loW when zero)
+  }
+  private def tzCount(v: UInt): Tz = {
+    val t  = Wire(new Tz)
+    val hi = v(w - 1, loW)
+    t.loZero := v(loW - 1, 0) === 0.U
+    t.lo     := PriorityEncoder(v(loW - 1, 0))
+    t.hi     := Mux(hi === 0.U, (w - loW).U, PriorityEncoder(hi))
+    t
+  }
+  private def tzOf(t: Tz): UInt = Mux(t.loZero, loW.U +& t.hi, t.lo.pad(tzW))
 
   /** What decides the result besides the significand. */
   class Special extends Bundle {
@@ -81,8 +96,9 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     val x    = new Unpack.NormSig(fmt) // the operand being normalised
     val y    = UInt(w.W)
     val eSum = SInt(pW.W) // beP + lz
-    val tz   = UInt(tzW.W) // the operands' trailing zeros (the normalisation adds lz): a's, then the sum
-    val tzB  = UInt(tzW.W) // b's, until the first normalisation step adds it to tz
+    val tzA  = new Tz      // the operands' trailing zeros, until the first normalisation step sums them into tz
+    val tzB  = new Tz
+    val tz   = UInt(tzW.W) // their sum (the normalisation adds lz)
     val spc  = new Special
   }
   private val ua   = Unpack(fmt, a)
@@ -94,8 +110,9 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   s0.x           := Unpack.startNormalise(fmt, Mux(aSub, ua.sig, ub.sig))
   s0.y           := Mux(aSub, ub.sig, ua.sig)
   s0.eSum        := ((expField(a) +& expField(b)).zext.pad(pW) - (fmt.bias - 1).S)(pW - 1, 0).asSInt
-  s0.tz          := tz(ua.sig)
-  s0.tzB         := tz(ub.sig)
+  s0.tzA         := tzCount(ua.sig)
+  s0.tzB         := tzCount(ub.sig)
+  s0.tz          := 0.U
   s0.spc.sign    := ua.sign ^ ub.sign
   s0.spc.isNaN   := ua.isNaN || ub.isNaN || zeroTimesInf
   s0.spc.isInf   := ua.isInf || ub.isInf
@@ -105,7 +122,7 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     val s = Wire(new Norm)
     s   := r
     s.x := Unpack.normaliseStep(fmt, r.x, ks)
-    if (i == 0) { s.tz := r.tz + r.tzB; s.tzB := 0.U }
+    if (i == 0) { s.tz := tzOf(r.tzA) + tzOf(r.tzB); s.tzA := 0.U.asTypeOf(new Tz); s.tzB := 0.U.asTypeOf(new Tz) }
     cut(s)
   }
 

@@ -83,8 +83,13 @@ class MinresCore(val p: MinresParams) extends Module {
   private def inN(e: UInt): UInt = Mux(e < N.U, e, 0.U)
   /** the write addresses of a pass's control word c delayed by t >= 1 cycles: computed a cycle ahead and registered,
     * so no adder meets a memory's write port */
-  private def adr1At(c: MinresCtl, t: Int): UInt = { val x = Stages.delay(c, t - 1); RegNext(adr1(x.slot, x.e)) }
-  private def adr2At(c: MinresCtl, t: Int): UInt = { val x = Stages.delay(c, t - 1); RegNext(adr2(x.bank, x.slot, x.e, N)) }
+  private def adr1At(c: MinresCtl, t: Int): UInt = adrAt(c, t)(x => adr1(x.slot, x.e))
+  private def adr2At(c: MinresCtl, t: Int): UInt = adrAt(c, t)(x => adr2(x.bank, x.slot, x.e, N))
+  /** an address f of the control word c delayed by t >= 1 cycles, formed from c's delay by t - 1 and registered */
+  private def adrAt(c: MinresCtl, t: Int)(f: MinresCtl => UInt): UInt = {
+    require(t >= 1, "address registered a cycle ahead")
+    RegNext(f(Stages.delay(c, t - 1)))
+  }
 
   // ---- per-problem scalars
   private def scal() = Reg(Vec(P, UInt(W.W)))
@@ -262,7 +267,8 @@ class MinresCore(val p: MinresParams) extends Module {
   // ---- the sparse row (mpc_cores/minres/band.py): the row's key (position in the period, or a row of the last
   // stage) selects, per slot, an offset o of the window and a coefficient: a constant, or the variable diagonal
   // (dmem) at o = 0. Operands are registered before the products (latMatvec counts that cycle).
-  private val dRead  = dmem.read(0, adr2(rowAdr.bank, rowAdr.slot, Mux(rowAdr.r < n.U, 0.U, rowAdr.prim), nPrimal))
+  private val dRead  =
+    dmem.read(0, adrAt(feed.c, p.tRow - RL)(c => adr2(c.bank, c.slot, Mux(c.r < n.U, 0.U, c.prim), nPrimal)))
   val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd, p.dotMove, p.target))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
   /** f of the row key of c (q: a position in the period, or period + a row of the last stage), read from c's
@@ -292,8 +298,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val ay   = Timed(dot.io.sum, p.latMatvec)
   // warm form: row i scaled by d_i (its read addressed RL cycles ahead)
   val y    = if (!p.warm) ay else {
-    val pre = ops.delayTo(row, 0, ay.t - RL)
-    mul(Timed(smem.get.read(1, adr2(pre.bank, pre.slot, inN(pre.e), N)), ay.t), ay)
+    mul(Timed(smem.get.read(1, adrAt(row, ay.t - RL)(c => adr2(c.bank, c.slot, inN(c.e), N))), ay.t), ay)
   }
   ymem.write(Stages.delayValid(rowValid, y.t), adr1At(row, y.t), y.v)
   // delta = v_j . A v_j (warm form: (d v_j) . (A d v_j), the same sum on the feed's words)
