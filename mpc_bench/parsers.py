@@ -46,6 +46,14 @@ def parse_yosys_stat(text: str) -> dict[str, int]:
     return cells
 
 
+def yosys_module_cells(text: str, module: str) -> dict[str, int]:
+    """Cell counts of one module's own block ("=== module ===", submodules excluded) in yosys `stat` output."""
+    m = re.search(rf"^=== {re.escape(module)} ===$(.*?)(?=^=== |\Z)", text, re.S | re.M)
+    if not m:
+        raise ValueError(f"no stat block of module {module}")
+    return parse_yosys_stat(m.group(1))
+
+
 def ecp5_resources(cells: dict[str, int]) -> dict[str, int]:
     """Lattice ECP5 resources from synth_ecp5 cell counts."""
     return {
@@ -174,6 +182,7 @@ def rtl_names(names: list[str]) -> list[str]:
     'bndRam_0')."""
     out: list[str] = []
     for n in names:
+        n = re.sub(r"^u\d+\.", "", n)  # the instance in the Fmax harness (mpc_bench.harness)
         m = _NETLIST_SUFFIX.search(n)
         base = n[: m.start()] if m else n
         if base and base not in out:

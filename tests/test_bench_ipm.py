@@ -150,7 +150,8 @@ def test_is_cached_follows_the_systemverilog(tmp_path):
     """QUICK takes Yosys and nextpnr results from the cache only when they were made from the same SystemVerilog."""
     from mpc_bench import tools
 
-    (tmp_path / "Top.sv").write_text(SV)
+    sv = SV.replace("module Top(\n);", "module Top(\n  input clock,\n        reset,\n  input [3:0] a,\n  output y\n);")
+    (tmp_path / "Top.sv").write_text(sv)
     c = ipm.IpmCore("t", tmp_path, None, "small_p1", core={"sv": "Top.sv", "module": "Top"})
     assert not tools.is_cached(c, "ecp5") and not tools.is_cached(c, "nextpnr")
     d, _, outputs, key = tools._yosys_step(c, "ecp5")
@@ -164,5 +165,5 @@ def test_is_cached_follows_the_systemverilog(tmp_path):
         (d / f).write_text("")
     (d / "nextpnr.key").write_text(key)
     assert tools.is_cached(c, "nextpnr")
-    (tmp_path / "Top.sv").write_text(SV + "\n// changed\n")
+    (tmp_path / "Top.sv").write_text(sv + "\n// changed\n")
     assert not tools.is_cached(c, "ecp5") and not tools.is_cached(c, "nextpnr")
