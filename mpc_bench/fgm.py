@@ -47,19 +47,22 @@ QUICK_P, QUICK_B = (1,), (16,)
 # latencies of eq. (23) and Table III(a) of 002.
 FMAX_LAT = dict(lat_add=1, lat_mul=5, target="ecp5")
 FMAX_B = 15
-# The Fmax cores as (P, K_p): one problem at a time (the latency reference) and K_p = 2 problems interleaved on the
-# row units (docs/fgm.md), which keeps every turn busy at P = 1 (K_p ceil(n/P) = 80 >= L_F = 60)
-FMAX_FULL, FMAX_QUICK = ((1, 1), (1, 2)), ((1, 1),)
+# The Fmax cores as (P, K_p, copies): one problem at a time (the latency reference); K_p = 2 problems interleaved
+# on the row units (docs/fgm.md), which keeps every turn busy at P = 1 (K_p ceil(n/P) = 80 >= L_F = 60); and
+# copies of that core placed together on one device (mpc_bench.harness), the throughput one LFE5U-85F gives
+FMAX_FULL, FMAX_QUICK = ((1, 1, 1), (1, 2, 1), (1, 2, 2)), ((1, 1, 1),)
 
 
-def fmax_cores(text: str | None, default) -> tuple[tuple[int, int], ...]:
-    """`--fgm-fmax` items: P, or P x K_p (e.g. "1,1x2,3x3")"""
+def fmax_cores(text: str | None, default) -> tuple[tuple[int, int, int], ...]:
+    """`--fgm-fmax` items: P, P x K_p, or P x K_p x copies (e.g. "1,1x2,1x2x2")"""
     if not text:
         return default
     out = []
     for item in text.split(","):
-        P, _, kp = item.strip().partition("x")
-        out.append((int(P), int(kp or 1)))
+        parts = [int(x) for x in item.strip().split("x")]
+        if not 1 <= len(parts) <= 3 or min(parts) < 1:
+            raise ValueError(f"--fgm-fmax item {item.strip()!r}: expected P, P x K_p or P x K_p x copies")
+        out.append(tuple(parts + [1] * (3 - len(parts))))
     return tuple(out)
 
 # Table III(a) of 002 (FGM, masses, Imax = 15): P -> (multipliers, Virtex-6 T_s at 400 MHz in us,
@@ -133,9 +136,10 @@ def fgm_rows(cores: list[Core], sw: dict | None) -> list[dict]:
         }
         _tool_columns(c, r)
         lat_max = _core_latency(c, cyc_max)
-        rate = kp / period * c.pnr["fmax_mhz"] * 1e6 if kp > 1 and period and c.pnr else None
+        # solves per second of the device: every copy of the core at the placed clock
+        rate = c.copies * kp / period * c.pnr["fmax_mhz"] * 1e6 if kp > 1 and period and c.pnr else None
         r.update({
-            "problems": kp, "cycles_per_solve_max": cyc_max, "solve_period_measured": period,
+            "problems": kp, "copies": c.copies, "cycles_per_solve_max": cyc_max, "solve_period_measured": period,
             "latency_us_ecp5": lat, "latency_us_ecp5_max": lat_max,
             "latency_us_v6_ours": latency_us(cyc, F_V6_MHZ), "latency_us_v6_paper": t3[1] if t3 else None,
             "latency_us_s6_ours": latency_us(cyc, F_S6_MHZ), "latency_us_s6_paper": t3[2] if t3 else None,
@@ -273,7 +277,7 @@ def interleave_table(recs: list[dict], sw: dict | None) -> list[str]:
     body = []
     for r in recs:
         k = slug(daqp.name) if daqp else None
-        body.append([str(r["P"]), str(r["problems"]), _f(r["fmax_mhz"], "{:.1f}"),
+        body.append([str(r["P"]), str(r["problems"]), str(r["copies"]), _f(r["fmax_mhz"], "{:.1f}"),
                      f"{r['cycles_per_solve_measured'] or r['cycles_per_solve_corejson']}"
                      + (f" to {r['cycles_per_solve_max']}" if r["problems"] > 1 else ""),
                      _f(r["latency_us_ecp5_max"], "{:.2f}"), _f(r["solve_period_measured"], "{}"),
@@ -281,13 +285,14 @@ def interleave_table(recs: list[dict], sw: dict | None) -> list[str]:
                      _f(r.get(f"{k}_p99_over_core") if k else None, "{:.1f}x"),
                      _f(r.get(f"{k}_throughput_ratio") if k else None, "{:.2f}x")])
     L = ["", "### Interleaved problems (K_p, Verilator and nextpnr)", ""]
-    L += _table(["P", "K_p", "Fmax MHz", "latency cycles", "worst latency us", "solve period (meas.)",
+    L += _table(["P", "K_p", "cores", "Fmax MHz", "latency cycles", "worst latency us", "solve period (meas.)",
                  "solves/s", "MAC use", "DAQP p99 / worst latency", "solves/s / DAQP's at its median"], body)
     L += ["", "K_p problems share the row units, a pass of one problem per turn (docs/fgm.md). Latency: from the "
           "last input word to the first output word, measured in Verilator; with K_p > 1 up to R - 1 cycles more "
           "wait for the problem's turn (the worst case is what the DAQP column uses). Solve period: cycles between "
-          "two answers of one problem with frames always waiting, measured; solves/s: K_p / period x Fmax (one "
-          "problem: 1 / latency). MAC use: (n^2 + 2n) per iteration over multipliers x the cycles of one pass, "
+          "two answers of one problem with frames always waiting, measured; solves/s: cores x K_p / period x Fmax "
+          "(one problem: 1 / latency), where cores independent copies of the core are placed and routed together on "
+          "the one LFE5U-85F (each with its own ports; a user's interconnect spreads the frames). MAC use: (n^2 + 2n) per iteration over multipliers x the cycles of one pass, "
           "period / (K_p (Imax + 1)) when interleaving.", ""]
     return L
 
@@ -303,8 +308,8 @@ class Section(QpSection):
         ap.add_argument("--P", default=None, help="FGM: comma-separated P values (default 1,2,4,8; QUICK 1)")
         ap.add_argument("--b", default=None, help="FGM: comma-separated frac_bits (default 12,16; QUICK 16)")
         ap.add_argument("--fgm-fmax", default=None, help="FGM masses pipelined for Fmax (TARGET=ecp5, b = 15, "
-                                                         "l_A = 1, l_M = 5): P or P x K_p items (default 1,1x2; "
-                                                         "QUICK 1)")
+                                                         "l_A = 1, l_M = 5): P, P x K_p or P x K_p x copies items "
+                                                         "(default 1,1x2,1x2x2; QUICK 1)")
         ap.add_argument("--steps", type=int, default=None, help="closed-loop steps for the FGM software timing")
 
     def configure(self, a) -> None:
@@ -336,8 +341,9 @@ class Section(QpSection):
                 self.designs[b] = d
                 self.cores.append(Core("fgm", "masses", P, b, out / "cores" / f"masses_p{P}_b{b}", d, d.iterations))
         la, lm, tg = FMAX_LAT["lat_add"], FMAX_LAT["lat_mul"], FMAX_LAT["target"]
-        for P, kp in self.fmax:
-            tag = f"masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}" + (f"_k{kp}" if kp > 1 else "")
+        for P, kp, copies in self.fmax:
+            tag = f"masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}" + (f"_k{kp}" if kp > 1 else "") \
+                + (f"_x{copies}" if copies > 1 else "")
             try:
                 d = cached_design(designs, f"fgm_{tag}", ("fgm", spec, P, FMAX_B, la, lm, tg, kp),
                                   lambda P=P, kp=kp: design_fgm(problem, P=P, frac_bits=FMAX_B, problems=kp,
@@ -346,14 +352,14 @@ class Section(QpSection):
                 self.error(f"FGM P={P} l_A={la} l_M={lm} K_p={kp}: design refused: {e}")
                 continue
             self.cores.append(Core("fgm", "masses", P, FMAX_B, out / "cores" / tag, d, d.iterations, role="fmax",
-                                   pnr_seeds=FMAX_SEEDS_QUICK if self.quick else FMAX_SEEDS))
+                                   pnr_seeds=FMAX_SEEDS_QUICK if self.quick else FMAX_SEEDS, copies=copies))
 
     def software_case(self):
         return prepare_fgm_software(self.problem, self.designs, self.steps, 30)
 
     def job_costs(self, c: Core) -> tuple[float, float, float]:
         # rough seconds seen on a 2-core EPYC; place and route dominates
-        return (30, 60 + 15 * c.P + (350 * c.P if c.placeable else 0), 40 * c.P)
+        return (30, (60 + 15 * c.P + (350 * c.P if c.placeable else 0)) * c.copies, 40 * c.P)
 
     def make_rows(self) -> list[dict]:
         return fgm_rows(self.cores, self.sw)

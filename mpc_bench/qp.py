@@ -38,13 +38,14 @@ class Core(ToolResults):
         la, lm = (getattr(self.design, k, self.core.get(k)) for k in ("lat_add", "lat_mul"))
         lat = f" lA={la} lM={lm}" if self.role == "fmax" else ""
         kp = getattr(self.design, "problems", 1)
-        return f"{self.kind.upper()} {self.problem} P={self.P}{f' Kp={kp}' if kp > 1 else ''} b={self.b}{lat}"
+        copies = f" x{self.copies} cores" if self.copies > 1 else ""
+        return f"{self.kind.upper()} {self.problem} P={self.P}{f' Kp={kp}' if kp > 1 else ''} b={self.b}{lat}{copies}"
 
     @property
     def placeable(self) -> bool:
-        """False when the core needs more multiplier blocks than the LFE5U-85F has whatever Yosys makes of its
-        products (one block each at least)."""
-        return self.design.multipliers <= ECP5_85F["MULT18X18D"]
+        """False when the core (its copies together) needs more multiplier blocks than the LFE5U-85F has whatever
+        Yosys makes of its products (one block each at least)."""
+        return self.design.multipliers * self.copies <= ECP5_85F["MULT18X18D"]
 
     @property
     def hierarchical(self) -> bool:

@@ -425,7 +425,15 @@ def test_fgm_rows_of_an_interleaving_core():
     med = sw["solvers"][0].median_us
     assert r["daqp_hot_start_throughput_ratio"] == pytest.approx(3 / 672 * f * 1e6 / (1e6 / med))
     table = "\n".join(fgm.interleave_table([r], sw))
-    assert "| 3 | 3 |" in table and "669 to 710" in table and "672" in table and "95.2 %" in table
+    assert "| 3 | 3 | 1 |" in table and "669 to 710" in table and "672" in table and "95.2 %" in table
+    # two copies placed together: twice the solves per second of the device, the same latency
+    c.copies = 2
+    r2 = fgm.fgm_rows([c], sw)[0]
+    assert r2["core_solves_per_s"] == pytest.approx(2 * 3 / 672 * f * 1e6) and r2["copies"] == 2
+    assert r2["latency_us_ecp5_max"] == r["latency_us_ecp5_max"]
+    assert r2["daqp_hot_start_throughput_ratio"] == pytest.approx(2 * r["daqp_hot_start_throughput_ratio"])
+    assert "| 3 | 3 | 2 |" in "\n".join(fgm.interleave_table([r2], sw)) and "x2 cores" in c.tag
+    assert not c.placeable                                           # 2 x 126 multipliers > 156
 
 
 def test_median_of_placement_seeds():
@@ -443,6 +451,11 @@ def test_median_of_placement_seeds():
 
 
 def test_fgm_fmax_core_list():
-    """--fgm-fmax: P or P x K_p items; the defaults place one problem and two interleaved at P = 1."""
-    assert fgm.fmax_cores("1,1x2,3x3", None) == ((1, 1), (1, 2), (3, 3))
-    assert fgm.fmax_cores(None, fgm.FMAX_FULL) == ((1, 1), (1, 2)) and fgm.FMAX_QUICK == ((1, 1),)
+    """--fgm-fmax: P, P x K_p or P x K_p x copies items; the defaults place one problem and two interleaved at
+    P = 1, and two copies of the interleaved core together."""
+    assert fgm.fmax_cores("1,1x2,3x3,1x2x3", None) == ((1, 1, 1), (1, 2, 1), (3, 3, 1), (1, 2, 3))
+    assert fgm.fmax_cores(None, fgm.FMAX_FULL) == ((1, 1, 1), (1, 2, 1), (1, 2, 2))
+    assert fgm.FMAX_QUICK == ((1, 1, 1),)
+    for bad in ("1x2x3x4", "0x2", "1xx2"):
+        with pytest.raises(ValueError):
+            fgm.fmax_cores(bad, None)
