@@ -51,6 +51,10 @@ class RegRead(addrW: Int) extends Bundle {
 
 /** AXI4-Lite subordinate front end: takes one write (AW and W together) and one read at a time and turns each
   * into a single-cycle register access. Byte addresses; `addr` is the word address (byte address / 4).
+  *
+  * The request is registered before the register file sees it (the access is the cycle after the handshake, the
+  * response the cycle after that), so no port of the bus reaches an address decode or a read select: the ports
+  * meet registers only.
   */
 class AxiLiteSlave(addrW: Int) extends Module {
   val axi = IO(Flipped(new AxiLiteIO(addrW)))
@@ -59,14 +63,25 @@ class AxiLiteSlave(addrW: Int) extends Module {
 
   val bValid = RegInit(false.B)
   val bResp  = RegInit(0.U(2.W))
-  val doWr   = axi.awvalid && axi.wvalid && !bValid
+  val wPend  = RegInit(false.B)
+  val wAddr  = Reg(UInt((addrW - 2).W))
+  val wData  = Reg(UInt(32.W))
+  val wStrb  = Reg(UInt(4.W))
+  val doWr   = axi.awvalid && axi.wvalid && !bValid && !wPend
   axi.awready := doWr
   axi.wready  := doWr
-  wr.valid    := doWr
-  wr.addr     := axi.awaddr >> 2
-  wr.data     := axi.wdata
-  wr.strb     := axi.wstrb
   when(doWr) {
+    wPend := true.B
+    wAddr := axi.awaddr >> 2
+    wData := axi.wdata
+    wStrb := axi.wstrb
+  }
+  wr.valid := wPend
+  wr.addr  := wAddr
+  wr.data  := wData
+  wr.strb  := wStrb
+  when(wPend) {
+    wPend  := false.B
     bValid := true.B
     bResp  := wr.resp
   }.elsewhen(axi.bready) {
@@ -78,11 +93,18 @@ class AxiLiteSlave(addrW: Int) extends Module {
   val rValid = RegInit(false.B)
   val rData  = RegInit(0.U(32.W))
   val rResp  = RegInit(0.U(2.W))
-  val doRd   = axi.arvalid && !rValid
+  val rPend  = RegInit(false.B)
+  val rAddr  = Reg(UInt((addrW - 2).W))
+  val doRd   = axi.arvalid && !rValid && !rPend
   axi.arready := doRd
-  rd.valid    := doRd
-  rd.addr     := axi.araddr >> 2
   when(doRd) {
+    rPend := true.B
+    rAddr := axi.araddr >> 2
+  }
+  rd.valid := rPend
+  rd.addr  := rAddr
+  when(rPend) {
+    rPend  := false.B
     rValid := true.B
     rData  := rd.data
     rResp  := rd.resp
