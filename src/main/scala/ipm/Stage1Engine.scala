@@ -129,7 +129,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val lastT   = Mux(launch, nxtOne, isLast)
   private val insIn   = Mux(launch, nxtIn, curIn)
   private val insOut  = Mux(launch, nxtOut, curOut)
-  private val outQ    = Module(new Queue(UInt((w + 1).W), OutDepth, flow = true))
+  private val outQ    = Module(new bus.FlowQueue(UInt((w + 1).W), OutDepth))
   // OUT words in flight or in the buffer at most OutDepth: one credit per free place
   private val credit  = RegInit(OutDepth.U(log2Ceil(OutDepth + 1).W))
   private val active  = launch || issuing
