@@ -155,6 +155,7 @@ def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
             out = Path(out)
             hw = json.loads((out / "hw.json").read_text())
             core = kind.core_json(d, hw)
+            core["axil_response_cycles"] = hw["axil_response_cycles"]
             core.update(regmap.export(out, core))
             core.update(fusesoc.write_core(out, core))
             tmp = out / "core.json.tmp"

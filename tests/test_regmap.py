@@ -18,7 +18,7 @@ from mpc_cores.regmap import Regmap
 from mpc_cores.sim import run_cocotb
 
 KINDS = ("fgm", "admm", "minres", "ipm")
-SCENARIOS = 3  # cocotb tests in verif/regs_tb.py
+SCENARIOS = 4  # cocotb tests in verif/regs_tb.py
 SHARED = ("ID", "CONFIG0", "CONFIG1", "CTRL", "IMAX", "STATUS", "SOLVES", "LAST_CYCLES", "CYCLES_PER_ITER")
 
 

@@ -7,6 +7,7 @@ Environment: CORE_OUT = the generator's output folder (core.json and the <module
 from __future__ import annotations
 
 import cocotb
+from cocotb.triggers import ReadOnly, RisingEdge
 from cocotbext.axi import AxiResp
 
 from mpc_cores.driver import AxiDriver
@@ -110,3 +111,63 @@ async def read_errors(dut):
         if addr not in mapped:
             _, resp = await tb.read(addr)
             assert resp == AxiResp.DECERR, f"unmapped {addr:#x}: read response {resp}"
+
+
+class _Pins:
+    """No bus master: the scenario drives the AXI4-Lite pins itself."""
+
+    def __init__(self, dut, rng):
+        self.dut = dut
+
+
+async def _handshake_to_response(dut, valid: list[str], ready: str, resp_valid: str) -> tuple[int, int]:
+    """Raise `valid` (all of them), drop them after the handshake; return (the cycles from the cycle of the
+    handshake to the first with `resp_valid` high, the cycles `resp_valid` stays high with its ready held high)."""
+    for v in valid:
+        getattr(dut, v).value = 1
+    cycle, shook, first = 0, None, None
+    while True:
+        await RisingEdge(dut.clock)
+        if shook is not None and shook == cycle:
+            for v in valid:
+                getattr(dut, v).value = 0
+        await ReadOnly()
+        cycle += 1
+        if shook is None and int(getattr(dut, ready).value) == 1:
+            shook = cycle
+        if shook is not None and first is None and int(getattr(dut, resp_valid).value) == 1:
+            first = cycle
+        if first is not None and int(getattr(dut, resp_valid).value) == 0:
+            return first - shook, cycle - first
+        assert cycle < 50, f"no {resp_valid} within 50 cycles"
+
+
+@cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
+async def response_cycles(dut):
+    """B valid comes exactly core.json's axil_response_cycles["write"] after the cycle of the AW/W handshake, R
+    valid exactly ["read"] after the AR handshake, each for one cycle with its ready held high, and the read
+    returns the word just written (CTRL.OUT_ALL flipped)."""
+    tb = RegsTB(dut, axil=_Pins)
+    want = tb.core["axil_response_cycles"]
+    for nm in ("awvalid", "wvalid", "arvalid", "awprot", "arprot"):
+        getattr(dut, f"s_axil_{nm}").value = 0
+    dut.s_axil_bready.value = 1
+    dut.s_axil_rready.value = 1
+    await tb.reset()
+    ctrl = tb.rm.regs["CTRL"]
+    out_all = ctrl.fields["OUT_ALL"]
+    value = sum(f.reset << f.lsb for f in ctrl.fields.values()) ^ out_all.mask
+    dut.s_axil_awaddr.value = ctrl.offset
+    dut.s_axil_wdata.value = value
+    dut.s_axil_wstrb.value = 0xF
+    cycles, held = await _handshake_to_response(dut, ["s_axil_awvalid", "s_axil_wvalid"], "s_axil_awready",
+                                                "s_axil_bvalid")
+    assert (cycles, held) == (want["write"], 1), f"write: B after {cycles} cycles for {held}, want {want['write']}"
+    assert int(dut.s_axil_bresp.value) == AxiResp.OKAY
+    await RisingEdge(dut.clock)
+    dut.s_axil_araddr.value = ctrl.offset
+    cycles, held = await _handshake_to_response(dut, ["s_axil_arvalid"], "s_axil_arready", "s_axil_rvalid")
+    assert (cycles, held) == (want["read"], 1), f"read: R after {cycles} cycles for {held}, want {want['read']}"
+    assert int(dut.s_axil_rresp.value) == AxiResp.OKAY
+    got = int(dut.s_axil_rdata.value)
+    assert got & out_all.mask == value & out_all.mask, f"CTRL read {got:#x} after writing {value:#x}"

@@ -401,8 +401,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
   bus.Protocol.streamOut("m_axis", m_axis)
 
   // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
-  import regs.{dataWrite, wA, wD}
-  def region(nm: String): Bool = regs.inRegion(p.regionBase(nm), p.regionSizes.toMap.apply(nm))
+  import regs.{dataWrite, wD}
+  def region(nm: String): Bool = regs.inRegion(nm)
   val rowW   = math.max(1, log2Ceil(n))
   val unitRom = VecInit((0 until n).map(j => p.unitOf(j).U(math.max(1, log2Ceil(P)).W)))
   val slotRom = VecInit((0 until n).map(j => p.slotOf(j).U(math.max(1, log2Ceil(K)).W)))
@@ -414,7 +414,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   frameIn.io.boxData := 0.S
   regs.writes(
     region("WBOX") -> { () =>
-      val off = wA - p.regionBase("WBOX").U
+      val off = regs.offset("WBOX")
       val j   = off >> 1
       dataWrite(p.wW, j < nw.U) {
         frameIn.io.boxWen  := true.B
@@ -424,7 +424,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
       }
     },
     region("BND") -> { () =>
-      val off = wA - p.regionBase("BND").U
+      val off = regs.offset("BND")
       val j   = (off >> 1)(rowW - 1, 0)
       val ok  = (off >> 1) < n.U && bndOkRom(j)
       dataWrite(p.zW, ok) {
@@ -442,7 +442,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     },
     (region("MAT_M") || region("MAT_G")) -> { () =>
       val isG = region("MAT_G")
-      val off = wA - Mux(isG, p.regionBase("MAT_G").U, p.regionBase("MAT_M").U)
+      val off = Mux(isG, regs.offset("MAT_G"), regs.offset("MAT_M"))
       val col = if (p.cBits == 0) 0.U else off(p.cBits - 1, 0)
       val row = off >> p.cBits
       val j   = row(rowW - 1, 0)

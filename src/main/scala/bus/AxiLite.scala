@@ -33,28 +33,46 @@ object AxiLiteResp {
 }
 
 /** Word-access request towards a register file: valid for exactly one cycle; the register file answers in the
-  * same cycle (resp, and rdata for reads).
+  * same cycle (resp, and rdata for reads). `earlyAddr` (and `earlyData`) carry the same request a cycle before
+  * `valid`, so that the register file can decode it into registers ahead of the access.
   */
 class RegWrite(addrW: Int) extends Bundle {
-  val valid = Output(Bool())
-  val addr  = Output(UInt(addrW.W))
-  val data  = Output(UInt(32.W))
-  val strb  = Output(UInt(4.W))
-  val resp  = Input(UInt(2.W))
+  val valid     = Output(Bool())
+  val addr      = Output(UInt(addrW.W))
+  val data      = Output(UInt(32.W))
+  val strb      = Output(UInt(4.W))
+  val earlyAddr = Output(UInt(addrW.W))
+  val earlyData = Output(UInt(32.W))
+  val resp      = Input(UInt(2.W))
 }
 class RegRead(addrW: Int) extends Bundle {
-  val valid = Output(Bool())
-  val addr  = Output(UInt(addrW.W))
-  val data  = Input(UInt(32.W))
-  val resp  = Input(UInt(2.W))
+  val valid     = Output(Bool())
+  val addr      = Output(UInt(addrW.W))
+  val earlyAddr = Output(UInt(addrW.W))
+  val data      = Input(UInt(32.W))
+  val resp      = Input(UInt(2.W))
+}
+
+/** A write request in a register: word address, data, strobes. */
+class AxiLiteWord(addrW: Int) extends Bundle {
+  val addr = UInt(addrW.W)
+  val data = UInt(32.W)
+  val strb = UInt(4.W)
+}
+
+object AxiLiteSlave {
+  /** cycles from a write's AW/W handshake to its B valid, and from a read's AR handshake to its R valid */
+  val WriteResponseCycles = 3
+  val ReadResponseCycles  = 3
 }
 
 /** AXI4-Lite subordinate front end: takes one write (AW and W together) and one read at a time and turns each
   * into a single-cycle register access. Byte addresses; `addr` is the word address (byte address / 4).
   *
-  * The request is registered before the register file sees it (the access is the cycle after the handshake, the
-  * response the cycle after that), so no port of the bus reaches an address decode or a read select: the ports
-  * meet registers only.
+  * The request passes two registers before the register file's access: the first holds it as the handshake left
+  * it (offered as `earlyAddr` / `earlyData`, for the register file's decode), the second is the access. The access
+  * is two cycles after the handshake and the response (B or R) three. No port of the bus reaches logic, and the
+  * register file's address compares and range checks end in registers of their own.
   */
 class AxiLiteSlave(addrW: Int) extends Module {
   val axi = IO(Flipped(new AxiLiteIO(addrW)))
@@ -63,25 +81,28 @@ class AxiLiteSlave(addrW: Int) extends Module {
 
   val bValid = RegInit(false.B)
   val bResp  = RegInit(0.U(2.W))
-  val wPend  = RegInit(false.B)
-  val wAddr  = Reg(UInt((addrW - 2).W))
-  val wData  = Reg(UInt(32.W))
-  val wStrb  = Reg(UInt(4.W))
-  val doWr   = axi.awvalid && axi.wvalid && !bValid && !wPend
+  val wHeld  = RegInit(false.B)
+  val wAcc   = RegInit(false.B)
+  private val w0 = Reg(new AxiLiteWord(addrW - 2))  // held: the decode's input
+  private val w1 = Reg(new AxiLiteWord(addrW - 2))  // the access
+  val doWr   = axi.awvalid && axi.wvalid && !bValid && !wHeld && !wAcc
   axi.awready := doWr
   axi.wready  := doWr
   when(doWr) {
-    wPend := true.B
-    wAddr := axi.awaddr >> 2
-    wData := axi.wdata
-    wStrb := axi.wstrb
+    w0.addr := axi.awaddr >> 2
+    w0.data := axi.wdata
+    w0.strb := axi.wstrb
   }
-  wr.valid := wPend
-  wr.addr  := wAddr
-  wr.data  := wData
-  wr.strb  := wStrb
-  when(wPend) {
-    wPend  := false.B
+  wHeld := doWr
+  wAcc  := wHeld
+  when(wHeld) { w1 := w0 }
+  wr.valid     := wAcc
+  wr.addr      := w1.addr
+  wr.data      := w1.data
+  wr.strb      := w1.strb
+  wr.earlyAddr := w0.addr
+  wr.earlyData := w0.data
+  when(wAcc) {
     bValid := true.B
     bResp  := wr.resp
   }.elsewhen(axi.bready) {
@@ -93,18 +114,20 @@ class AxiLiteSlave(addrW: Int) extends Module {
   val rValid = RegInit(false.B)
   val rData  = RegInit(0.U(32.W))
   val rResp  = RegInit(0.U(2.W))
-  val rPend  = RegInit(false.B)
-  val rAddr  = Reg(UInt((addrW - 2).W))
-  val doRd   = axi.arvalid && !rValid && !rPend
+  val rHeld  = RegInit(false.B)
+  val rAcc   = RegInit(false.B)
+  val rAddr0 = Reg(UInt((addrW - 2).W))
+  val rAddr1 = Reg(UInt((addrW - 2).W))
+  val doRd   = axi.arvalid && !rValid && !rHeld && !rAcc
   axi.arready := doRd
-  when(doRd) {
-    rPend := true.B
-    rAddr := axi.araddr >> 2
-  }
-  rd.valid := rPend
-  rd.addr  := rAddr
-  when(rPend) {
-    rPend  := false.B
+  when(doRd) { rAddr0 := axi.araddr >> 2 }
+  rHeld := doRd
+  rAcc  := rHeld
+  when(rHeld) { rAddr1 := rAddr0 }
+  rd.valid     := rAcc
+  rd.addr      := rAddr1
+  rd.earlyAddr := rAddr0
+  when(rAcc) {
     rValid := true.B
     rData  := rd.data
     rResp  := rd.resp

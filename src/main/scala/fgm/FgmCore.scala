@@ -256,23 +256,22 @@ class FgmCore(val p: FgmParams) extends Module {
   bus.Protocol.streamOut("m_axis", m_axis)
 
   // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
-  import regs.{dataWrite, wA, wD}
-  def inRegion(nm: String): Bool = regs.inRegion(p.regionBase(nm), p.regionSizes.toMap.apply(nm))
+  import regs.{dataWrite, inRegion, offset, wD}
   // Default: no write this cycle.
   frameIn.io.boxWen  := false.B
   frameIn.io.boxWord := 0.U
   frameIn.io.boxHi   := false.B
   frameIn.io.boxData := 0.S
   regs.writes(
-    (wA === FgmRegs.BETA.U || wA === FgmRegs.ONE_PLUS_BETA.U) -> { () =>
+    (regs.at(FgmRegs.BETA) || regs.at(FgmRegs.ONE_PLUS_BETA)) -> { () =>
       dataWrite(p.betaW, true.B) {
         betaRam.io.wen   := true.B
-        betaRam.io.wmask := Mux(wA === FgmRegs.BETA.U, 1.U, 2.U)
+        betaRam.io.wmask := Mux(regs.at(FgmRegs.BETA), 1.U, 2.U)
         betaRam.io.wdata := Fill(2, wD(p.betaW - 1, 0))
       }
     },
     inRegion("XBOX") -> { () =>
-      val off = wA - p.regionBase("XBOX").U
+      val off = offset("XBOX")
       val j   = off >> 1
       dataWrite(p.xW, j < nw.U) {
         frameIn.io.boxWen  := true.B
@@ -282,7 +281,7 @@ class FgmCore(val p: FgmParams) extends Module {
       }
     },
     inRegion("UBOX") -> { () =>
-      val off  = wA - p.regionBase("UBOX").U
+      val off  = offset("UBOX")
       val slot = off >> 1
       val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
       val k    = slot >> p.pBits
@@ -301,7 +300,7 @@ class FgmCore(val p: FgmParams) extends Module {
     },
     (inRegion("MAT_A") || inRegion("MAT_F")) -> { () =>
       val isF  = inRegion("MAT_F")
-      val off  = wA - Mux(isF, p.regionBase("MAT_F").U, p.regionBase("MAT_A").U)
+      val off  = Mux(isF, offset("MAT_F"), offset("MAT_A"))
       val col  = if (p.cBits == 0) 0.U else off(p.cBits - 1, 0)
       val slot = off >> p.cBits
       val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)

@@ -85,9 +85,13 @@ object CoreMain {
     (ujson.Arr(r: _*), ujson.Obj.from(g))
   }
 
-  /** Write the core's outputs beside its SystemVerilog: hw.json and the SystemRDL register description. */
+  /** Write the core's outputs beside its SystemVerilog: hw.json (with the AXI4-Lite response cycles every core
+    * shares) and the SystemRDL register description. */
   def writeOutputs(out: String, hwJson: String, map: shell.RegMap): Unit = {
-    Emit.writeText(s"$out/hw.json", hwJson)
+    val hw = ujson.read(hwJson)
+    hw("axil_response_cycles") = ujson.Obj("write" -> bus.AxiLiteSlave.WriteResponseCycles,
+      "read" -> bus.AxiLiteSlave.ReadResponseCycles)
+    Emit.writeText(s"$out/hw.json", ujson.write(hw, indent = 2))
     Rdl.write(out, map)
   }
 }

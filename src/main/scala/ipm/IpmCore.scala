@@ -405,10 +405,10 @@ class IpmCore(val p: IpmParams) extends Module {
   regs.busy := busyC.asUInt.orR || fifoN =/= 0.U || extCnt =/= 0.U ||
     state =/= sIdle && !(state === sOutDrain && outIdle)
   regs.writes(
-    (regs.wA === IpmRegs.INW.U) -> (() => {
+    regs.at(IpmRegs.INW) -> (() => {
       when(regs.wD === 0.U || regs.wD > 65535.U) { regs.axil.wr.resp := bus.AxiLiteResp.SLVERR }
         .elsewhen(regs.axil.wr.valid) { inwReg := regs.wD }
     }),
-    (regs.wA === IpmRegs.MU_TOL.U) -> (() => { when(regs.axil.wr.valid) { muTol := regs.wD } }),
-    (regs.wA === IpmRegs.RES_TOL.U) -> (() => { when(regs.axil.wr.valid) { resTol := regs.wD } }))
+    regs.at(IpmRegs.MU_TOL) -> (() => { when(regs.axil.wr.valid) { muTol := regs.wD } }),
+    regs.at(IpmRegs.RES_TOL) -> (() => { when(regs.axil.wr.valid) { resTol := regs.wD } }))
 }

@@ -3,7 +3,6 @@ package shell
 import chisel3._
 import chisel3.util._
 import bus.{AxiLiteIO, AxiLiteResp, AxiLiteSlave}
-import fixed.FixedOps
 
 /** Register word addresses shared by the solver cores (byte address = 4 x word address), their description (the
   * register map every core extends, see RegMap) and the placement of the data regions above them.
@@ -172,24 +171,50 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   val axil = Module(new AxiLiteSlave(s_axil.addrW))
   axil.axi <> s_axil
 
-  // ---- reads
-  private val rdA = axil.rd.addr
-  axil.rd.resp := AxiLiteResp.OKAY
-  axil.rd.data := 0.U
-  // from the highest word down: the last connection wins, so the multiplexer tests word 0 first
-  for (r <- map.regs.filter(_.readable).sortBy(-_.word)) when(rdA === r.word.U) { axil.rd.data := readWord(r) }
-  when(rdA >= FirstCoreReg.U && !coreWords.map(w => rdA === w.U).foldLeft(false.B)(_ || _)) {
-    axil.rd.resp := AxiLiteResp.DECERR
-  }
+  // ---- reads: the word's one-hot select and the DECERR test are registers, made from the held request
+  private val rdE = axil.rd.earlyAddr
+  private val readable = map.regs.filter(_.readable)
+  private val rdSel    = readable.map(r => RegNext(rdE === r.word.U, false.B))
+  private val rdErr    = RegNext(rdE >= FirstCoreReg.U && !coreWords.map(w => rdE === w.U).foldLeft(false.B)(_ || _),
+    false.B)
+  axil.rd.data := readable.zip(rdSel).map { case (r, sel) => Mux(sel, readWord(r), 0.U) }.reduce(_ | _)
+  axil.rd.resp := Mux(rdErr, AxiLiteResp.DECERR, AxiLiteResp.OKAY)
 
-  // ---- writes
+  // ---- writes: the access (wA, wD, axil.wr.valid) and predicates of it decoded a cycle ahead, in registers
   val wA   = axil.wr.addr
   val wD   = axil.wr.data
   val wSig = wD.asSInt
   axil.wr.resp := AxiLiteResp.OKAY
+  private val wE  = axil.wr.earlyAddr
+  private val wDE = axil.wr.earlyData
+  private val atReg: Map[Int, Bool] = map.regs.map(r => r.word -> RegNext(wE === r.word.U, false.B)).toMap
+  private val inReg: Map[String, Bool] = map.regions.map { g =>
+    require(g.word % g.size == 0 && (g.size & (g.size - 1)) == 0,
+      s"${map.name}: region ${g.name} at word ${g.word} is not aligned to its ${g.size} words")
+    g.name -> RegNext(wE >= g.word.U && wE < (g.word + g.size).U, false.B)
+  }.toMap
+  /** fits(w - 1): the data word is a w-bit signed value (bits 31 .. w - 1 all equal), for w = 1 .. 32 */
+  private val fits: Seq[Bool] = {
+    val same = (0 until 32).map(i => wDE(i) === wDE(31))
+    (1 to 32).map(w => RegNext(same.drop(w - 1).reduce(_ && _), false.B))
+  }
 
-  def fitsS(w: Int): Bool = wSig >= FixedOps.minOf(w).S(32.W) && wSig <= FixedOps.maxOf(w).S(32.W)
-  def inRegion(base: Int, size: Int): Bool = wA >= base.U && wA < (base + size).U
+  /** the access is to the register at word address `word` (a register of the map) */
+  def at(word: Int): Bool = atReg.getOrElse(word,
+    throw new IllegalArgumentException(s"${map.name}: no register at word $word"))
+  /** the access is inside the region `name` of the map */
+  def inRegion(name: String): Bool = inReg.getOrElse(name,
+    throw new IllegalArgumentException(s"${map.name}: no region $name"))
+  /** the word offset of the access inside the region `name`: its low address bits (regions are aligned), as wide
+    * as the address */
+  def offset(name: String): UInt = {
+    val size = map.region(name).size
+    if (size == 1) 0.U(wA.getWidth.W) else wA(log2Ceil(size) - 1, 0).pad(wA.getWidth)
+  }
+  def fitsS(w: Int): Bool = {
+    require(w >= 1 && w <= 32, s"a data word is 1 to 32 bits: got $w")
+    fits(w - 1)
+  }
 
   /** A write into a data memory: refused while busy, at an address `ok` rejects, or when the value does not fit
     * `fitW` signed bits; otherwise `body` runs in the cycle of the write.
@@ -211,17 +236,17 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   /** Decode the shared registers, then the core's (condition, action) cases in order; anything else is DECERR. */
   def writes(cases: (Bool, () => Unit)*): Unit = {
     def bit(f: String) = wD(ctrlR.field(f).lsb)
-    val shared = when(wA === CTRL.U) {
+    val shared = when(at(CTRL)) {
       when(axil.wr.valid) {
         ctrlWarm   := bit("WARM_START")
         ctrlHold   := bit("HOLD")
         ctrlOutAll := bit("OUT_ALL")
       }
-    }.elsewhen(wA === IMAX.U) {
+    }.elsewhen(at(IMAX)) {
       when(wD === 0.U || wD > ((BigInt(1) << imaxF.width) - 1).U) {
         axil.wr.resp := AxiLiteResp.SLVERR
       }.elsewhen(axil.wr.valid) { imaxReg := wD }
-    }.elsewhen(wA === STATUS.U) {
+    }.elsewhen(at(STATUS)) {
       when(axil.wr.valid) {
         for (f <- statusR.fields.filter(_.w1c).sortBy(_.lsb)) when(wD(f.lsb)) { w1cFlags(f.name) := false.B }
       }
