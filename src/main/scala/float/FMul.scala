@@ -126,25 +126,34 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     cut(s)
   }
 
-  // ---- the exponent as the right shift needs it (a register after this step lands on the multiplier's inputs)
+  // ---- the normalised operands and the product's exponent; the right shift's view of it (Expo) and the product's
+  // trailing zeros are formed beside the multiplier, not after the normaliser's last levels
   val s1 = Wire(new Bundle {
-    val x   = UInt(w.W)
-    val y   = UInt(w.W)
-    val e   = new Expo
-    val tz  = UInt(tzW.W)
-    val spc = new Special
+    val x    = UInt(w.W)
+    val y    = UInt(w.W)
+    val eSum = SInt(pW.W) // beP + lz
+    val tz   = UInt(tzW.W) // the operands' trailing zeros before normalisation
+    val lz   = UInt(log2Ceil(w).W)
+    val spc  = new Special
   })
-  private val beP = Wire(SInt(pW.W))
-  beP := (norm.eSum - norm.x.lz.zext)(pW - 1, 0).asSInt
-  s1.x        := norm.x.sig
-  s1.y        := norm.y
-  s1.e.low    := beP <= 0.S
-  s1.e.edge   := beP === 1.S
-  s1.e.shTiny := Mux(beP <= (2 - winW).S, winW.U, (2.S - beP).asUInt(shW - 1, 0))
-  s1.e.base   := (beP - 2.S).asUInt(fieldW - 1, 0)
-  s1.tz       := norm.tz + norm.x.lz // the normalised operand's trailing zeros grow by its shift
-  s1.spc      := norm.spc
+  s1.x    := norm.x.sig
+  s1.y    := norm.y
+  s1.eSum := norm.eSum
+  s1.tz   := norm.tz
+  s1.lz   := norm.x.lz
+  s1.spc  := norm.spc
   val r1 = cut(s1)
+  private def expo(eSum: SInt, lz: UInt): Expo = {
+    val beP = (eSum - lz.zext)(pW - 1, 0).asSInt
+    val e   = Wire(new Expo)
+    e.low    := beP <= 0.S
+    e.edge   := beP === 1.S
+    e.shTiny := Mux(beP <= (2 - winW).S, winW.U, (2.S - beP).asUInt(shW - 1, 0))
+    e.base   := (beP - 2.S).asUInt(fieldW - 1, 0)
+    e
+  }
+  /** the product's trailing zeros: the normalised operand's grow by its shift */
+  private def tzOfProduct(t: UInt, lz: UInt): UInt = t + lz
 
   // ---- the product (2 w bits); wider than 18 x 18, as registered partial products of 18-bit high limbs, summed
   // in a step of their own
@@ -161,7 +170,14 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     dsp.io.clk := clock
     dsp.io.a   := s1.x.pad(18)
     dsp.io.b   := s1.y.pad(18)
-    val late = cut(RegNext(r1)) // its x and y are unused: the DSP holds them
+    // the other fields wait here; their exponent and trailing-zero logic runs in the pipeline register's cycle
+    val mid  = RegNext(r1) // its x and y are unused: the DSP holds them
+    val wait = Wire(new Prod)
+    wait.prod := 0.U
+    wait.tz   := tzOfProduct(mid.tz, mid.lz)
+    wait.e    := expo(mid.eSum, mid.lz)
+    wait.spc  := mid.spc
+    val late = cut(wait)
     val o = Wire(new Prod)
     o.prod := dsp.io.p(2 * w - 1, 0)
     o.tz   := late.tz
@@ -171,8 +187,8 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   } else if (w <= FMul.dspW) {
     val s = Wire(new Prod)
     s.prod := r1.x * r1.y
-    s.tz   := r1.tz
-    s.e    := r1.e
+    s.tz   := tzOfProduct(r1.tz, r1.lz)
+    s.e    := expo(r1.eSum, r1.lz)
     s.spc  := r1.spc
     cut(s)
   } else {
@@ -192,8 +208,8 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
     pp.hl  := xh * yl
     pp.lh  := xl * yh
     pp.ll  := xl * yl
-    pp.tz  := r1.tz
-    pp.e   := r1.e
+    pp.tz  := tzOfProduct(r1.tz, r1.lz)
+    pp.e   := expo(r1.eSum, r1.lz)
     pp.spc := r1.spc
     val rp = cut(pp)
     val s = Wire(new Prod)
