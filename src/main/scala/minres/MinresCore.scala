@@ -441,9 +441,10 @@ class MinresCore(val p: MinresParams) extends Module {
   val pending = RegInit(false.B)
   private val earlier  = if (RL == 1) Seq() else Seq.iterate(RegNext(issueW, false.B), RL - 1)(RegNext(_, false.B))
   pending := earlier.lastOption.getOrElse(issueW)
-  private val inFlight = earlier :+ pending
-  // the words in the queue and in flight, count + PopCount(inFlight), kept in a register beside its room flag: it
-  // grows by an issue and shrinks by an answer's handshake, so no pointer compare lies before the issue
+  // the words in the queue and in flight (the queue's count + the issues of the last RL cycles), kept in a
+  // register beside its room flag: it grows by an issue and shrinks by an answer's handshake, so no pointer compare
+  // lies before the issue (were it low, the queue's overflow assertion would fire; were it high, the output would
+  // stall off its cycle contract)
   private val occ  = RegInit(0.U(log2Ceil(outQn + 1).W))
   private val room = RegInit(true.B)
   private val issue = doneB(outBank) && !issDone && room
@@ -451,7 +452,6 @@ class MinresCore(val p: MinresParams) extends Module {
   occ    := occNext
   room   := occNext < outQn.U
   issueW := issue
-  assert(occ === outQ.io.count +& PopCount(inFlight), "MINRES output: occupancy register off its queue")
   require(RL >= 2, "the output reads its flags a cycle after the issue")
   private val obLate = Stages.delay(ob, RL - 1) // the flags are read a cycle before the word (xBad's set is late)
   private val oBad   = RegNext(inBad(obLate) || xBad(obLate))
