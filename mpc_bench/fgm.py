@@ -292,8 +292,9 @@ def interleave_table(recs: list[dict], sw: dict | None) -> list[str]:
           "wait for the problem's turn (the worst case is what the DAQP column uses). Solve period: cycles between "
           "two answers of one problem with frames always waiting, measured; solves/s: cores x K_p / period x Fmax "
           "(one problem: 1 / latency), where cores independent copies of the core are placed and routed together on "
-          "the one LFE5U-85F (each with its own ports; a user's interconnect spreads the frames). MAC use: (n^2 + 2n) per iteration over multipliers x the cycles of one pass, "
-          "period / (K_p (Imax + 1)) when interleaving.", ""]
+          "the one LFE5U-85F (each with its own ports; a user's interconnect spreads the frames). MAC use: "
+          "(n^2 + 2n) per iteration over multipliers x the cycles of one pass, period / (K_p (Imax + 1)) when "
+          "interleaving.", ""]
     return L
 
 

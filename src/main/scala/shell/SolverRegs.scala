@@ -183,7 +183,6 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   // ---- writes: the access (wA, wD, axil.wr.valid) and predicates of it decoded a cycle ahead, in registers
   val wA   = axil.wr.addr
   val wD   = axil.wr.data
-  val wSig = wD.asSInt
   axil.wr.resp := AxiLiteResp.OKAY
   private val wE  = axil.wr.earlyAddr
   private val wDE = axil.wr.earlyData
