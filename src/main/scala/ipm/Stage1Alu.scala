@@ -92,8 +92,11 @@ class Stage1Alu(p: Stage1Params) extends Module {
   private val cmp   = Module(new FCompare(fmt, p.latCmp))
   cmp.in_valid  := is(MIN, MAX, SELNEG)
   private val (cmpA, cmpB) = operands(MIN, MAX, SELNEG)
-  cmp.a         := Mux(isMin || isSel, cmpB, cmpA)
-  cmp.b         := Mux(isMin, cmpA, Mux(isSel, 0.U, cmpB))
+  // the comparator's own operands, ordered as they are loaded (opIs is valid on every pre cycle of its instruction:
+  // the engine loads the op at the launch, 6 cycles before the first), so that no decode is ahead of the compare
+  private val cmpEn = io.pre && (isMin || isSel || opIs(MAX))
+  cmp.a         := RegEnable(Mux(isMin || isSel, io.bPre, io.aPre), cmpEn)
+  cmp.b         := RegEnable(Mux(isMin, io.aPre, Mux(isSel, 0.U, io.bPre)), cmpEn)
   cmp.signaling := false.B
   private val cA     = Stages.delay(cmpA, p.latCmp)
   private val cB     = Stages.delay(cmpB, p.latCmp)

@@ -93,7 +93,7 @@ class MinresCore(val p: MinresParams) extends Module {
 
   // ---- per-problem scalars
   private def scal() = Reg(Vec(P, UInt(W.W)))
-  val delta = scal(); val nrm2 = scal()
+  val delta = scal()
   val cR = scal(); val cpR = scal(); val sR = scal(); val spR = scal(); val gamR = scal(); val etaR = scal()
   val g1R = scal(); val a1R = scal(); val a2R = scal(); val a3R = scal(); val cetaR = scal()
   val res0R = Reg(Vec(2 * P, UInt(W.W))) // ||r_0||, bank * P + slot: the init pass's norm (sent after x, warm form)
@@ -340,8 +340,9 @@ class MinresCore(val p: MinresParams) extends Module {
   nAcc.io.index := ops.delayTo(bc.e, 0, nTerm.t)
   nAcc.io.term  := nTerm.v
   require(p.tB + N - 1 + nTerm.t + nAcc.latency + 1 == p.tNrm, "norm schedule")
-  val nSlot = ops.delayTo(bc.slot, 0, nTerm.t + nAcc.latency)
-  when(nAcc.io.done) { nrm2(nSlot) := nAcc.io.sum }
+  // ||u||^2 of a slot is done on the cycle before its scalar part starts (tS = tNrm): one register, no slot select
+  require(p.tS == p.tNrm, "the norm is done on the cycle before the scalar part")
+  private val nrm2 = RegEnable(nAcc.io.sum, nAcc.io.done)
 
   // ---- scalar part: gamma_{j+1}, Givens rotation (eq. numbers: Elman, Silvester, Wathen Alg. 2.4), the graph of
   // MinresParams.scalarOps once per slot: on one operator per kind (SharedScalar) when the slots are long enough,
@@ -350,8 +351,17 @@ class MinresCore(val p: MinresParams) extends Module {
   private val sSlot = sc.slot
   private def at0(v: UInt) = Timed(v, 0)
   private val tS = p.latScalar
-  private val srcs = Map("nrm" -> nrm2(sSlot), "delta" -> delta(sSlot), "c" -> cR(sSlot), "cp" -> cpR(sSlot),
-    "s" -> sR(sSlot), "sp" -> spR(sSlot), "gamma" -> gamR(sSlot), "eta" -> etaR(sSlot))
+  // the other sources are selected by slot a cycle ahead of the trigger into registers (PassCounter.slotAhead), so
+  // that the slot's fanout is off the operand paths. That register holds what the select would read on the trigger
+  // cycle when no write to the slot lands on the cycle before it: delta's (tDelta - 1 after the start of the slot's
+  // pass, once per P S cycles) and the scalar part's own (latScalar after the slot's previous trigger, which came
+  // P S or more cycles earlier)
+  private val perSlot = Seq("delta" -> delta, "c" -> cR, "cp" -> cpR, "s" -> sR, "sp" -> spR, "gamma" -> gamR,
+    "eta" -> etaR)
+  private val ahead = P >= 2 && S >= 2 && (p.tS - p.tDelta) % (P * S) != 0 && tS + 1 < P * S
+  private val srcs = Map("nrm" -> nrm2) ++ perSlot.map { case (k, v) =>
+    k -> (if (ahead) RegNext(v(ps.slotAhead)) else v(sSlot))
+  }
   private val res: String => UInt = if (p.sharedScalar) {
     val sh = new SharedScalar(fmt, p.scalarSchedule, ps.first, srcs, p.target)
     name => sh.value(name, tS)

@@ -45,6 +45,10 @@ class PassCounter(p: MinresParams) {
   def valid: Bool = run && c.e < p.N.U
   /** element 0 of a slot is processed this cycle (valid && c.e === 0): a register of its own, set a cycle ahead */
   val first = RegInit(false.B)
+  /** on the cycle before a slot's first element (and while the count is stopped: slot 0), that slot: a register
+    * set on the slot's element S - 2 of the previous slot (needs S >= 2), so that a select by slot can be registered
+    * ahead of the slot's start */
+  val slotAhead = RegInit(0.U(chiselTypeOf(c.slot).getWidth.W))
   private val started = WireDefault(false.B) // tick's start
   /** f(c, inN(c.e)) for an address f(c, e) = base(bank, slot) + e, with inN(e) = e for e < n, else 0: a register
     * that counts up along a slot and is loaded with the base (f of the next count at e = 0) at a slot's start
@@ -69,6 +73,7 @@ class PassCounter(p: MinresParams) {
     }.elsewhen(run) {
       first := lastE && !(lastSlot && lastJ) // run stays on after this cycle
       lastE := (if (p.S == 1) true.B else !lastE && c.e === (p.S - 2).U)
+      if (p.S >= 2) when(!lastE && c.e === (p.S - 2).U) { slotAhead := Mux(lastSlot, 0.U, c.slot + 1.U) }
       nxt.e := Mux(lastE, 0.U, c.e + 1.U)
       // position in the MPC structure: rows r = 0..2n+m-1 of stages k = 0..T, primal rows counted
       val lastR = c.r === (p.period - 1).U
