@@ -179,11 +179,9 @@ class AdmmCore(val p: AdmmParams) extends Module {
       gwRam(u).io.wmask := 1.U
       gwRam(u).io.wdata := tree.io.sum.asUInt
     }
-    val (y, ofY) = FixedOps.satAdd(tree.io.sum, gw, p.yW)
-    val yQ = ShiftRegister(y, p.latAdd)
+    val (yQ, ofY) = FixedOps.satAddPipelined(tree.io.sum, gw, p.yW, p.latAdd)
     // q = y + nu / rho (0 in the first pass: the cold start projects 0)
-    val (q, ofQ) = FixedOps.satAdd(yQ, nuRhoQ, p.qW)
-    val qP    = ShiftRegister(Mux(tokQ.pass0, 0.S(p.qW.W), q), p.latAdd)
+    val (qP, ofQ) = FixedOps.satAddPipelined(yQ, nuRhoQ, p.qW, p.latAdd, zero = tokQ.pass0)
     val yP    = ShiftRegister(yQ, p.latAdd)
     val nuP   = ShiftRegister(nuQ, p.latAdd)
     val kindP = ShiftRegister(kindQ, p.latAdd)
@@ -288,7 +286,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val kindZs = kindZ
     val liveA  = kindZs =/= SoftX.U // a state row of a soft pair finishes in its slack's slot
     val ofTree = tree.io.outValid && tree.io.overflow
-    val ofYQ   = tokSum.valid && !tokSum.pass0 && ofY || tokQ.valid && !tokQ.pass0 && ofQ
+    val tokP   = tokAt(p.stageP)
+    val ofYQ   = tokQ.valid && !tokQ.pass0 && ofY || tokP.valid && ofQ
     val ofZD   = tokZ.valid && !tokZ.pass0 && (ofZ || liveA && ofDA || kindZs === SoftD.U && ofDB)
     val ofN    = tokNu.valid && !tokNu.pass0 && (kindN =/= SoftX.U && ofNA || kindN === SoftD.U && ofNB)
     ovfNow(u) := ofTree || ofYQ || ofZD || ofN || ovfMom(u)

@@ -143,6 +143,21 @@ object FixedOps {
   /** a + b saturated to `width` bits. */
   def satAdd(a: SInt, b: SInt, width: Int): (SInt, Bool) = saturate(a +& b, width)
 
+  /** satAdd whose result and flag come after `lat` register stages (0 and no flag where `zero`, a Bool of the
+    * operands' cycle); with lat >= 2 the first register sits between the adder's carry chain and the saturation,
+    * so neither shares a cycle with what follows. */
+  def satAddPipelined(a: SInt, b: SInt, width: Int, lat: Int, zero: Bool = false.B): (SInt, Bool) =
+    if (lat >= 2) {
+      val s = a +& b
+      val r = Reg(SInt(s.getWidth.W))
+      r := Mux(zero, 0.S, s)
+      val (v, of) = saturate(r, width)
+      (ShiftRegister(v, lat - 1), ShiftRegister(of, lat - 1))
+    } else {
+      val (v, of) = satAdd(a, b, width)
+      (ShiftRegister(Mux(zero, 0.S(width.W), v), lat), ShiftRegister(of && !zero, lat))
+    }
+
   /** a - b saturated to `width` bits. */
   def satSub(a: SInt, b: SInt, width: Int): (SInt, Bool) = saturate(a -& b, width)
 
