@@ -96,7 +96,10 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val progR  = RegNext(prog)
   private val slotR  = RegNext(slot)
   private val accept = startR
-  private val launch = running && !issuing && gapZero && !atEnd
+  // a launch is due when the gap ends (gapOne: it ends on the next cycle) or a cycle after an accept; it is kept
+  // in a register so that the issue decision below starts at registers
+  private val launch = RegNext(accept || running && !issuing && !gapZero && gapOne && !atEnd, false.B)
+  assert(launch === (running && !issuing && gapZero && !atEnd), "Stage1Engine: launch register out of step")
   // the ROM word of pc, or a program's first word from a table of its own (a register either way): `prog` comes
   // from the caller's decisions in the cycle of the start and meets only that table, not the ROM's decoder
   private val firstWord = table(p.entries.init.map(e => p.code(e).U(InstrW.W)), 1 << p.progW, 0.U(InstrW.W))
@@ -133,7 +136,11 @@ class Stage1Engine(p: Stage1Params) extends Module {
   // OUT words in flight or in the buffer at most OutDepth: one credit per free place
   private val credit  = RegInit(OutDepth.U(log2Ceil(OutDepth + 1).W))
   private val active  = launch || issuing
-  private val issue   = active && Mux(insIn, s_axis.tvalid, Mux(insOut, credit =/= 0.U, true.B))
+  // whether the instruction's element can issue (IN: an input word; OUT: a credit), for the one launching and for
+  // the one issuing, picked by the launch register last
+  private val room    = credit =/= 0.U
+  private val issue   = Mux(launch, Mux(nxtIn, s_axis.tvalid, !nxtOut || room),
+    issuing && Mux(curIn, s_axis.tvalid, !curOut || room))
   s_axis.tready := active && insIn
   credit := credit - (issue && insOut).asUInt + outQ.io.deq.fire.asUInt
 
