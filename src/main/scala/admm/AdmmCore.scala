@@ -415,7 +415,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     region("WBOX") -> { () =>
       val off = regs.offset("WBOX")
       val j   = off >> 1
-      dataWrite(p.wW, j < nw.U) {
+      dataWrite(p.wW, regs.ahead("WBOX")(o => (o >> 1) < nw.U)) {
         frameIn.io.boxWen  := true.B
         frameIn.io.boxWord := j
         frameIn.io.boxHi   := off(0)
@@ -423,12 +423,13 @@ class AdmmCore(val p: AdmmParams) extends Module {
       }
     },
     region("BND") -> { () =>
-      val off = regs.offset("BND")
-      val j   = (off >> 1)(rowW - 1, 0)
-      val ok  = (off >> 1) < n.U && bndOkRom(j)
+      val off  = regs.offset("BND")
+      val j    = (off >> 1)(rowW - 1, 0)
+      val ok   = regs.ahead("BND")(o => (o >> 1) < n.U && bndOkRom((o >> 1)(rowW - 1, 0)))
+      val unit = regs.ahead("BND")(o => unitRom((o >> 1)(rowW - 1, 0)))
       dataWrite(p.zW, ok) {
         for (u <- 0 until P) {
-          when(unitRom(j) === u.U) {
+          when(unit === u.U) {
             bndRam(u).io.wen   := true.B
             bndRam(u).io.waddr := slotRom(j)
             bndRam(u).io.wmask := UIntToOH(off(0), 2)
@@ -442,12 +443,16 @@ class AdmmCore(val p: AdmmParams) extends Module {
     (region("MAT_M") || region("MAT_G")) -> { () =>
       val isG = region("MAT_G")
       val off = Mux(isG, regs.offset("MAT_G"), regs.offset("MAT_M"))
-      val col = if (p.cBits == 0) 0.U else off(p.cBits - 1, 0)
-      val row = off >> p.cBits
-      val j   = row(rowW - 1, 0)
-      dataWrite(p.coefW, row < n.U && col < Mux(isG, (nw + 1).U, n.U)) {
+      def colOf(o: UInt) = if (p.cBits == 0) 0.U else o(p.cBits - 1, 0)
+      def rowOf(o: UInt) = (o >> p.cBits)(rowW - 1, 0)
+      def okIn(cols: Int)(o: UInt) = (o >> p.cBits) < n.U && colOf(o) < cols.U
+      val col  = colOf(off)
+      val j    = rowOf(off)
+      val ok   = Mux(isG, regs.ahead("MAT_G")(okIn(nw + 1)), regs.ahead("MAT_M")(okIn(n)))
+      val unit = Mux(isG, regs.ahead("MAT_G")(o => unitRom(rowOf(o))), regs.ahead("MAT_M")(o => unitRom(rowOf(o))))
+      dataWrite(p.coefW, ok) {
         for (u <- 0 until P) {
-          when(unitRom(j) === u.U) {
+          when(unit === u.U) {
             matRam(u).io.wen   := true.B
             matRam(u).io.waddr := Mux(isG, slotRom(j) +& p.K2.U, slotRom(j))
             matRam(u).io.wmask := UIntToOH(col, m)

@@ -262,6 +262,12 @@ class FgmCore(val p: FgmParams) extends Module {
   frameIn.io.boxWord := 0.U
   frameIn.io.boxHi   := false.B
   frameIn.io.boxData := 0.S
+  /** the slot word `slot` (unit in its low bits) names a row of the core */
+  def slotOk(slot: UInt): Bool = {
+    val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
+    val k    = slot >> p.pBits
+    unit < P.U && (k * P.U + unit) < n.U
+  }
   regs.writes(
     (regs.at(FgmRegs.BETA) || regs.at(FgmRegs.ONE_PLUS_BETA)) -> { () =>
       dataWrite(p.betaW, true.B) {
@@ -273,7 +279,7 @@ class FgmCore(val p: FgmParams) extends Module {
     inRegion("XBOX") -> { () =>
       val off = offset("XBOX")
       val j   = off >> 1
-      dataWrite(p.xW, j < nw.U) {
+      dataWrite(p.xW, regs.ahead("XBOX")(o => (o >> 1) < nw.U)) {
         frameIn.io.boxWen  := true.B
         frameIn.io.boxWord := j
         frameIn.io.boxHi   := off(0)
@@ -285,7 +291,7 @@ class FgmCore(val p: FgmParams) extends Module {
       val slot = off >> 1
       val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
       val k    = slot >> p.pBits
-      dataWrite(p.zW, unit < P.U && (k * P.U + unit) < n.U) {
+      dataWrite(p.zW, regs.ahead("UBOX")(o => slotOk(o >> 1))) {
         for (u <- 0 until P) {
           when(unit === u.U) {
             bndRam(u).io.wen   := true.B
@@ -305,8 +311,8 @@ class FgmCore(val p: FgmParams) extends Module {
       val slot = off >> p.cBits
       val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
       val k    = slot >> p.pBits
-      val cols = Mux(isF, nw.U, n.U)
-      dataWrite(p.coefW, unit < P.U && (k * P.U + unit) < n.U && col < cols) {
+      def okIn(cols: Int)(o: UInt) = slotOk(o >> p.cBits) && (if (p.cBits == 0) true.B else o(p.cBits - 1, 0) < cols.U)
+      dataWrite(p.coefW, Mux(isF, regs.ahead("MAT_F")(okIn(nw)), regs.ahead("MAT_A")(okIn(n)))) {
         for (u <- 0 until P) {
           when(unit === u.U) {
             matRam(u).io.wen   := true.B

@@ -206,10 +206,14 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
     throw new IllegalArgumentException(s"${map.name}: no region $name"))
   /** the word offset of the access inside the region `name`: its low address bits (regions are aligned), as wide
     * as the address */
-  def offset(name: String): UInt = {
+  def offset(name: String): UInt = offsetOf(name, wA)
+  private def offsetOf(name: String, a: UInt): UInt = {
     val size = map.region(name).size
-    if (size == 1) 0.U(wA.getWidth.W) else wA(log2Ceil(size) - 1, 0).pad(wA.getWidth)
+    if (size == 1) 0.U(a.getWidth.W) else a(log2Ceil(size) - 1, 0).pad(a.getWidth)
   }
+  /** `f` of the access's word offset inside the region `name`, formed from the request a cycle ahead (the early
+    * address) and registered: the address checks and decodes of a data write then start at a register. */
+  def ahead[T <: Data](name: String)(f: UInt => T): T = RegNext(f(offsetOf(name, wE)))
   def fitsS(w: Int): Bool = {
     require(w >= 1 && w <= 32, s"a data word is 1 to 32 bits: got $w")
     fits(w - 1)
