@@ -262,10 +262,11 @@ class FgmCore(val p: FgmParams) extends Module {
   frameIn.io.boxWord := 0.U
   frameIn.io.boxHi   := false.B
   frameIn.io.boxData := 0.S
-  /** the slot word `slot` (unit in its low bits) names a row of the core */
+  /** a slot word's row unit (its low bits) and the unit's row k */
+  def unitK(slot: UInt): (UInt, UInt) = (if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0), slot >> p.pBits)
+  /** the slot word `slot` names a row of the core */
   def slotOk(slot: UInt): Bool = {
-    val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
-    val k    = slot >> p.pBits
+    val (unit, k) = unitK(slot)
     unit < P.U && (k * P.U + unit) < n.U
   }
   regs.writes(
@@ -288,9 +289,7 @@ class FgmCore(val p: FgmParams) extends Module {
     },
     inRegion("UBOX") -> { () =>
       val off  = offset("UBOX")
-      val slot = off >> 1
-      val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
-      val k    = slot >> p.pBits
+      val (unit, k) = unitK(off >> 1)
       dataWrite(p.zW, regs.ahead("UBOX")(o => slotOk(o >> 1))) {
         for (u <- 0 until P) {
           when(unit === u.U) {
@@ -308,9 +307,7 @@ class FgmCore(val p: FgmParams) extends Module {
       val isF  = inRegion("MAT_F")
       val off  = Mux(isF, offset("MAT_F"), offset("MAT_A"))
       val col  = if (p.cBits == 0) 0.U else off(p.cBits - 1, 0)
-      val slot = off >> p.cBits
-      val unit = if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0)
-      val k    = slot >> p.pBits
+      val (unit, k) = unitK(off >> p.cBits)
       def okIn(cols: Int)(o: UInt) = slotOk(o >> p.cBits) && (if (p.cBits == 0) true.B else o(p.cBits - 1, 0) < cols.U)
       dataWrite(p.coefW, Mux(isF, regs.ahead("MAT_F")(okIn(nw)), regs.ahead("MAT_A")(okIn(n)))) {
         for (u <- 0 until P) {
