@@ -87,6 +87,10 @@ CASES = {
     # ECP5 target, one MULT18X18D per product (l_M = 3, the target's minimum, taken when lat_mul is not given)
     "rand_n4_nw9_p1_b12_ecp5": (lambda: random_problem("r4w", 7, 2, 2, 2, 3), dict(P=1, frac_bits=12, target="ecp5"),
                                 40),
+    # one parameter word (nx = 1, no tracking): a frame is whole the cycle after its only word, so a data write
+    # and a frame started together meet at the memories (verif/fgm/tb.py, write_meets_frame)
+    "rand_n3_nw1_p1_b12_ecp5": (lambda: random_problem("r1w", 1, 1, 3, 0, 5), dict(P=1, frac_bits=12, target="ecp5"),
+                                20),
     "rand_n24_p5_b12_l00": (lambda: random_problem("r24", 4, 2, 12, 1, 4),
                             dict(P=5, frac_bits=12, lat_add=0, lat_mul=0), 30),
     # interleaving (K_p problems on the row units, tuser the problem id): K_p K < L (idle cycles end each round),

@@ -291,3 +291,45 @@ async def output_all(dut):
     tb.backpressure(True)
     for i in range(3):
         await tb.solve_and_check(tb.random_w(), f"out_all {i}")
+
+
+
+def _changes_answer(tb, w, apply, v) -> bool:
+    """the next solve of w answers differently with value v put into the model"""
+    import copy
+
+    a, b = copy.deepcopy(tb.model), copy.deepcopy(tb.model)
+    apply(b, v)
+    ra, rb = (m.solve(w, imax=tb.imax, warm=tb.warm) for m in (a, b))
+    k = None if tb.out_all else tb.nu
+    return list(ra.z[:k]) != list(rb.z[:k])
+
+
+async def write_meets_frame(tb, addr: int, pair, get, apply, tag: str = "", offsets: int = 8):
+    """A data write and a frame started together, the frame 0 to offsets - 1 cycles after the write: an accepted
+    write (OKAY) is seen by that frame's solve, a refused one (SLVERR, the frame's first word came first) by none;
+    no frame word is lost; the offsets cover both outcomes. Each write puts the one of the two values of `pair`
+    that the element does not hold (`get(model)`, `apply(model, v)`: the element in a golden model), and each
+    frame's w is drawn so that the value changes its answer."""
+    seen = set()
+    for d in range(offsets):
+        v = pair[1] if get(tb.model) == pair[0] else pair[0]
+        w = tb.random_w()
+        for _ in range(50):
+            if _changes_answer(tb, w, apply, v):
+                break
+            w = tb.random_w()
+        else:
+            raise AssertionError(f"{tag}: no parameter found whose answer the value {v} changes")
+        wr = cocotb.start_soon(tb.write(addr, v))
+        await ClockCycles(tb.dut.clock, d)
+        await tb.send(w)
+        resp = await wr
+        assert resp in (AxiResp.OKAY, AxiResp.SLVERR), f"{tag} offset {d}: response {resp}"
+        seen.add(resp)
+        if resp == AxiResp.OKAY:
+            apply(tb.model, v)
+        exp, _ = tb.expect(w)
+        got = await tb.recv()
+        assert got == exp, f"{tag} offset {d} ({resp.name}): RTL {got} != model {exp} for w={list(w)}"
+    assert seen == {AxiResp.OKAY, AxiResp.SLVERR}, f"{tag}: the offsets gave only {seen}"

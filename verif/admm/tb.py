@@ -8,7 +8,7 @@ from cocotbext.axi import AxiResp
 
 from mpc_cores.admm.problem import BOX
 from verif.tb import (TB, TIMEOUT_MS, back_to_back, bitexact_random, cycle_contract, interleaving,  # noqa: F401
-                      output_all, reset_mid_solve, saturation_flag, tlast_error)
+                      output_all, reset_mid_solve, saturation_flag, tlast_error, write_meets_frame)
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
@@ -78,3 +78,12 @@ async def axil_rewrite(dut):
     assert await tb.write(rm["CYCLES_PER_ITER"] + 4, 0) == AxiResp.DECERR
     assert (await tb.read(rm.mat_m(0, 0)))[1] != AxiResp.OKAY, "data memories are write-only"
     await tb.solve_and_check(tb.random_w(), "after refused writes")
+    # a write of G~ (read from the first cycle of a solve) racing the next frame: seen by that frame's solve
+    # whenever it is accepted
+    i, j = max(((i, j) for i in range(tb.n) for j in range(tb.nw + 1)), key=lambda ij: abs(int(m.G[ij])))
+    g0 = int(m.G[i, j])
+
+    def put(mdl, v):
+        mdl.G[i, j] = v
+    await write_meets_frame(tb, rm.mat_g(i, j), (g0, g0 - (g0 >> 2)), lambda mdl: int(mdl.G[i, j]), put,
+                            "MAT_G race")

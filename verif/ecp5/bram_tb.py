@@ -122,7 +122,9 @@ async def bram_rows(dut):
         rows[a] = sum(((d if m >> i & 1 else rows[a]) >> (i * lw) & lane) << (i * lw) for i in range(lanes))
     await RisingEdge(dut.clock)
     dut.wen.value = 0
-    await RisingEdge(dut.clock)      # the write port is registered: the last write lands at this edge
+    # the write port has two registers: the last write lands at the second of these edges
+    await RisingEdge(dut.clock)
+    await RisingEdge(dut.clock)
     await FallingEdge(dut.clock)
     await read_all("after lane-masked writes")
 

@@ -7,7 +7,7 @@ from cocotb.triggers import ClockCycles
 from cocotbext.axi import AxiResp
 
 from verif.tb import (TB, TIMEOUT_MS, back_to_back, bitexact_random, cycle_contract, interleaving,  # noqa: F401
-                      output_all, reset_mid_solve, saturation_flag, tlast_error)
+                      output_all, reset_mid_solve, saturation_flag, tlast_error, write_meets_frame)
 
 
 @cocotb.test(timeout_time=TIMEOUT_MS, timeout_unit="ms")
@@ -68,3 +68,12 @@ async def axil_rewrite(dut):
         assert await tb.write(rm.mat_a(0, tb.n), 0) == AxiResp.DECERR
     assert not (await tb.read(rm.mat_a(0, 0)))[1] == AxiResp.OKAY, "data memories are write-only"
     await tb.solve_and_check(tb.random_w(), "after refused writes")
+    # a write of Phi_n (read from the first cycle of a solve) racing the next frame: seen by that frame's solve
+    # whenever it is accepted
+    i, j = max(((i, j) for i in range(tb.n) for j in range(tb.nw)), key=lambda ij: abs(int(m.F[ij])))
+    f0 = int(m.F[i, j])
+
+    def put(mdl, v):
+        mdl.F[i, j] = v
+    await write_meets_frame(tb, rm.mat_f(i, j), (f0, f0 - (f0 >> 2)), lambda mdl: int(mdl.F[i, j]), put,
+                            "MAT_F race")

@@ -46,7 +46,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val regs = new SolverRegs(s_axil, AdmmRegs.map(p))
   val frameIn = Module(new FrameIn(p.moduleName + "_w", nw, p.wW, p.streamW, p.wlo.zip(p.whi), Kp))
   frameIn.io.s_axis <> s_axis
-  frameIn.io.hold := regs.ctrlHold
+  frameIn.io.hold := regs.frameHold
   when(frameIn.io.sat) { regs.stSat := true.B }
   when(frameIn.io.tlastErr) { regs.stTlast := true.B }
   /** per problem: the warm start is valid (interleaving; one problem uses the shared WARM_VALID) */
@@ -407,6 +407,12 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val slotRom = VecInit((0 until n).map(j => p.slotOf(j).U(math.max(1, log2Ceil(K)).W)))
   // bounds live in the slot of a box row or of a soft pair's slack
   val bndOkRom = VecInit((0 until n).map(j => (p.kind(j) == Box || p.kind(j) == SoftD).B))
+  /** a data write's address check and row unit, from the early request of region `name`, in one register */
+  def okUnit(name: String)(ok: UInt => Bool, row: UInt => UInt): (Bool, UInt) = {
+    val uW = unitRom(0).getWidth
+    val r  = regs.ahead(name)(o => Cat(ok(o), unitRom(row(o))))
+    (r(uW), r(uW - 1, 0))
+  }
   frameIn.io.boxWen  := false.B
   frameIn.io.boxWord := 0.U
   frameIn.io.boxHi   := false.B
@@ -425,8 +431,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
     region("BND") -> { () =>
       val off  = regs.offset("BND")
       val j    = (off >> 1)(rowW - 1, 0)
-      val ok   = regs.ahead("BND")(o => (o >> 1) < n.U && bndOkRom((o >> 1)(rowW - 1, 0)))
-      val unit = regs.ahead("BND")(o => unitRom((o >> 1)(rowW - 1, 0)))
+      def rowOf(o: UInt) = (o >> 1)(rowW - 1, 0)
+      val (ok, unit) = okUnit("BND")(o => (o >> 1) < n.U && bndOkRom(rowOf(o)), rowOf)
       dataWrite(p.zW, ok) {
         for (u <- 0 until P) {
           when(unit === u.U) {
@@ -448,8 +454,10 @@ class AdmmCore(val p: AdmmParams) extends Module {
       def okIn(cols: Int)(o: UInt) = (o >> p.cBits) < n.U && colOf(o) < cols.U
       val col  = colOf(off)
       val j    = rowOf(off)
-      val ok   = Mux(isG, regs.ahead("MAT_G")(okIn(nw + 1)), regs.ahead("MAT_M")(okIn(n)))
-      val unit = Mux(isG, regs.ahead("MAT_G")(o => unitRom(rowOf(o))), regs.ahead("MAT_M")(o => unitRom(rowOf(o))))
+      val (okG, unitG) = okUnit("MAT_G")(okIn(nw + 1), rowOf)
+      val (okM, unitM) = okUnit("MAT_M")(okIn(n), rowOf)
+      val ok   = Mux(isG, okG, okM)
+      val unit = Mux(isG, unitG, unitM)
       dataWrite(p.coefW, ok) {
         for (u <- 0 until P) {
           when(unit === u.U) {

@@ -41,6 +41,8 @@ class RegWrite(addrW: Int) extends Bundle {
   val addr      = Output(UInt(addrW.W))
   val data      = Output(UInt(32.W))
   val strb      = Output(UInt(4.W))
+  /** the request of the next cycle's access (high the cycle before `valid`) */
+  val earlyValid = Output(Bool())
   val earlyAddr = Output(UInt(addrW.W))
   val earlyData = Output(UInt(32.W))
   val resp      = Input(UInt(2.W))
@@ -100,6 +102,7 @@ class AxiLiteSlave(addrW: Int) extends Module {
   wr.addr      := w1.addr
   wr.data      := w1.data
   wr.strb      := w1.strb
+  wr.earlyValid := wHeld
   wr.earlyAddr := w0.addr
   wr.earlyData := w0.data
   when(wAcc) {

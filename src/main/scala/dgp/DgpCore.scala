@@ -36,7 +36,7 @@ class DgpCore(val p: DgpParams) extends Module {
     coreSources = Map("ITERATIONS.COUNT" -> itersR, "ITERATIONS.MET" -> metR.asUInt))
   val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi)))
   frameIn.io.s_axis <> s_axis
-  frameIn.io.hold    := regs.ctrlHold
+  frameIn.io.hold    := regs.frameHold
   frameIn.io.boxWen  := false.B
   frameIn.io.boxWord := 0.U
   frameIn.io.boxHi   := false.B

@@ -40,7 +40,7 @@ class FgmCore(val p: FgmParams) extends Module {
   /** w = (x, r), saturated to the state box */
   val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi), Kp))
   frameIn.io.s_axis <> s_axis
-  frameIn.io.hold := regs.ctrlHold
+  frameIn.io.hold := regs.frameHold
   when(frameIn.io.sat) { regs.stSat := true.B }
   when(frameIn.io.tlastErr) { regs.stTlast := true.B }
   val outLast = Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)

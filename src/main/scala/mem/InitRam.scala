@@ -68,7 +68,8 @@ class InitRam(
     s"$ramName.sv",
     s"""// Initialised RAM: 1 synchronous read port (read-first), 1 lane-masked write port, read latency 2; on ECP5
        |// DP16KD block RAMs with their output register (mem.Ecp5BlockRam), in simulation a behavioural model. The
-       |// write port is registered (a write lands a cycle later): the block RAM inputs start at registers too.
+       |// write port passes two registers (a write lands two cycles later): the block RAM inputs start at registers,
+       |// and the route from the write's decode to blocks across the device has a register halfway.
        |module $ramName (
        |  input                  clock,
        |  input      [${addrW - 1}:0] raddr,
@@ -78,15 +79,19 @@ class InitRam(
        |  input      [${lanes - 1}:0] wmask,
        |  input      [${rowW - 1}:0] wdata
        |);
-       |  reg wen_q;
-       |  reg [${addrW - 1}:0] waddr_q;
-       |  reg [${lanes - 1}:0] wmask_q;
-       |  reg [${rowW - 1}:0] wdata_q;
+       |  reg wen_p, wen_q;
+       |  reg [${addrW - 1}:0] waddr_p, waddr_q;
+       |  reg [${lanes - 1}:0] wmask_p, wmask_q;
+       |  reg [${rowW - 1}:0] wdata_p, wdata_q;
        |  always @(posedge clock) begin
-       |    wen_q <= wen;
-       |    waddr_q <= waddr;
-       |    wmask_q <= wmask;
-       |    wdata_q <= wdata;
+       |    wen_p <= wen;
+       |    waddr_p <= waddr;
+       |    wmask_p <= wmask;
+       |    wdata_p <= wdata;
+       |    wen_q <= wen_p;
+       |    waddr_q <= waddr_p;
+       |    wmask_q <= wmask_p;
+       |    wdata_q <= wdata_p;
        |  end
        |`ifdef SYNTHESIS
        |${Ecp5BlockRam.primitives(addrW, lanes, laneW, init.map(rowBits), depth)}

@@ -137,6 +137,14 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
     * cycle after. */
   val busyR = RegNext(busy, false.B)
 
+  /** Hold the input frame's first word while a write may still be on its way into a data memory: from the access
+    * cycle to two cycles after it (the ECP5 block RAMs' write port has two registers, mem.InitRam). A word taken in
+    * the cycle before the access makes the core busy and the write is refused; so no solve reads a memory that a
+    * write accepted before it has not yet reached. One register, high for those three cycles. */
+  private val writeHold = RegInit(false.B)
+  /** the input stream's hold: CTRL.HOLD, or a write in flight */
+  def frameHold: Bool = ctrlHold || writeHold
+
   /** A solve finished after `cycles` cycles: count it and validate the warm start. */
   def solveDone(cycles: UInt): Unit = {
     solves     := solves + 1.U
@@ -185,6 +193,7 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   val wD   = axil.wr.data
   axil.wr.resp := AxiLiteResp.OKAY
   private val wE  = axil.wr.earlyAddr
+  writeHold := axil.wr.earlyValid || axil.wr.valid || RegNext(axil.wr.valid, false.B)
   private val wDE = axil.wr.earlyData
   private val atReg: Map[Int, Bool] = map.regs.map(r => r.word -> RegNext(wE === r.word.U, false.B)).toMap
   private val inReg: Map[String, Bool] = map.regions.map { g =>
