@@ -264,10 +264,12 @@ class FgmCore(val p: FgmParams) extends Module {
   frameIn.io.boxData := 0.S
   /** a slot word's row unit (its low bits) and the unit's row k */
   def unitK(slot: UInt): (UInt, UInt) = (if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0), slot >> p.pBits)
+  /** rows of unit u: k P + u < n for k below ceil((n - u) / P) (a table, so no product k P is formed) */
+  val unitRows = VecInit((0 until (1 << p.pBits)).map(u => (if (u < P) (n - u + P - 1) / P else 0).U(log2Ceil(K + 1).W)))
   /** the slot word `slot` names a row of the core */
   def slotOk(slot: UInt): Bool = {
     val (unit, k) = unitK(slot)
-    unit < P.U && (k * P.U + unit) < n.U
+    k < unitRows(unit)
   }
   regs.writes(
     (regs.at(FgmRegs.BETA) || regs.at(FgmRegs.ONE_PLUS_BETA)) -> { () =>
