@@ -31,6 +31,8 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
     /** the core takes the complete frame this cycle */
     val take  = Input(Bool())
     val full  = Output(Bool())
+    /** a frame's last word is taken this cycle (`full` rises in the next) */
+    val fills = Output(Bool())
     val frame = Output(Vec(words, SInt(wordW.W)))
     /** some words of a frame have arrived */
     val partial = Output(Bool())
@@ -99,6 +101,7 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   when(io.take) { full := false.B }
   bus.Protocol.noOverflow("input frame", fire, !full)
   io.full    := full
+  io.fills   := fire && last
   io.frame   := VecInit(buf.init :+ Mux(pendEnd, v, buf.last))
   io.partial := !atZero
 }

@@ -39,6 +39,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val io = IO(new Bundle {
     /** a complete input frame waits */
     val frameReady = Input(Bool())
+    /** the input frame's last word is taken this cycle (frameReady rises in the next, unless it is high) */
+    val frameFills = Input(Bool())
     /** iterations of the solve that starts (latched) */
     val imax = Input(UInt(16.W))
     /** words of the result frame minus one (latched at the start) */
@@ -65,7 +67,14 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val outEnd = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val outAtEnd = RegInit(false.B) // outCnt === outEnd, kept in a register: the output handshake is a gate from it
   val busyCyc = RegInit(0.U(32.W))
-  val start  = state === sIdle && io.frameReady
+  // The start (idle and a whole frame waiting) is decided a cycle ahead and kept in a register: it fans out to
+  // the token generator, the frame buffer and the core's loads, so it comes straight from a flip-flop. Idle next
+  // cycle: idle without a frame now, or the answer's last word leaves; a frame waits next cycle: one waits now
+  // and is not taken (no start while not idle), or its last word comes now.
+  val outLastFire = state === sOut && io.outFire && outAtEnd
+  val start = RegNext(state === sIdle && !io.frameReady && io.frameFills ||
+    outLastFire && (io.frameReady || io.frameFills), false.B)
+  assert(start === (state === sIdle && io.frameReady), "PassSequencer: start register out of step")
 
   // The token generator: registers describing the token of this cycle (its position in the solve), advanced by
   // one position per cycle from the start, each next value a gate or two from registers (the comparisons it needs
@@ -157,7 +166,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
 
   switch(state) {
     is(sIdle) {
-      when(io.frameReady) {
+      when(start) {
         state   := sRun
         outEnd  := io.outLast
         busyCyc := 0.U
@@ -182,6 +191,6 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   io.outValid  := state === sOut
   io.outIndex  := outCnt
   io.outIsLast := outAtEnd
-  io.done      := state === sOut && io.outFire && outAtEnd
+  io.done      := outLastFire
   io.runCycles := busyCyc
 }

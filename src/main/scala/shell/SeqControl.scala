@@ -30,6 +30,7 @@ object SeqControl {
     val ctl = if (Kp == 1) {
       val seq = Module(new PassSequencer(K, firstLen, L, copyAfterFirst, maxOut))
       seq.io.frameReady := frameIn.io.full
+      seq.io.frameFills := frameIn.io.fills
       seq.io.imax       := regs.imaxReg
       seq.io.outLast    := outLast
       seq.io.outFire    := outFire
