@@ -10,6 +10,7 @@ Every output word is compared with the core's bit-exact golden model, flags incl
 """
 from __future__ import annotations
 
+import copy
 import os
 
 import cocotb
@@ -293,42 +294,42 @@ async def output_all(dut):
         await tb.solve_and_check(tb.random_w(), f"out_all {i}")
 
 
-
-def _changes_answer(tb, w, apply, v) -> bool:
-    """the next solve of w answers differently with value v put into the model"""
-    import copy
-
+def _changes_answer(tb, w, name: str, ij, v) -> bool:
+    """the next solve of w answers differently with element ij of the model's matrix `name` set to v"""
     a, b = copy.deepcopy(tb.model), copy.deepcopy(tb.model)
-    apply(b, v)
+    getattr(b, name)[ij] = v
     ra, rb = (m.solve(w, imax=tb.imax, warm=tb.warm) for m in (a, b))
     k = None if tb.out_all else tb.nu
     return list(ra.z[:k]) != list(rb.z[:k])
 
 
-async def write_meets_frame(tb, addr: int, pair, get, apply, tag: str = "", offsets: int = 8):
+async def write_meets_frame(tb, name: str, addr_of, cols: int, offsets: int = 8):
     """A data write and a frame started together, the frame 0 to offsets - 1 cycles after the write: an accepted
     write (OKAY) is seen by that frame's solve, a refused one (SLVERR, the frame's first word came first) by none;
-    no frame word is lost; the offsets cover both outcomes. Each write puts the one of the two values of `pair`
-    that the element does not hold (`get(model)`, `apply(model, v)`: the element in a golden model), and each
-    frame's w is drawn so that the value changes its answer."""
+    no frame word is lost; the offsets cover both outcomes. The write goes to the largest element of the model's
+    matrix `name` (rows n, columns `cols`; `addr_of(i, j)` its address), alternating between its value x0 and
+    x0 - x0 / 4; each frame's w is drawn so that the written value changes its answer."""
+    mat = getattr(tb.model, name)
+    ij = max(((i, j) for i in range(tb.n) for j in range(cols)), key=lambda e: abs(int(mat[e])))
+    x0 = int(mat[ij])
+    pair, tag = (x0, x0 - (x0 >> 2)), f"{name} race"
     seen = set()
     for d in range(offsets):
-        v = pair[1] if get(tb.model) == pair[0] else pair[0]
-        w = tb.random_w()
+        v = pair[1] if int(getattr(tb.model, name)[ij]) == pair[0] else pair[0]
         for _ in range(50):
-            if _changes_answer(tb, w, apply, v):
-                break
             w = tb.random_w()
+            if _changes_answer(tb, w, name, ij, v):
+                break
         else:
             raise AssertionError(f"{tag}: no parameter found whose answer the value {v} changes")
-        wr = cocotb.start_soon(tb.write(addr, v))
+        wr = cocotb.start_soon(tb.write(addr_of(*ij), v))
         await ClockCycles(tb.dut.clock, d)
         await tb.send(w)
         resp = await wr
         assert resp in (AxiResp.OKAY, AxiResp.SLVERR), f"{tag} offset {d}: response {resp}"
         seen.add(resp)
         if resp == AxiResp.OKAY:
-            apply(tb.model, v)
+            getattr(tb.model, name)[ij] = v
         exp, _ = tb.expect(w)
         got = await tb.recv()
         assert got == exp, f"{tag} offset {d} ({resp.name}): RTL {got} != model {exp} for w={list(w)}"
