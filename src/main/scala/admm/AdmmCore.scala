@@ -65,8 +65,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val gwKW   = math.max(1, log2Ceil(K))
   val gwRam  = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_gw$u", if (Kp == 1) K else (1 << sW) << gwKW,
     1, p.sumW, Seq(), outReg = true)))
-  for (r <- matRam ++ bndRam ++ gwRam) {
-    r.io.clock := clock
+  for (r <- matRam ++ bndRam ++ gwRam) r.io.clock := clock
+  for (r <- gwRam) {
     r.io.wen   := false.B
     r.io.waddr := 0.U
     r.io.wmask := 0.U
@@ -407,12 +407,6 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val slotRom = VecInit((0 until n).map(j => p.slotOf(j).U(math.max(1, log2Ceil(K)).W)))
   // bounds live in the slot of a box row or of a soft pair's slack
   val bndOkRom = VecInit((0 until n).map(j => (p.kind(j) == Box || p.kind(j) == SoftD).B))
-  /** a data write's address check and row unit, from the early request of region `name`, in one register */
-  def okUnit(name: String)(ok: UInt => Bool, row: UInt => UInt): (Bool, UInt) = {
-    val uW = unitRom(0).getWidth
-    val r  = regs.ahead(name)(o => Cat(ok(o), unitRom(row(o))))
-    (r(uW), r(uW - 1, 0))
-  }
   frameIn.io.boxWen  := false.B
   frameIn.io.boxWord := 0.U
   frameIn.io.boxHi   := false.B
@@ -429,47 +423,52 @@ class AdmmCore(val p: AdmmParams) extends Module {
       }
     },
     region("BND") -> { () =>
-      val off  = regs.offset("BND")
-      val j    = (off >> 1)(rowW - 1, 0)
-      def rowOf(o: UInt) = (o >> 1)(rowW - 1, 0)
-      val (ok, unit) = okUnit("BND")(o => (o >> 1) < n.U && bndOkRom(rowOf(o)), rowOf)
-      dataWrite(p.zW, ok) {
-        for (u <- 0 until P) {
-          when(unit === u.U) {
-            bndRam(u).io.wen   := true.B
-            bndRam(u).io.waddr := slotRom(j)
-            bndRam(u).io.wmask := UIntToOH(off(0), 2)
-            bndRam(u).io.wdata := Fill(2, wD(p.zW - 1, 0))
-          }
-        }
+      dataWrite(p.zW, regs.ahead("BND")(bndOk)) {
         regs.warmValid := false.B
         warmOk.foreach(_ := false.B)
       }
     },
     (region("MAT_M") || region("MAT_G")) -> { () =>
-      val isG = region("MAT_G")
-      val off = Mux(isG, regs.offset("MAT_G"), regs.offset("MAT_M"))
-      def colOf(o: UInt) = if (p.cBits == 0) 0.U else o(p.cBits - 1, 0)
-      def rowOf(o: UInt) = (o >> p.cBits)(rowW - 1, 0)
-      def okIn(cols: Int)(o: UInt) = (o >> p.cBits) < n.U && colOf(o) < cols.U
-      val col  = colOf(off)
-      val j    = rowOf(off)
-      val (okG, unitG) = okUnit("MAT_G")(okIn(nw + 1), rowOf)
-      val (okM, unitM) = okUnit("MAT_M")(okIn(n), rowOf)
-      val ok   = Mux(isG, okG, okM)
-      val unit = Mux(isG, unitG, unitM)
-      dataWrite(p.coefW, ok) {
-        for (u <- 0 until P) {
-          when(unit === u.U) {
-            matRam(u).io.wen   := true.B
-            matRam(u).io.waddr := Mux(isG, slotRom(j) +& p.K2.U, slotRom(j))
-            matRam(u).io.wmask := UIntToOH(col, m)
-            matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
-          }
-        }
-      }
+      dataWrite(p.coefW, Mux(region("MAT_G"), regs.ahead("MAT_G")(matOk(nw + 1)), regs.ahead("MAT_M")(matOk(n)))) {}
     }
   )
+  def rowOfBnd(o: UInt): UInt = (o >> 1)(rowW - 1, 0)
+  def bndOk(o: UInt): Bool = (o >> 1) < n.U && bndOkRom(rowOfBnd(o))
+  def colOf(o: UInt): UInt = if (p.cBits == 0) 0.U else o(p.cBits - 1, 0)
+  def rowOfMat(o: UInt): UInt = (o >> p.cBits)(rowW - 1, 0)
+  def matOk(cols: Int)(o: UInt): Bool = (o >> p.cBits) < n.U && colOf(o) < cols.U
+
+  // The row units' memory writes: enables, slot and lanes decided a cycle ahead from the early request (the same
+  // region, check and fit as the responses above), so that only registers drive the write ports.
+  {
+    val off = regs.earlyOffset("BND")
+    val j   = rowOfBnd(off)
+    val wen = regs.writeEnables(p.zW)((0 until P).map(u => regs.earlyIn("BND") && bndOk(off) && unitRom(j) === u.U))
+    val waddr = RegNext(slotRom(j))
+    val wmask = RegNext(UIntToOH(off(0), 2))
+    for (u <- 0 until P) {
+      bndRam(u).io.wen   := wen(u)
+      bndRam(u).io.waddr := waddr
+      bndRam(u).io.wmask := wmask
+      bndRam(u).io.wdata := Fill(2, wD(p.zW - 1, 0))
+    }
+  }
+  {
+    require(p.regionSizes.toMap.apply("MAT_M") == p.regionSizes.toMap.apply("MAT_G"), "MAT_M and MAT_G differ in size")
+    val isG = regs.earlyIn("MAT_G")
+    val off = regs.earlyOffset("MAT_M")
+    val j   = rowOfMat(off)
+    val ok  = regs.earlyIn("MAT_M") && matOk(n)(off) || isG && matOk(nw + 1)(off)
+    val wen = regs.writeEnables(p.coefW)((0 until P).map(u => ok && unitRom(j) === u.U))
+    val waddr = RegNext(Mux(isG, slotRom(j) +& p.K2.U, slotRom(j)))
+    val wmask = RegNext(UIntToOH(colOf(off), m))
+    for (u <- 0 until P) {
+      matRam(u).io.wen   := wen(u)
+      matRam(u).io.waddr := waddr
+      matRam(u).io.wmask := wmask
+      matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
+    }
+  }
 }
 
 /** The register map of an ADMM core: the shared registers of shell.SolverRegs and the data memories, addressed by

@@ -60,13 +60,11 @@ class FgmCore(val p: FgmParams) extends Module {
       ecp5 = p.target == dsp.Target.Ecp5))
   }
   val betaRam = Module(new InitRam(s"${p.moduleName}_beta", 1, 2, p.betaW, Seq(Seq(p.beta, p.onePlusBeta))))
-  for (r <- matRam ++ bndRam :+ betaRam) {
-    r.io.clock := clock
-    r.io.wen   := false.B
-    r.io.waddr := 0.U
-    r.io.wmask := 0.U
-    r.io.wdata := 0.U
-  }
+  for (r <- matRam ++ bndRam :+ betaRam) r.io.clock := clock
+  betaRam.io.wen   := false.B
+  betaRam.io.waddr := 0.U
+  betaRam.io.wmask := 0.U
+  betaRam.io.wdata := 0.U
   betaRam.io.raddr := 0.U
   val betaQ = betaRam.io.rdata(p.betaW - 1, 0).asSInt
   val opbQ  = betaRam.io.rdata(2 * p.betaW - 1, p.betaW).asSInt
@@ -290,39 +288,49 @@ class FgmCore(val p: FgmParams) extends Module {
       }
     },
     inRegion("UBOX") -> { () =>
-      val off  = offset("UBOX")
-      val (unit, k) = unitK(off >> 1)
       dataWrite(p.zW, regs.ahead("UBOX")(o => slotOk(o >> 1))) {
-        for (u <- 0 until P) {
-          when(unit === u.U) {
-            bndRam(u).io.wen   := true.B
-            bndRam(u).io.waddr := k
-            bndRam(u).io.wmask := UIntToOH(off(0), 2)
-            bndRam(u).io.wdata := Fill(2, wD(p.zW - 1, 0))
-          }
-        }
         regs.warmValid := false.B
         warmOk.foreach(_ := false.B)
       }
     },
     (inRegion("MAT_A") || inRegion("MAT_F")) -> { () =>
-      val isF  = inRegion("MAT_F")
-      val off  = Mux(isF, offset("MAT_F"), offset("MAT_A"))
-      val col  = if (p.cBits == 0) 0.U else off(p.cBits - 1, 0)
-      val (unit, k) = unitK(off >> p.cBits)
-      def okIn(cols: Int)(o: UInt) = slotOk(o >> p.cBits) && (if (p.cBits == 0) true.B else o(p.cBits - 1, 0) < cols.U)
-      dataWrite(p.coefW, Mux(isF, regs.ahead("MAT_F")(okIn(nw)), regs.ahead("MAT_A")(okIn(n)))) {
-        for (u <- 0 until P) {
-          when(unit === u.U) {
-            matRam(u).io.wen   := true.B
-            matRam(u).io.waddr := Mux(isF, k +& p.K2.U, k)
-            matRam(u).io.wmask := UIntToOH(col, m)
-            matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
-          }
-        }
-      }
+      dataWrite(p.coefW, Mux(inRegion("MAT_F"), regs.ahead("MAT_F")(matOk(nw)), regs.ahead("MAT_A")(matOk(n)))) {}
     }
   )
+  def matOk(cols: Int)(o: UInt): Bool = slotOk(o >> p.cBits) && (if (p.cBits == 0) true.B else o(p.cBits - 1, 0) < cols.U)
+
+  // The row units' memory writes: enables, row and lanes decided a cycle ahead from the early request (the same
+  // region, check and fit as the responses above), so that only registers drive the write ports across the die.
+  {
+    val off = regs.earlyOffset("UBOX")
+    val (unit, k) = unitK(off >> 1)
+    val wen = regs.writeEnables(p.zW)((0 until P).map(u => regs.earlyIn("UBOX") && slotOk(off >> 1) && unit === u.U))
+    val waddr = RegNext(k)
+    val wmask = RegNext(UIntToOH(off(0), 2))
+    for (u <- 0 until P) {
+      bndRam(u).io.wen   := wen(u)
+      bndRam(u).io.waddr := waddr
+      bndRam(u).io.wmask := wmask
+      bndRam(u).io.wdata := Fill(2, wD(p.zW - 1, 0))
+    }
+  }
+  {
+    // MAT_A and MAT_F have the same size, so one early offset serves both
+    require(p.regionSizes.toMap.apply("MAT_A") == p.regionSizes.toMap.apply("MAT_F"), "MAT_A and MAT_F differ in size")
+    val isF = regs.earlyIn("MAT_F")
+    val off = regs.earlyOffset("MAT_A")
+    val (unit, k) = unitK(off >> p.cBits)
+    val ok  = regs.earlyIn("MAT_A") && matOk(n)(off) || isF && matOk(nw)(off)
+    val wen = regs.writeEnables(p.coefW)((0 until P).map(u => ok && unit === u.U))
+    val waddr = RegNext(Mux(isF, k +& p.K2.U, k))
+    val wmask = RegNext(UIntToOH(if (p.cBits == 0) 0.U else off(p.cBits - 1, 0), m))
+    for (u <- 0 until P) {
+      matRam(u).io.wen   := wen(u)
+      matRam(u).io.waddr := waddr
+      matRam(u).io.wmask := wmask
+      matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
+    }
+  }
 }
 
 /** The register map of an FGM core: the shared registers of shell.SolverRegs, beta, and the data memories. */

@@ -196,16 +196,20 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   writeHold := axil.wr.earlyValid || axil.wr.valid || RegNext(axil.wr.valid, false.B)
   private val wDE = axil.wr.earlyData
   private val atReg: Map[Int, Bool] = map.regs.map(r => r.word -> RegNext(wE === r.word.U, false.B)).toMap
-  private val inReg: Map[String, Bool] = map.regions.map { g =>
-    require(g.word % g.size == 0 && (g.size & (g.size - 1)) == 0,
-      s"${map.name}: region ${g.name} at word ${g.word} is not aligned to its ${g.size} words")
-    g.name -> RegNext(wE >= g.word.U && wE < (g.word + g.size).U, false.B)
-  }.toMap
-  /** fits(w - 1): the data word is a w-bit signed value (bits 31 .. w - 1 all equal), for w = 1 .. 32 */
-  private val fits: Seq[Bool] = {
-    val same = (0 until 32).map(i => wDE(i) === wDE(31))
-    (1 to 32).map(w => RegNext(same.drop(w - 1).reduce(_ && _), false.B))
+  for (g <- map.regions) require(g.word % g.size == 0 && (g.size & (g.size - 1)) == 0,
+    s"${map.name}: region ${g.name} at word ${g.word} is not aligned to its ${g.size} words")
+  private def hits(name: String, a: UInt): Bool = {
+    val g = map.region(name)
+    a >= g.word.U && a < (g.word + g.size).U
   }
+  private val inReg: Map[String, Bool] = map.regions.map(g => g.name -> RegNext(hits(g.name, wE), false.B)).toMap
+  /** the early data word is a w-bit signed value (bits 31 .. w - 1 all equal) */
+  private def fitsEarly(w: Int): Bool = {
+    require(w >= 1 && w <= 32, s"a data word is 1 to 32 bits: got $w")
+    (w - 1 until 32).map(i => wDE(i) === wDE(31)).reduce(_ && _)
+  }
+  /** fits(w - 1): the data word is a w-bit signed value, for w = 1 .. 32 */
+  private val fits: Seq[Bool] = (1 to 32).map(w => RegNext(fitsEarly(w), false.B))
 
   /** the access is to the register at word address `word` (a register of the map) */
   def at(word: Int): Bool = atReg.getOrElse(word,
@@ -223,10 +227,22 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   /** `f` of the access's word offset inside the region `name`, formed from the request a cycle ahead (the early
     * address) and registered: the address checks and decodes of a data write then start at a register. */
   def ahead[T <: Data](name: String)(f: UInt => T): T = RegNext(f(offsetOf(name, wE)))
+  /** the early request's address is inside the region `name` (not registered: for decisions made ahead) */
+  def earlyIn(name: String): Bool = hits(name, wE)
+  /** the early request's word offset inside the region `name` (not registered) */
+  def earlyOffset(name: String): UInt = offsetOf(name, wE)
   def fitsS(w: Int): Bool = {
     require(w >= 1 && w <= 32, s"a data word is 1 to 32 bits: got $w")
     fits(w - 1)
   }
+
+  /** Write enables of data memories, decided a cycle ahead: enable i is `go(i)` of the early request (its region,
+    * address check and target, from `earlyIn` / `earlyOffset`) with the early value's fit to `fitW` signed bits,
+    * in one register, and at the access only gated by busy. This is exactly when `dataWrite` with the same region,
+    * check and width runs its body (which then gives the response and flags); the memories' enables come from a
+    * register and one gate, and their address and lanes can be registered ahead the same way. */
+  def writeEnables(fitW: Int)(go: Seq[Bool]): Seq[Bool] =
+    go.map(g => RegNext(axil.wr.earlyValid && g && fitsEarly(fitW), false.B) && !busyR)
 
   /** A write into a data memory: refused while busy, at an address `ok` rejects, or when the value does not fit
     * `fitW` signed bits; otherwise `body` runs in the cycle of the write.
