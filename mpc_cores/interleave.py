@@ -9,12 +9,16 @@ of a slot with nothing to do issues nothing. Cycle 0 is the first cycle after re
 A frame whose last word's handshake is at cycle a is taken at a + 1 if its slot is free (else in the cycle after
 the slot's answer has left), and its first pass runs in the first turn of its slot that starts at T0 >= take + 2.
 Its answer's first word is valid at T0 + Imax R + L + 2, or in the cycle after the previous answer's last word
-when that is later. K_p = 1 is the plain sequencer (shell.PassSequencer): 3 + K + Imax L after the last word.
+when that is later. K_p = 1 is the plain sequencer (shell.PassSequencer): its solve starts PASS_START cycles after
+the last word's handshake (FGM: 4 + K + Imax L to the answer's first word).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+# K_p = 1 (shell.PassSequencer): the solve starts PASS_START cycles after the frame's last word's handshake (the
+# start is decided in two registers, so that the row memories' addresses are registered beside their blocks)
+PASS_START = 2
 # the answer's first word is valid ANSWER_AFTER cycles after the last iteration's results are complete (L cycles
 # after its turn began): the answer queue's register and the output register
 ANSWER_AFTER = 2

@@ -53,6 +53,12 @@ def test_synthesis_branch_reads_and_writes(suite, case, mem, cores, admm_cores):
     (d / "spec.json").write_text(json.dumps(spec))
     prims = text.count("DP16KD #(")
     assert prims == spec["lanes"] * -(-spec["lane_width"] // 18)
+    # a row memory addressed a cycle ahead: each primitive has its own kept address register
+    spec["ahead"] = "ra_bram_" in text
+    assert spec["ahead"] == (mem.startswith("mat"))
+    if spec["ahead"]:
+        assert text.count("(* keep *) always @(posedge clock) ra_bram_") == prims
+    (d / "spec.json").write_text(json.dumps(spec))
     tests, failed = run_cocotb([d / f"{name}.sv", d / "dp16kd_model.v"], name, "verif.ecp5.bram_tb", d / "sim",
                                {"BRAM_SPEC": str(d / "spec.json")}, testcase="bram_rows", extra_args=("-DSYNTHESIS",))
     assert (tests, failed) == (1, 0), f"see {d / 'sim' / 'sim.log'}"

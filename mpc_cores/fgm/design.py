@@ -16,6 +16,7 @@ from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_opt
                                    problems_option, run_options, solver_opt, target_option)
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError  # noqa: F401  (DesignError: part of this API)
 from mpc_cores.fixed import bits_for, quantize
+from mpc_cores.interleave import PASS_START, Interleave
 from mpc_cores.problem import MpcProblem, condense
 
 
@@ -78,12 +79,15 @@ class FgmDesign(FixedPointDesign):
         imax = self.iterations if imax is None else imax
         if self.problems > 1:
             return self.interleave.latency_bounds(imax)[0]
-        return 3 + self.K + imax * self.cycles_per_iteration
+        return self.solve_overhead + imax * self.cycles_per_iteration
+
+    @property
+    def solve_overhead(self) -> int:
+        """one problem: the start PASS_START cycles after the last word, the first pass's K rows and two cycles"""
+        return PASS_START + 2 + self.K
 
     @property
     def interleave(self):
-        from mpc_cores.interleave import Interleave
-
         return Interleave(self.K, self.problems, self.cycles_per_iteration)
 
     @property

@@ -85,7 +85,7 @@ def _dsp_advice(d: FgmDesign) -> str | None:
 def interleave_fields(d) -> dict:
     """core.json's interleaving entries (mpc_cores.interleave.core_fields)."""
     return core_fields(d.K, d.cycles_per_iteration, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
-                       3 + d.K + d.iterations * d.cycles_per_iteration)
+                       d.solve_overhead + d.iterations * d.cycles_per_iteration)
 
 
 def design_report(d: FgmDesign, core: dict | None = None) -> str:
@@ -108,9 +108,9 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
     lines.append(f"    stream words {d.widths['stream']} bits")
     lines += [
         f"  Cycles: L_F = {d.cycles_per_iteration} per iteration (eq. (23): {d.cycles_eq23}); per solve "
-        f"{3 + d.K} + Imax * {d.cycles_per_iteration} without interleaving",
+        f"{d.solve_overhead} + Imax * {d.cycles_per_iteration} without interleaving",
         *report_lines(d.K, d.cycles_per_iteration, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
-                      3 + d.K + d.iterations * d.cycles_per_iteration),
+                      d.solve_overhead + d.iterations * d.cycles_per_iteration),
         f"  Round-off bound eq. (20) after {d.iterations} iterations: ||z_fixed - z_exact||_2 <= {eta[-1]:.3g}",
         f"  Multipliers: {d.multipliers} (P * max(n, nw) + 2P)",
     ]

@@ -4,7 +4,8 @@ written from the Lattice pin and INITVAL conventions (the ones Yosys's own mappi
 lanes, lane width and the initial rows.
 
 bram_rows (toplevel: an InitRam, mem/Ecp5BlockRam.scala):
-- every row reads back its initial contents, two cycles after its address;
+- every row reads back its initial contents, two cycles after its address (three with the address registered
+  ahead, spec "ahead");
 - random lane-masked writes, then every row again against a model of the behavioural InitRam.
 
 sdp_rows (toplevel: an Ecp5SdpRam, mem/Ecp5SdpRam.scala; lanes 1, no initial rows):
@@ -99,14 +100,16 @@ async def bram_rows(dut):
     dut.waddr.value = 0
     dut.wdata.value = 0
 
+    lag = 2 if spec.get("ahead") else 1
+
     async def read_all(tag):
-        """one address a cycle: after the edge that takes address a, rdata holds the word of a - 1"""
+        """one address a cycle: after the edge that takes address a, rdata holds the word of a - lag"""
         got = []
-        for a in range(depth + 1):
+        for a in range(depth + lag):
             dut.raddr.value = min(a, depth - 1)
             await RisingEdge(dut.clock)
             await ReadOnly()
-            if a >= 1:
+            if a >= lag:
                 got.append(int(dut.rdata.value))
             await FallingEdge(dut.clock)
         bad = [a for a in range(depth) if got[a] != rows[a]]

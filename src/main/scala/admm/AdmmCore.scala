@@ -58,7 +58,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
 
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true,
-    ecp5 = p.target == dsp.Target.Ecp5)))
+    ecp5 = p.target == dsp.Target.Ecp5, raddrAhead = ctl.tokNN.isDefined)))
   val bndRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_bnd$u", K, 2, p.zW, p.boundInit(u), outReg = true,
     ecp5 = p.target == dsp.Target.Ecp5)))
   // G~ (w, 1) per row, of each problem (rows of problem j from j 2^ceil(log2 K) on)
@@ -142,7 +142,9 @@ class AdmmCore(val p: AdmmParams) extends Module {
 
   for (u <- 0 until P) {
     val tree = if (u == 0) dp else Module(new DotProductTree(dp.p))
-    matRam(u).io.raddr := Cat(tokN.pass0, tokN.k) // second block at K2 = 2^ceil(log2 K): no adder
+    // second block at K2 = 2^ceil(log2 K): no adder; one problem: a cycle ahead, registered beside the blocks
+    val tokR = ctl.tokNN.getOrElse(tokN)
+    matRam(u).io.raddr := Cat(tokR.pass0, tokR.k)
     tree.io.inValid := tok1.valid
     tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(m, SInt(p.coefW.W)))
     tree.io.op      := Mux(tok1.pass0, wPad, vPad)

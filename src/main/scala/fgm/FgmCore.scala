@@ -53,7 +53,7 @@ class FgmCore(val p: FgmParams) extends Module {
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map { u =>
     Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true,
-      ecp5 = p.target == dsp.Target.Ecp5))
+      ecp5 = p.target == dsp.Target.Ecp5, raddrAhead = ctl.tokNN.isDefined))
   }
   val bndRam = (0 until P).map { u =>
     Module(new InitRam(s"${p.moduleName}_ubox$u", K, 2, p.zW, p.boundInit(u), outReg = true,
@@ -109,7 +109,9 @@ class FgmCore(val p: FgmParams) extends Module {
   val rotHs = { val t = tokAt(p.stageSum - 1); (0 until Kp).map(j => RegNext(t.valid && mine(t, j), false.B)) }
 
   for (u <- 0 until P) {
-    matRam(u).io.raddr := Cat(tokN.pass0, tokN.k) // second block at K2 = 2^ceil(log2 K): no adder
+    // second block at K2 = 2^ceil(log2 K): no adder; one problem: a cycle ahead, registered beside the blocks
+    val tokR = ctl.tokNN.getOrElse(tokN)
+    matRam(u).io.raddr := Cat(tokR.pass0, tokR.k)
     // first pass: the next row's bounds (the cold start); else the row reaching the projection. Not gated by
     // tokN.valid (forced in the cycle of the start, from the input handshake): while the first pass has rows
     // to issue its token is valid, and in the other cycles of the first pass and in idle the read is unused

@@ -28,16 +28,23 @@ object Ecp5BlockRam {
     f".INITVAL_$k%02X(320'h${v.toString(16)})"
   }
 
-  /** the primitives of one InitRam: name, address width, lanes, lane width and its unsigned init rows */
-  def primitives(addrW: Int, lanes: Int, laneW: Int, rows: Seq[BigInt], depth: Int): String = {
+  /** primitives per lane of laneW bits */
+  def slices(laneW: Int): Int = (laneW + sliceW - 1) / sliceW
+  /** the name of a primitive: lane l, slice s */
+  def name(l: Int, s: Int): String = s"bram_l${l}_s$s"
+
+  /** the primitives of one InitRam: address width, lanes, lane width, its unsigned init rows, depth, and the read
+    * address of each primitive (by lane and slice) */
+  def primitives(addrW: Int, lanes: Int, laneW: Int, rows: Seq[BigInt], depth: Int,
+      raddrOf: (Int, Int) => String = (_, _) => "raddr"): String = {
     require(fits(depth), s"Ecp5BlockRam: depth $depth > $maxDepth")
-    val slices = (laneW + sliceW - 1) / sliceW
+    val slices = this.slices(laneW)
     val laneMask = (BigInt(1) << laneW) - 1
     val out = for (l <- 0 until lanes; s <- 0 until slices) yield {
       val lo    = l * laneW + s * sliceW
       val width = math.min(sliceW, laneW - s * sliceW)
       val words = rows.map(r => ((r >> (l * laneW)) & laneMask) >> (s * sliceW) & ((BigInt(1) << width) - 1))
-      Ecp5SdpRam.dp16kd(s"bram_l${l}_s$s", sliceW, maxDepth, addrW, "waddr_q", "raddr", s"wen_q & wmask_q[$l]",
+      Ecp5SdpRam.dp16kd(name(l, s), sliceW, maxDepth, addrW, "waddr_q", raddrOf(l, s), s"wen_q & wmask_q[$l]",
         initvals(words), i => s"wdata_q[${lo + i}]", i => s"rdata[${lo + i}]", width)
     }
     out.mkString("\n")

@@ -14,6 +14,9 @@ import chisel3.util._
   * @param outReg register the read data once more (read latency 2; maps to the block RAM output register)
   * @param ecp5   with outReg and at most 1024 rows: DP16KD primitives with their output register for synthesis
   *               (Ecp5BlockRam), the same behavioural model for simulation
+  * @param raddrAhead `raddr` is the read address a cycle ahead, registered here: with ecp5, in a kept register per
+  *               primitive beside it (so that the address's route across the device is split by a register, and
+  *               synthesis does not merge the copies); the read's timing from that register is as without it
   */
 class InitRam(
     val ramName: String,
@@ -22,7 +25,8 @@ class InitRam(
     val laneW: Int,
     init: Seq[Seq[BigInt]],
     val outReg: Boolean = false,
-    val ecp5: Boolean = false)
+    val ecp5: Boolean = false,
+    val raddrAhead: Boolean = false)
     extends BlackBox
     with HasBlackBoxInline {
   require(depth >= 1 && lanes >= 1 && laneW >= 1, s"InitRam $ramName: depth, lanes, laneW must be >= 1")
@@ -64,12 +68,24 @@ class InitRam(
   }
   val primitive: Boolean = ecp5 && outReg && Ecp5BlockRam.fits(depth)
 
+  // raddrAhead: the registered address, of the behavioural model (ra) and of each primitive (ra_<primitive>)
+  private val blocks = for (l <- 0 until lanes; s <- 0 until Ecp5BlockRam.slices(laneW)) yield Ecp5BlockRam.name(l, s)
+  private def raddrOf(block: String): String = if (raddrAhead) s"ra_$block" else "raddr"
+  private val raddrSim = if (raddrAhead) "ra" else "raddr"
+  private def aheadDecl(perBlock: Boolean): String = if (!raddrAhead) "" else {
+    val copies = if (perBlock) blocks.map(b => s"ra_$b") else Nil
+    (s"  reg [${addrW - 1}:0] ra;\n  always @(posedge clock) ra <= raddr;" +:
+      copies.map(r => s"  reg [${addrW - 1}:0] $r;\n  (* keep *) always @(posedge clock) $r <= raddr;")).mkString("\n")
+  }
+
   if (primitive) setInline(
     s"$ramName.sv",
     s"""// Initialised RAM: 1 synchronous read port (read-first), 1 lane-masked write port, read latency 2; on ECP5
        |// DP16KD block RAMs with their output register (mem.Ecp5BlockRam), in simulation a behavioural model. The
        |// write port passes two registers (a write lands two cycles later): the block RAM inputs start at registers,
-       |// and the route from the write's decode to blocks across the device has a register halfway.
+       |// and the route from the write's decode to blocks across the device has a register halfway. The registers
+       |// are kept (not merged by synthesis with the equal ones of memories written together), so that each
+       |// memory's write port has its own, placed near its blocks.
        |module $ramName (
        |  input                  clock,
        |  input      [${addrW - 1}:0] raddr,
@@ -79,11 +95,12 @@ class InitRam(
        |  input      [${lanes - 1}:0] wmask,
        |  input      [${rowW - 1}:0] wdata
        |);
+${aheadDecl(true)}
        |  reg wen_p, wen_q;
        |  reg [${addrW - 1}:0] waddr_p, waddr_q;
        |  reg [${lanes - 1}:0] wmask_p, wmask_q;
        |  reg [${rowW - 1}:0] wdata_p, wdata_q;
-       |  always @(posedge clock) begin
+       |  (* keep *) always @(posedge clock) begin
        |    wen_p <= wen;
        |    waddr_p <= waddr;
        |    wmask_p <= wmask;
@@ -94,7 +111,7 @@ class InitRam(
        |    wdata_q <= wdata_p;
        |  end
        |`ifdef SYNTHESIS
-       |${Ecp5BlockRam.primitives(addrW, lanes, laneW, init.map(rowBits), depth)}
+       |${Ecp5BlockRam.primitives(addrW, lanes, laneW, init.map(rowBits), depth, (l, sl) => raddrOf(Ecp5BlockRam.name(l, sl)))}
        |`else
        |  reg [${rowW - 1}:0] mem [0:${depth - 1}];
        |  reg [${rowW - 1}:0] rd, rq;
@@ -105,7 +122,7 @@ class InitRam(
        |  always @(posedge clock) begin
        |    for (i = 0; i < $lanes; i = i + 1)
        |      if (wen_q && wmask_q[i]) mem[waddr_q][i*$laneW +: $laneW] <= wdata_q[i*$laneW +: $laneW];
-       |    rd <= mem[raddr];
+       |    rd <= mem[$raddrSim];
        |    rq <= rd;
        |  end
        |  assign rdata = rq;
@@ -126,6 +143,7 @@ class InitRam(
        |);
        |  reg [${rowW - 1}:0] mem [0:${depth - 1}];
        |  reg [${rowW - 1}:0] rd;
+       |${aheadDecl(false)}
        |  integer i;
        |  initial begin
        |${(initLines ++ zeroLines).mkString("\n")}
@@ -133,7 +151,7 @@ class InitRam(
        |  always @(posedge clock) begin
        |    for (i = 0; i < $lanes; i = i + 1)
        |      if (wen && wmask[i]) mem[waddr][i*$laneW +: $laneW] <= wdata[i*$laneW +: $laneW];
-       |    rd <= mem[raddr];
+       |    rd <= mem[$raddrSim];
        |    ${if (outReg) "rdata <= rd;" else ""}
        |  end
        |  ${if (outReg) "" else "always @(*) rdata = rd;"}

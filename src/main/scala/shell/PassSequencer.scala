@@ -27,8 +27,10 @@ object RowToken {
 /** Sequencer of a solve: idle -> run (the first pass, then Imax iterations) -> out (the result frame).
   *
   * The first pass issues rows 0..K-1 and lasts `firstLen` cycles; each iteration issues rows 0..K-1 and lasts `L`
-  * cycles (row k at count k). `tokN` is the token of the next cycle, a register (but for `valid` in the cycle of
-  * `start`), so that the row memories are addressed a cycle ahead from registers. `copyNow` marks the cycle after an iteration's last write in which the core
+  * cycles (row k at count k). `tokN` is the token of the next cycle, a register, so that the row memories are
+  * addressed a cycle ahead from registers; `tokNN` is the token after it, also from registers (but for `valid`),
+  * for memories that register their address in copies beside their blocks (mem.InitRam's raddrAhead). For that the
+  * start is decided two cycles ahead: a frame's last word taken at t starts the solve at t + 2. `copyNow` marks the cycle after an iteration's last write in which the core
   * moves its next operand vector into place: after every iteration but the last, and after the first pass when
   * `copyAfterFirst`.
   */
@@ -51,6 +53,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     /** the solve starts this cycle (the core takes the frame) */
     val start    = Output(Bool())
     val tokN     = Output(new RowToken(kW))
+    val tokNN    = Output(new RowToken(kW))
     val running  = Output(Bool())
     val copyNow  = Output(Bool())
     val outValid = Output(Bool())
@@ -67,17 +70,20 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val outEnd = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val outAtEnd = RegInit(false.B) // outCnt === outEnd, kept in a register: the output handshake is a gate from it
   val busyCyc = RegInit(0.U(32.W))
-  // The start (idle and a whole frame waiting) is decided a cycle ahead and kept in a register: it fans out to
-  // the token generator, the frame buffer and the core's loads, so it comes straight from a flip-flop. Idle next
-  // cycle: idle without a frame now, or the answer's last word leaves; a frame waits next cycle: one waits now
-  // and is not taken (no start while not idle), or its last word comes now.
+  // The start (idle and a whole frame waiting) is decided two cycles ahead, in `startA` and then `start`: the token
+  // generator runs a cycle ahead of the tokens (from startA), and the frame buffer and the core's loads take the
+  // start straight from a flip-flop. startA rises in the cycle after the frame's last word or the answer's last
+  // word (the earlier of the two that finds the other done): idle next cycle is idle without a frame now, or the
+  // answer's last word leaving; a frame waits next cycle when its last word comes now, or one waits and the
+  // answer's last word leaves.
   val outLastFire = state === sOut && io.outFire && outAtEnd
-  val start = RegNext(state === sIdle && !io.frameReady && io.frameFills ||
+  val startA = RegNext(state === sIdle && !io.frameReady && io.frameFills ||
     outLastFire && (io.frameReady || io.frameFills), false.B)
-  assert(start === (state === sIdle && io.frameReady), "PassSequencer: start register out of step")
+  val start = RegNext(startA, false.B)
+  assert(start === (state === sIdle && io.frameReady && !startA), "PassSequencer: start registers out of step")
 
-  // The token generator: registers describing the token of this cycle (its position in the solve), advanced by
-  // one position per cycle from the start, each next value a gate or two from registers (the comparisons it needs
+  // The token generator: registers describing the token of the next cycle (its position in the solve), advanced
+  // by one position per cycle from startA, each next value a gate or two from registers (the comparisons it needs
   // are flags kept a cycle ahead). In idle it holds the first pass's row 0, not valid (the cycle of `start` makes
   // it valid); after a solve's last position it returns there.
   val gV      = RegInit(false.B)           // the position is a row
@@ -99,7 +105,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val gapLen0 = firstLen - K
   val gapLen  = L - K
   val passEnd = rowEnd && Mux(gP0, (gapLen0 == 0).B, (gapLen == 0).B) || gGap && gGapEnd
-  when(start) {
+  when(startA) {
     gRun    := true.B
     gP0     := true.B
     gF      := false.B
@@ -153,16 +159,22 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   tokR.first := gF
   tokR.k     := gK
   tokR.slot  := 0.U
-  val tokN = WireDefault(tokR)
-  when(start) { tokN.valid := true.B }
-  io.tokN := tokN
+  val tokNN = WireDefault(tokR)
+  when(startA) { tokNN.valid := true.B }
+  io.tokNN := tokNN
+  val idleTok = WireDefault(tokR)  // what the generator holds in idle and after reset
+  idleTok.valid := false.B
+  idleTok.pass0 := true.B
+  idleTok.first := false.B
+  idleTok.k     := 0.U
+  io.tokN := RegNext(tokNN, idleTok)
   io.start := start
   io.running := state === sRun
-  // The passes' ends come from the generator: it holds a pass's last position a cycle before the cycle that ends
-  // the pass (the state's cycles count from the one after the start). The operand copy follows that cycle, after
-  // every iteration but the last, and after the first pass when `copyAfterFirst`.
-  val lastEnd = RegNext(gRun && passEnd && gLast, false.B)
-  io.copyNow := ShiftRegister(gRun && passEnd && Mux(gP0, copyAfterFirst.B, !gLast), 2, false.B, true.B)
+  // The passes' ends come from the generator: it holds a pass's last position two cycles before the cycle that
+  // ends the pass (the state's cycles count from the one after the start). The operand copy follows that cycle,
+  // after every iteration but the last, and after the first pass when `copyAfterFirst`.
+  val lastEnd = ShiftRegister(gRun && passEnd && gLast, 2, false.B, true.B)
+  io.copyNow := ShiftRegister(gRun && passEnd && Mux(gP0, copyAfterFirst.B, !gLast), 3, false.B, true.B)
 
   switch(state) {
     is(sIdle) {
