@@ -119,7 +119,9 @@ class FgmCore(val p: FgmParams) extends Module {
     // Several problems: always the row reaching the projection, for a first pass too (its cold start is then
     // formed at the projection stage): another problem's iteration rows may still be in flight when a first
     // pass's rows are fetched, and they need their own bounds.
-    bndRam(u).io.raddr := (if (Kp == 1) Mux(tokN.pass0, tokN.k, tokBnd.k) else tokBnd.k)
+    // One problem: the first pass reads a cycle earlier still (tokNN), so that its bounds are registered before
+    // the cold start is formed from them; the iteration rows' reads (tokBnd) trail far behind the first pass's.
+    bndRam(u).io.raddr := ctl.tokNN.map(t => Mux(t.pass0, t.k, tokBnd.k)).getOrElse(tokBnd.k)
   }
 
   val yPad = VecInit((0 until m).map(j => if (j < n) yReg(j).pad(p.opW) else 0.S(p.opW.W)))
@@ -144,10 +146,11 @@ class FgmCore(val p: FgmParams) extends Module {
     }
 
     // The bounds of the row reaching the projection (stage T), and the cold start z0 = proj(0) from this row's
-    // bounds during the first pass: with one problem straight from the memory, addressed by tokN; with several
+    // bounds during the first pass: with one problem from the memory's register, addressed by tokNN; with several
     // at the projection stage, as the iteration rows.
-    val bnd = if (bndRegd) RegNext(bndRam(u).io.rdata) else bndRam(u).io.rdata
-    val bndCold = if (Kp == 1) bndRam(u).io.rdata else bnd
+    val bndR = RegNext(bndRam(u).io.rdata)
+    val bnd = if (bndRegd) bndR else bndRam(u).io.rdata
+    val bndCold = if (Kp == 1) bndR else bnd
     val lo1 = bndCold(p.zW - 1, 0).asSInt
     val hi1 = bndCold(2 * p.zW - 1, p.zW).asSInt
     // registered: it fans out to the rows of the unit across the chip (written a cycle later, weCold)
