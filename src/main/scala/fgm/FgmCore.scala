@@ -5,7 +5,7 @@ import chisel3.util._
 import bus.{AxiLiteIO, AxiStreamIO}
 import fixed.FixedOps
 import linalg.{DotProductParams, DotProductTree}
-import mem.InitRam
+import mem.{InitRam, KeepReg}
 import proj.BoxProjection
 import shell.{Field, FrameIn, RegMap, Region, Register, RowToken, SeqControl, SolverRegs}
 
@@ -124,8 +124,12 @@ class FgmCore(val p: FgmParams) extends Module {
     bndRam(u).io.raddr := ctl.tokNN.map(t => Mux(t.pass0, t.k, tokBnd.k)).getOrElse(tokBnd.k)
   }
 
-  val yPad = VecInit((0 until m).map(j => if (j < n) yReg(j).pad(p.opW) else 0.S(p.opW.W)))
-  val wPad = VecInit((0 until m).map(j => if (j < nw) wCur(j).pad(p.opW) else 0.S(p.opW.W)))
+  // Operands per row unit (an FPGA target, one problem, P > 1): each unit's multipliers take y and w from copies
+  // of their own, written under copies of their own controls, so that no register drives the operands of every
+  // unit across the device. The copies are kept (mem.KeepReg): synthesis would merge them back into one.
+  val split = Kp == 1 && P > 1 && p.target != dsp.Target.Generic
+  val yOf: Seq[Vec[SInt]] = if (split) Seq.fill(P)(Wire(Vec(n, SInt(p.yW.W)))) else Seq.fill(P)(yReg)
+  def padded(v: Vec[SInt], len: Int) = VecInit((0 until m).map(j => if (j < len) v(j).pad(p.opW) else 0.S(p.opW.W)))
   val ovfNow = Wire(Vec(P, Bool()))
 
   val dp = Module(new DotProductTree(DotProductParams(m, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding, p.target)))
@@ -136,7 +140,9 @@ class FgmCore(val p: FgmParams) extends Module {
     val tree = if (u == 0) dp else Module(new DotProductTree(dp.p))
     tree.io.inValid := tok1.valid
     tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(m, SInt(p.coefW.W)))
-    tree.io.op      := Mux(tok1.pass0, wPad, yPad)
+    // w is loaded at the start and first read two cycles later, so its copy may trail it by one
+    val (pass0, wU) = if (split) (KeepReg(tok0.pass0), KeepReg(wCur)) else (tok1.pass0, wCur)
+    tree.io.op      := Mux(pass0, padded(wU, nw), padded(yOf(u), n))
 
     // First pass: h = Phi_n w enters the FIFO one row per cycle; each iteration row reads the head and rotates.
     val hHead = ofSlot((0 until Kp).map(j => hFifo(j)(u)(0)), tokSum.slot)
@@ -222,6 +228,18 @@ class FgmCore(val p: FgmParams) extends Module {
         yNext(0)(r) := unitY(u)
         zReg(0)(r)  := unitZ(u)
       }
+    }
+    // the units' copies of y: written as yReg is, each under its own copies of the three write controls
+    if (split) for (u <- 0 until P) {
+      val warmC = KeepReg(ctl.take && warmNow)
+      val coldE = KeepReg(VecInit((0 until K).map(k => tok1.valid && tok1.pass0 && !warmL && tok1.k === k.U)))
+      val copyC = KeepReg(ctl.copyNext)
+      val d = Wire(Vec(n, SInt(p.yW.W)))
+      val q = KeepReg(d)
+      for (r <- 0 until n)
+        d(r) := Mux(warmC, zReg(0)(shifted(r)).pad(p.yW), Mux(coldE(r / P), unitCold(r % P).pad(p.yW),
+          Mux(copyC, yNext(0)(r), q(r))))
+      yOf(u) := q
     }
   } else {
     for (j <- 0 until Kp) when(ctl.take && frameIn.io.id === j.U) { wReg(j) := frameIn.io.frame }

@@ -56,6 +56,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     val tokNN    = Output(new RowToken(kW))
     val running  = Output(Bool())
     val copyNow  = Output(Bool())
+    /** copyNow of the next cycle */
+    val copyNext = Output(Bool())
     val outValid = Output(Bool())
     val outIndex = Output(UInt(log2Ceil(maxOut + 1).W))
     val outIsLast = Output(Bool())
@@ -174,7 +176,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   // ends the pass (the state's cycles count from the one after the start). The operand copy follows that cycle,
   // after every iteration but the last, and after the first pass when `copyAfterFirst`.
   val lastEnd = ShiftRegister(gRun && passEnd && gLast, 2, false.B, true.B)
-  io.copyNow := ShiftRegister(gRun && passEnd && Mux(gP0, copyAfterFirst.B, !gLast), 3, false.B, true.B)
+  io.copyNext := ShiftRegister(gRun && passEnd && Mux(gP0, copyAfterFirst.B, !gLast), 2, false.B, true.B)
+  io.copyNow  := RegNext(io.copyNext, false.B)
 
   switch(state) {
     is(sIdle) {

@@ -4,11 +4,12 @@ import chisel3._
 import chisel3.util._
 
 /** What a core's datapath takes from its sequencer (PassSequencer for one problem, TurnSequencer for several):
-  * the token, the frame taken, the operand copy (one problem), the answer's word and the solve's end, and per
-  * problem whether the solve taken starts warm (several problems). `tokNN`, the token after tokN from registers,
-  * for one problem (PassSequencer): row memories can register their address beside their blocks from it. */
-case class SeqControl(tokN: RowToken, tokNN: Option[RowToken], take: Bool, copyNow: Bool, running: Bool, outValid: Bool, outSlot: UInt,
-    outIndex: UInt, outIsLast: Bool, done: Bool, runCycles: UInt, warmOf: Vec[Bool]) {
+  * the token, the frame taken, the operand copy (one problem; copyNext is it a cycle ahead), the answer's word and
+  * the solve's end, and per problem whether the solve taken starts warm (several problems). `tokNN`, the token
+  * after tokN from registers, for one problem (PassSequencer): row memories can register their address beside
+  * their blocks from it. */
+case class SeqControl(tokN: RowToken, tokNN: Option[RowToken], take: Bool, copyNow: Bool, copyNext: Bool,
+    running: Bool, outValid: Bool, outSlot: UInt, outIndex: UInt, outIsLast: Bool, done: Bool, runCycles: UInt, warmOf: Vec[Bool]) {
   val problems: Int = warmOf.length
 
   /** the token is problem j's (always, for one problem) */
@@ -35,8 +36,8 @@ object SeqControl {
       seq.io.imax       := regs.imaxReg
       seq.io.outLast    := outLast
       seq.io.outFire    := outFire
-      SeqControl(seq.io.tokN, Some(seq.io.tokNN), seq.io.start, seq.io.copyNow, seq.io.running, seq.io.outValid, 0.U, seq.io.outIndex,
-        seq.io.outIsLast, seq.io.done, seq.io.runCycles, VecInit(Seq.fill(1)(false.B)))
+      SeqControl(seq.io.tokN, Some(seq.io.tokNN), seq.io.start, seq.io.copyNow, seq.io.copyNext, seq.io.running,
+        seq.io.outValid, 0.U, seq.io.outIndex, seq.io.outIsLast, seq.io.done, seq.io.runCycles, VecInit(Seq.fill(1)(false.B)))
     } else {
       val seq = Module(new TurnSequencer(K, Kp, L, maxOut))
       seq.io.frameReady := frameIn.io.full
@@ -46,7 +47,7 @@ object SeqControl {
       seq.io.warm       := VecInit(warmOk.map(_ && regs.ctrlWarm))
       seq.io.outFire    := outFire
       when(seq.io.done) { warmOk(seq.io.outSlot) := true.B }
-      SeqControl(seq.io.tokN, None, seq.io.take, false.B, seq.io.running, seq.io.outValid, seq.io.outSlot,
+      SeqControl(seq.io.tokN, None, seq.io.take, false.B, false.B, seq.io.running, seq.io.outValid, seq.io.outSlot,
         seq.io.outIndex, seq.io.outIsLast, seq.io.done, seq.io.runCycles, seq.io.warmOf)
     }
     frameIn.io.take := ctl.take
