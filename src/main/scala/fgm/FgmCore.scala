@@ -104,9 +104,17 @@ class FgmCore(val p: FgmParams) extends Module {
   val tokYsub = tokAt(p.stageZ + p.latMul)
   // The FIFOs' controls, per problem, each the registered condition on the token a stage earlier: they fan out to
   // every register of the FIFOs, so they come straight from flip-flops (tok1 is tok0 registered; stageZ >= 1)
-  val loadZ = (0 until Kp).map(j => RegNext(tok0.valid && tok0.first && tok0.k === 0.U && mine(tok0, j), false.B))
-  val rotZs = { val t = tokAt(p.stageZ - 1); (0 until Kp).map(j => RegNext(t.valid && !t.pass0 && mine(t, j), false.B)) }
-  val rotHs = { val t = tokAt(p.stageSum - 1); (0 until Kp).map(j => RegNext(t.valid && mine(t, j), false.B)) }
+  //
+  // Controls per row unit (an FPGA target, one problem, P > 1): each unit's registers take their enables, and its
+  // multipliers y and w, from copies of their own, so that no register drives all units across the device. The
+  // copies are kept (mem.KeepReg): synthesis would merge them back into one.
+  val split = Kp == 1 && P > 1 && p.target != dsp.Target.Generic
+  /** `d` registered: per row unit a kept copy when split, else one register (reset to 0) for all */
+  def unitRegs[T <: Data](d: T): Seq[T] =
+    if (split) Seq.fill(P)(KeepReg(d)) else { val r = RegNext(d, 0.U.asTypeOf(d)); Seq.fill(P)(r) }
+  val loadZ = (0 until Kp).map(j => unitRegs(tok0.valid && tok0.first && tok0.k === 0.U && mine(tok0, j)))
+  val rotZs = { val t = tokAt(p.stageZ - 1); (0 until Kp).map(j => unitRegs(t.valid && !t.pass0 && mine(t, j))) }
+  val rotHs = { val t = tokAt(p.stageSum - 1); (0 until Kp).map(j => unitRegs(t.valid && mine(t, j))) }
 
   for (u <- 0 until P) {
     // second block at K2 = 2^ceil(log2 K): no adder; one problem: a cycle ahead, registered beside the blocks
@@ -124,10 +132,7 @@ class FgmCore(val p: FgmParams) extends Module {
     bndRam(u).io.raddr := ctl.tokNN.map(t => Mux(t.pass0, t.k, tokBnd.k)).getOrElse(tokBnd.k)
   }
 
-  // Operands per row unit (an FPGA target, one problem, P > 1): each unit's multipliers take y and w from copies
-  // of their own, written under copies of their own controls, so that no register drives the operands of every
-  // unit across the device. The copies are kept (mem.KeepReg): synthesis would merge them back into one.
-  val split = Kp == 1 && P > 1 && p.target != dsp.Target.Generic
+  // the operand y of each unit's multipliers (split: the unit's copy, written as yReg is)
   val yOf: Seq[Vec[SInt]] = if (split) Seq.fill(P)(Wire(Vec(n, SInt(p.yW.W)))) else Seq.fill(P)(yReg)
   def padded(v: Vec[SInt], len: Int) = VecInit((0 until m).map(j => if (j < len) v(j).pad(p.opW) else 0.S(p.opW.W)))
   val ovfNow = Wire(Vec(P, Bool()))
@@ -146,7 +151,7 @@ class FgmCore(val p: FgmParams) extends Module {
 
     // First pass: h = Phi_n w enters the FIFO one row per cycle; each iteration row reads the head and rotates.
     val hHead = ofSlot((0 until Kp).map(j => hFifo(j)(u)(0)), tokSum.slot)
-    for (j <- 0 until Kp) when(rotHs(j)) {
+    for (j <- 0 until Kp) when(rotHs(j)(u)) {
       for (i <- 0 until K - 1) hFifo(j)(u)(i) := hFifo(j)(u)(i + 1)
       hFifo(j)(u)(K - 1) := Mux(tokSum.pass0, tree.io.sum, hFifo(j)(u)(0))
     }
@@ -176,10 +181,10 @@ class FgmCore(val p: FgmParams) extends Module {
     val zHeads = (0 until Kp).map { j =>
       val zSrc = VecInit((0 until K).map { i =>
         val r = i * P + u
-        Mux(loadZ(j), if (r < n) zReg(j)(r) else 0.S(p.zW.W), zFifo(j)(u)(i))
+        Mux(loadZ(j)(u), if (r < n) zReg(j)(r) else 0.S(p.zW.W), zFifo(j)(u)(i))
       })
-      when(loadZ(j) || rotZs(j)) {
-        for (i <- 0 until K) zFifo(j)(u)(i) := Mux(rotZs(j), if (i < K - 1) zSrc(i + 1) else z, zSrc(i))
+      when(loadZ(j)(u) || rotZs(j)(u)) {
+        for (i <- 0 until K) zFifo(j)(u)(i) := Mux(rotZs(j)(u), if (i < K - 1) zSrc(i + 1) else z, zSrc(i))
       }
       zSrc(0)
     }
@@ -205,39 +210,37 @@ class FgmCore(val p: FgmParams) extends Module {
   def shifted(r: Int): Int = if (r < n - nu) r + nu else r
   if (Kp == 1) {
     val warmNow  = regs.ctrlWarm && regs.warmValid
-    val warmCopy = RegNext(ctl.take && warmNow, false.B)
+    val warmCopy = unitRegs(ctl.take && warmNow)
     when(ctl.take) {
       wReg(0) := frameIn.io.frame
       warmL   := warmNow
     }
-    val weCold = RowToken.enables(tok1, tok1.valid && tok1.pass0 && !warmL, K)
-    val weY    = RowToken.enables(tokY1, tokY1.valid && !tokY1.pass0, K)
+    val weCold = unitRegs(RowToken.decode(tok1, tok1.valid && tok1.pass0 && !warmL, K))
+    val weY    = unitRegs(RowToken.decode(tokY1, tokY1.valid && !tokY1.pass0, K))
     for (r <- 0 until n) {
       val u = r % P
       val k = r / P
-      when(warmCopy) {
+      when(warmCopy(u)) {
         yReg(r)    := zReg(0)(shifted(r)).pad(p.yW)
         zReg(0)(r) := zReg(0)(shifted(r))
-      }.elsewhen(weCold(k)) {
+      }.elsewhen(weCold(u)(k)) {
         yReg(r)    := unitCold(u).pad(p.yW)
         zReg(0)(r) := unitCold(u)
       }.elsewhen(ctl.copyNow) {
         yReg(r) := yNext(0)(r)
       }
-      when(weY(k)) {
+      when(weY(u)(k)) {
         yNext(0)(r) := unitY(u)
         zReg(0)(r)  := unitZ(u)
       }
     }
-    // the units' copies of y: written as yReg is, each under its own copies of the three write controls
+    // the units' copies of y: written as yReg is, each under its unit's copies of the write controls
     if (split) for (u <- 0 until P) {
-      val warmC = KeepReg(ctl.take && warmNow)
-      val coldE = KeepReg(VecInit((0 until K).map(k => tok1.valid && tok1.pass0 && !warmL && tok1.k === k.U)))
       val copyC = KeepReg(ctl.copyNext)
       val d = Wire(Vec(n, SInt(p.yW.W)))
       val q = KeepReg(d)
       for (r <- 0 until n)
-        d(r) := Mux(warmC, zReg(0)(shifted(r)).pad(p.yW), Mux(coldE(r / P), unitCold(r % P).pad(p.yW),
+        d(r) := Mux(warmCopy(u), zReg(0)(shifted(r)).pad(p.yW), Mux(weCold(u)(r / P), unitCold(r % P).pad(p.yW),
           Mux(copyC, yNext(0)(r), q(r))))
       yOf(u) := q
     }

@@ -20,8 +20,9 @@ object RowToken {
   /** One write enable per row slot k < K, `cond && tok.k === k` a cycle ahead and registered: the enables of the
     * row registers come straight from flip-flops, not through a decoder on the token path. Pass the token (and
     * cond) of the stage before the one the writes belong to. */
-  def enables(tok: RowToken, cond: Bool, K: Int): Vec[Bool] =
-    RegNext(VecInit((0 until K).map(k => cond && tok.k === k.U)), VecInit(Seq.fill(K)(false.B)))
+  def enables(tok: RowToken, cond: Bool, K: Int): Vec[Bool] = RegNext(decode(tok, cond, K), VecInit(Seq.fill(K)(false.B)))
+  /** `cond && tok.k === k` for k < K, not registered */
+  def decode(tok: RowToken, cond: Bool, K: Int): Vec[Bool] = VecInit((0 until K).map(k => cond && tok.k === k.U))
 }
 
 /** Sequencer of a solve: idle -> run (the first pass, then Imax iterations) -> out (the result frame).
