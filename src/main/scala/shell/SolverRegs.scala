@@ -208,6 +208,8 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
     require(w >= 1 && w <= 32, s"a data word is 1 to 32 bits: got $w")
     (w - 1 until 32).map(i => wDE(i) === wDE(31)).reduce(_ && _)
   }
+  /** the data word is a valid IMAX (1 .. 2^width - 1), checked on the early data */
+  private val imaxOk = RegNext(wDE =/= 0.U && wDE <= ((BigInt(1) << imaxF.width) - 1).U, false.B)
   /** fits(w - 1): the data word is a w-bit signed value, for w = 1 .. 32 */
   private val fits: Seq[Bool] = (1 to 32).map(w => RegNext(fitsEarly(w), false.B))
 
@@ -271,7 +273,7 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
         ctrlOutAll := bit("OUT_ALL")
       }
     }.elsewhen(at(IMAX)) {
-      when(wD === 0.U || wD > ((BigInt(1) << imaxF.width) - 1).U) {
+      when(!imaxOk) {
         axil.wr.resp := AxiLiteResp.SLVERR
       }.elsewhen(axil.wr.valid) { imaxReg := wD }
     }.elsewhen(at(STATUS)) {
