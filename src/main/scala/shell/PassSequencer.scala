@@ -31,9 +31,9 @@ object RowToken {
   * cycles (row k at count k). `tokN` is the token of the next cycle, a register, so that the row memories are
   * addressed a cycle ahead from registers; `tokNN` is the token after it, also from registers (but for `valid`),
   * for memories that register their address in copies beside their blocks (mem.InitRam's raddrAhead). For that the
-  * start is decided two cycles ahead: a frame's last word taken at t starts the solve at t + 2. `copyNow` marks the cycle after an iteration's last write in which the core
-  * moves its next operand vector into place: after every iteration but the last, and after the first pass when
-  * `copyAfterFirst`.
+  * start is decided two cycles ahead: a frame's last word taken at t starts the solve at t + 2. `copyNow` marks the
+  * cycle after an iteration's last write in which the core moves its next operand vector into place: after every
+  * iteration but the last, and after the first pass when `copyAfterFirst`.
   */
 class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxOut: Int) extends Module {
   require(K >= 1 && firstLen >= K && L >= K, s"PassSequencer: need K <= firstLen and K <= L: K=$K, firstLen=$firstLen, L=$L")
@@ -87,7 +87,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
 
   // The token generator: registers describing the token of the next cycle (its position in the solve), advanced
   // by one position per cycle from startA, each next value a gate or two from registers (the comparisons it needs
-  // are flags kept a cycle ahead). In idle it holds the first pass's row 0, not valid (the cycle of `start` makes
+  // are flags kept a cycle ahead). In idle it holds the first pass's row 0, not valid (the cycle of `startA` makes
   // it valid); after a solve's last position it returns there.
   val gV      = RegInit(false.B)           // the position is a row
   val gP0     = RegInit(true.B)            // of the first pass
