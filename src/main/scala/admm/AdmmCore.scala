@@ -445,15 +445,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   {
     val off = regs.earlyOffset("BND")
     val j   = rowOfBnd(off)
-    val wen = regs.writeEnables(p.zW)((0 until P).map(u => regs.earlyIn("BND") && bndOk(off) && unitRom(j) === u.U))
-    val waddr = RegNext(slotRom(j))
-    val wmask = RegNext(UIntToOH(off(0), 2))
-    for (u <- 0 until P) {
-      bndRam(u).io.wen   := wen(u)
-      bndRam(u).io.waddr := waddr
-      bndRam(u).io.wmask := wmask
-      bndRam(u).io.wdata := Fill(2, wD(p.zW - 1, 0))
-    }
+    regs.unitWrites(bndRam, p.zW, u => regs.earlyIn("BND") && bndOk(off) && unitRom(j) === u.U, slotRom(j), off(0))
   }
   {
     require(p.regionSizes.toMap.apply("MAT_M") == p.regionSizes.toMap.apply("MAT_G"), "MAT_M and MAT_G differ in size")
@@ -461,15 +453,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val off = regs.earlyOffset("MAT_M")
     val j   = rowOfMat(off)
     val ok  = regs.earlyIn("MAT_M") && matOk(n)(off) || isG && matOk(nw + 1)(off)
-    val wen = regs.writeEnables(p.coefW)((0 until P).map(u => ok && unitRom(j) === u.U))
-    val waddr = RegNext(Mux(isG, slotRom(j) +& p.K2.U, slotRom(j)))
-    val wmask = RegNext(UIntToOH(colOf(off), m))
-    for (u <- 0 until P) {
-      matRam(u).io.wen   := wen(u)
-      matRam(u).io.waddr := waddr
-      matRam(u).io.wmask := wmask
-      matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
-    }
+    regs.unitWrites(matRam, p.coefW, u => ok && unitRom(j) === u.U, Mux(isG, slotRom(j) +& p.K2.U, slotRom(j)),
+      colOf(off))
   }
 }
 

@@ -330,15 +330,7 @@ class FgmCore(val p: FgmParams) extends Module {
   {
     val off = regs.earlyOffset("UBOX")
     val (unit, k) = unitK(off >> 1)
-    val wen = regs.writeEnables(p.zW)((0 until P).map(u => regs.earlyIn("UBOX") && slotOk(off >> 1) && unit === u.U))
-    val waddr = RegNext(k)
-    val wmask = RegNext(UIntToOH(off(0), 2))
-    for (u <- 0 until P) {
-      bndRam(u).io.wen   := wen(u)
-      bndRam(u).io.waddr := waddr
-      bndRam(u).io.wmask := wmask
-      bndRam(u).io.wdata := Fill(2, wD(p.zW - 1, 0))
-    }
+    regs.unitWrites(bndRam, p.zW, u => regs.earlyIn("UBOX") && slotOk(off >> 1) && unit === u.U, k, off(0))
   }
   {
     // MAT_A and MAT_F have the same size, so one early offset serves both
@@ -347,15 +339,8 @@ class FgmCore(val p: FgmParams) extends Module {
     val off = regs.earlyOffset("MAT_A")
     val (unit, k) = unitK(off >> p.cBits)
     val ok  = regs.earlyIn("MAT_A") && matOk(n)(off) || isF && matOk(nw)(off)
-    val wen = regs.writeEnables(p.coefW)((0 until P).map(u => ok && unit === u.U))
-    val waddr = RegNext(Mux(isF, k +& p.K2.U, k))
-    val wmask = RegNext(UIntToOH(if (p.cBits == 0) 0.U else off(p.cBits - 1, 0), m))
-    for (u <- 0 until P) {
-      matRam(u).io.wen   := wen(u)
-      matRam(u).io.waddr := waddr
-      matRam(u).io.wmask := wmask
-      matRam(u).io.wdata := Fill(m, wD(p.coefW - 1, 0))
-    }
+    regs.unitWrites(matRam, p.coefW, u => ok && unit === u.U, Mux(isF, k +& p.K2.U, k),
+      if (p.cBits == 0) 0.U else off(p.cBits - 1, 0))
   }
 }
 

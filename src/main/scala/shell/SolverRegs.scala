@@ -3,6 +3,7 @@ package shell
 import chisel3._
 import chisel3.util._
 import bus.{AxiLiteIO, AxiLiteResp, AxiLiteSlave}
+import mem.InitRam
 
 /** Register word addresses shared by the solver cores (byte address = 4 x word address), their description (the
   * register map every core extends, see RegMap) and the placement of the data regions above them.
@@ -245,6 +246,23 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
     * register and one gate, and their address and lanes can be registered ahead the same way. */
   def writeEnables(fitW: Int)(go: Seq[Bool]): Seq[Bool] =
     go.map(g => RegNext(axil.wr.earlyValid && g && fitsEarly(fitW), false.B) && !busyR)
+
+  /** The write ports of per-unit data memories `rams` (one lane-masked word a write), driven from registers: memory
+    * u writes when `go(u)` of the early request holds (writeEnables), at the early `row`, in the lane `lane`, the
+    * data word's low `fitW` bits. */
+  def unitWrites(rams: Seq[InitRam], fitW: Int, go: Int => Bool, row: UInt, lane: UInt): Unit = {
+    val lanes = rams.head.lanes
+    require(rams.forall(_.lanes == lanes), "unitWrites: memories of one lane count")
+    val wen   = writeEnables(fitW)(rams.indices.map(go))
+    val waddr = RegNext(row)
+    val wmask = RegNext(UIntToOH(lane, lanes))
+    for ((r, u) <- rams.zipWithIndex) {
+      r.io.wen   := wen(u)
+      r.io.waddr := waddr
+      r.io.wmask := wmask
+      r.io.wdata := Fill(lanes, wD(fitW - 1, 0))
+    }
+  }
 
   /** A write into a data memory: refused while busy, at an address `ok` rejects, or when the value does not fit
     * `fitW` signed bits; otherwise `body` runs in the cycle of the write.
