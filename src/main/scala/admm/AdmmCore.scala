@@ -292,7 +292,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val ofYQ   = tokQ.valid && !tokQ.pass0 && ofY || tokP.valid && ofQ
     val ofZD   = tokZ.valid && !tokZ.pass0 && (ofZ || liveA && ofDA || kindZs === SoftD.U && ofDB)
     val ofN    = tokNu.valid && !tokNu.pass0 && (kindN =/= SoftX.U && ofNA || kindN === SoftD.U && ofNB)
-    ovfNow(u) := ofTree || ofYQ || ofZD || ofN || ovfMom(u)
+    ovfNow(u) := Seq(ofTree, ofYQ, ofZD, ofN, ovfMom(u)).map(RegNext(_, false.B)).reduce(_ || _)
   }
 
   // ------------------------------------------------------------------ register writes
@@ -392,7 +392,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
     ofV(j) := of
     when(vNow) { vReg(j) := v }
   }
-  when(ovfNow.asUInt.orR || vNow && ofV.asUInt.orR) { regs.stOvf := true.B }
+  // the flags of a cycle, registered before they are gathered into the sticky bit
+  when(RegNext(ovfNow.asUInt, 0.U).orR || RegNext(Mux(vNow, ofV.asUInt, 0.U), 0.U).orR) { regs.stOvf := true.B }
 
   // ------------------------------------------------------------------ output: du_0 or all of z
   m_axis.tvalid := ctl.outValid

@@ -201,7 +201,7 @@ class FgmCore(val p: FgmParams) extends Module {
     val ofYs   = tokYsub.valid && !tokYsub.pass0 && ofY
     ovfNow(u) := ofTree || ofTs || ofYs
   }
-  when(ovfNow.asUInt.orR) { regs.stOvf := true.B }
+  when(RegNext(ovfNow.asUInt, 0.U).orR) { regs.stOvf := true.B } // the flags of a cycle registered first
 
   // Register writes: z0 = y0 at the start (warm: the previous solution shifted by one stage, the last stage
   // repeated, Fig. 2b) or in the first pass (cold), y+/z+ at the end of each row's pipeline, the operand copy.

@@ -131,8 +131,14 @@ object FixedOps {
     * them: the adder that takes the product then starts at a register. */
   def mulRoundSatPipelined(a: SInt, b: SInt, lat: Int, shift: Int, mode: Rounding, target: Target,
                            width: Int): (SInt, Bool) = {
-    val fold = lat >= (if (target == Target.Ecp5) 4 else 3) && shift > 0 && mode == Rounding.Nearest
-    val (v, n) = mulStages(a, b, lat, if (fold) BigInt(1) << (shift - 1) else 0, target)
+    val fold   = lat >= (if (target == Target.Ecp5) 4 else 3) && shift > 0 && mode == Rounding.Nearest
+    val addend = if (fold) BigInt(1) << (shift - 1) else BigInt(0)
+    // ecp5: a stage beyond the DSP's needs goes after the saturation rather than before the DSP, where the
+    // product would otherwise end the chain with its saturation feeding the next adder in the same cycle
+    val need   = target.minLatency(a.getWidth, b.getWidth).max(if (target == Target.Ecp5 && addend != 0) 4 else 0)
+    val (v, n) =
+      if (target == Target.Ecp5 && lat == need + 1) { val (w, k) = mulStages(a, b, lat - 1, addend, target); (w, k + 1) }
+      else mulStages(a, b, lat, addend, target)
     def rounded(x: SInt): SInt = if (fold) x >> shift else shiftRound(x, shift, mode)
     if (n >= 1 && (target != Target.Generic || lat >= 3)) {
       val (sv, of) = saturate(rounded(v), width)

@@ -64,13 +64,13 @@ class DotProductTree(val p: DotProductParams) extends Module {
     FixedOps.mulRoundSatPipelined(io.coef(j), io.op(j), p.latMul, p.fracBits, p.rounding, p.target, p.sumW)
   }
 
-  // Adder tree, l_A registers per level.
+  // Adder tree, l_A registers per level (from l_A = 2 the first sits between the carry chain and the saturation).
   var level: Seq[(SInt, Bool)] = level0
   while (level.length > 1) {
     level = level.grouped(2).toSeq.map {
       case Seq((a, fa), (b, fb)) =>
-        val (s, of) = FixedOps.satAdd(a, b, p.sumW)
-        (delay(s, p.latAdd), delay(fa || fb || of, p.latAdd))
+        val (s, of) = FixedOps.satAddPipelined(a, b, p.sumW, p.latAdd)
+        (s, delay(fa || fb, p.latAdd) || of)
       case Seq((a, fa)) => (delay(a, p.latAdd), delay(fa, p.latAdd))
     }
   }

@@ -15,12 +15,13 @@ import fixed.{FixedOps, Rounding}
   *
   * The result is saturated to outW bits (the flags report it); it lies in the set exactly whenever it fits. The
   * latency is 2 l_A. With l_A <= 1: two steps, (t, e, s), then the case selection and the outputs. With l_A >= 2
-  * the same values in four steps of one carry chain each (the chains of a step side by side), registered after each
-  * step, the last followed by the remaining 2 l_A - 4 registers:
-  *   1. t = x - c, -t, c + r, c - r, d + 1 (rounding to nearest; d when truncating)
-  *   2. e = (t or -t) - r, -d
-  *   3. s' = e + d + 1 (nearest; e + d when truncating), inside, flat, s <= 0 as e <= -d
-  *   4. m = s' >> 1 (0 beyond the corner), x = (c - r) - m or (c + r) + m, d, saturation.
+  * the same values in three steps of one carry chain each (the chains of a step side by side) and a fourth of
+  * selections only, registered after each step, the last followed by the remaining 2 l_A - 4 registers:
+  *   1. t = x - c, -t, c + r, c - r, s0 = d + 1 (rounding to nearest; d when truncating)
+  *   2. e = (t or -t) - r, -d, 2 (c + r) + s0, 2 (c - r) + 1 - s0; x, c + r, c - r and d saturated
+  *   3. s' = e + s0, m = s' >> 1 and the slanted edge's c + r + m = (2 (c + r) + s0 + e) >> 1 and
+  *      c - r - m = (2 (c - r) + 1 - s0 - e) >> 1, each saturated; the case (inside, x kept, beyond the corner)
+  *   4. the selection of the saturated words and their flags.
   */
 class SoftProjection(inW: Int, outW: Int, latAdd: Int, rounding: Rounding) extends Module {
   override def desiredName = s"SoftProjection_i${inW}_o${outW}_la${latAdd}_${rounding.name}"
@@ -56,6 +57,7 @@ class SoftProjection(inW: Int, outW: Int, latAdd: Int, rounding: Rounding) exten
     output(xo, dOut, l)
   } else {
     val one = if (rounding == Rounding.Nearest) 1 else 0
+    def rs(v: SInt): (SInt, Bool) = { val (w, f) = FixedOps.saturate(v, outW); (r(w), r(f)) }
     // step 1
     val t1   = r(io.x -& io.c)
     val mt1  = r(io.c -& io.x)
@@ -63,26 +65,34 @@ class SoftProjection(inW: Int, outW: Int, latAdd: Int, rounding: Rounding) exten
     val cm1  = r(io.c -& io.r)
     val dp1  = r(io.d +& one.S)
     val (x1, d1, r1) = (r(io.x), r(io.d), r(io.r))
-    // step 2
+    // step 2: e, -d, and the slanted edge's sums less e: 2 (c + r) + d + one and 2 (c - r) + 1 - d - one
     val neg  = t1 < 0.S
     val e2   = r(Mux(neg, mt1, t1) -& r1)
     val md2  = r(0.S -& d1)
-    val (x2, d2, dp2, cp2, cm2, neg2) = (r(x1), r(d1), r(dp1), r(cp1), r(cm1), r(neg))
-    // step 3
-    val sp3     = r(e2 +& dp2)
-    val inside3 = r(d2 >= 0.S && d2 >= e2)
-    val flat3   = r(e2 <= 0.S)
-    val sle3    = r(e2 <= md2) // s <= 0
-    val (x3, d3, cp3, cm3, neg3) = (r(x2), r(d2), r(cp2), r(cm2), r(neg2))
-    // step 4
-    val inside = inside3
-    val flat   = !inside && flat3
-    val corner = !inside && !flat && sle3
-    val half   = sp3 >> 1
-    val m      = Mux(corner, 0.S, half)
-    val xo     = Mux(inside || flat, x3, Mux(neg3, cm3 -& m, cp3 +& m))
-    val dOut   = Mux(inside, d3, Mux(corner || flat, 0.S, half))
-    output(xo, dOut, 2 * latAdd - 3)
+    val up2  = r((cp1 << 1) +& dp1)
+    val dn2  = r(((cm1 << 1).asUInt | 1.U).asSInt -& dp1)
+    val Seq(xs2, cps2, cms2, ds2) = Seq(x1, cp1, cm1, d1).map(rs)
+    val (d2, dp2, neg2) = (r(d1), r(dp1), r(neg))
+    // step 3: s' = e + d + one; c + r + (s' >> 1) = (up + e) >> 1; c - r - (s' >> 1) = (dn - e) >> 1; the case
+    val hs3   = rs((e2 +& dp2) >> 1)
+    val ups3  = rs((up2 +& e2) >> 1)
+    val dns3  = rs((dn2 -& e2) >> 1)
+    val in3   = r(d2 >= 0.S && d2 >= e2)
+    val le3   = r(e2 <= 0.S)
+    val sle3  = r(e2 <= md2) // s <= 0 as e <= -d
+    val Seq(xs3, cps3, cms3, ds3) = Seq(xs2, cps2, cms2, ds2).map { case (w, f) => (r(w), r(f)) }
+    val neg3  = r(neg2)
+    // step 4: the case, and selections of saturated words
+    val keep3 = in3 || le3           // inside, or below the flat edge: x unchanged
+    val cor3  = !keep3 && sle3       // beyond the corner
+    val flat3 = !in3 && le3
+    def pick[T <: Data](x: T, cm: T, cp: T, dn: T, up: T): T =
+      Mux(keep3, x, Mux(cor3, Mux(neg3, cm, cp), Mux(neg3, dn, up)))
+    val l = 2 * latAdd - 3
+    io.xOut := r(pick(xs3._1, cms3._1, cps3._1, dns3._1, ups3._1), l)
+    io.xOvf := r(pick(xs3._2, cms3._2, cps3._2, dns3._2, ups3._2), l)
+    io.dOut := r(Mux(in3, ds3._1, Mux(cor3 || flat3, 0.S(outW.W), hs3._1)), l)
+    io.dOvf := r(Mux(in3, ds3._2, !(cor3 || flat3) && hs3._2), l)
   }
 
   private def output(xo: SInt, dOut: SInt, l: Int): Unit = {

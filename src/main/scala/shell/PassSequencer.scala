@@ -46,6 +46,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     val frameFills = Input(Bool())
     /** iterations of the solve that starts (latched) */
     val imax = Input(UInt(16.W))
+    /** imax === 1, from a register */
+    val imaxOne = Input(Bool())
     /** words of the result frame minus one (latched at the start) */
     val outLast = Input(UInt(log2Ceil(maxOut + 1).W))
     /** the result frame's word handshake */
@@ -114,11 +116,9 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     gF      := false.B
     gLast   := false.B
     gRem    := io.imax
-    gRemOne := io.imax === 1.U
+    gRemOne := io.imaxOne
     if (K > 1) { // row 1
       gV     := true.B
-      gK     := 1.U
-      gKLast := (K == 2).B
     } else {     // the first pass's gap (firstLen >= 2)
       gV      := false.B
       gGap    := true.B
@@ -128,8 +128,6 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   }.elsewhen(gRun) {
     when(passEnd) {
       gGap := false.B
-      gK   := 0.U
-      gKLast := (K == 1).B
       when(gLast) { // the solve's positions end: back to idle's token
         gRun := false.B
         gV   := false.B
@@ -151,11 +149,12 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     }.elsewhen(gGap) {
       gGapCnt := gGapCnt - 1.U
       gGapEnd := gGapCnt === 1.U
-    }.otherwise { // the next row
-      gK     := gK + 1.U
-      gKLast := (if (K >= 2) gK === (K - 2).U else true.B)
     }
   }
+  // the row index and its last-row flag, each a selection of three: a start loads row 1, a pass's end row 0, a row
+  // before the last the next (in the gap both are held or don't matter: the gap's end reloads them)
+  gK     := Mux(startA, (if (K > 1) 1 else 0).U, Mux(passEnd, 0.U, Mux(gV && !gKLast, gK + 1.U, gK)))
+  gKLast := Mux(startA, (K <= 2).B, Mux(passEnd, (K == 1).B, (if (K >= 2) gK === (K - 2).U else true.B)))
   val tokR = Wire(new RowToken(kW))
   tokR.valid := gV
   tokR.pass0 := gP0

@@ -34,6 +34,7 @@ object SeqControl {
       seq.io.frameReady := frameIn.io.full
       seq.io.frameFills := frameIn.io.fills
       seq.io.imax       := regs.imaxReg
+      seq.io.imaxOne    := regs.imaxOne
       seq.io.outLast    := outLast
       seq.io.outFire    := outFire
       SeqControl(seq.io.tokN, Some(seq.io.tokNN), seq.io.start, seq.io.copyNow, seq.io.copyNext, seq.io.running,

@@ -124,6 +124,8 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   val ctrlHold   = RegInit(resetBit("HOLD"))
   val ctrlOutAll = RegInit(resetBit("OUT_ALL"))
   val imaxReg    = RegInit(imaxF.reset.get.U(imaxF.width.W))
+  /** imaxReg === 1 */
+  val imaxOne    = RegInit((imaxF.reset.get == 1).B)
   val stSat      = RegInit(false.B)
   val stOvf      = RegInit(false.B)
   val stRej      = RegInit(false.B)
@@ -207,10 +209,11 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   /** the early data word is a w-bit signed value (bits 31 .. w - 1 all equal) */
   private def fitsEarly(w: Int): Bool = {
     require(w >= 1 && w <= 32, s"a data word is 1 to 32 bits: got $w")
-    (w - 1 until 32).map(i => wDE(i) === wDE(31)).reduce(_ && _)
+    (wDE(31, w - 1).andR || !wDE(31, w - 1).orR)
   }
   /** the data word is a valid IMAX (1 .. 2^width - 1), checked on the early data */
   private val imaxOk = RegNext(wDE =/= 0.U && wDE <= ((BigInt(1) << imaxF.width) - 1).U, false.B)
+  private val dataOne = RegNext(wDE === 1.U, false.B)
   /** fits(w - 1): the data word is a w-bit signed value, for w = 1 .. 32 */
   private val fits: Seq[Bool] = (1 to 32).map(w => RegNext(fitsEarly(w), false.B))
 
@@ -240,12 +243,12 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
   }
 
   /** Write enables of data memories, decided a cycle ahead: enable i is `go(i)` of the early request (its region,
-    * address check and target, from `earlyIn` / `earlyOffset`) with the early value's fit to `fitW` signed bits,
-    * in one register, and at the access only gated by busy. This is exactly when `dataWrite` with the same region,
-    * check and width runs its body (which then gives the response and flags); the memories' enables come from a
-    * register and one gate, and their address and lanes can be registered ahead the same way. */
+    * address check and target, from `earlyIn` / `earlyOffset`), in one register, and at the access only gated by
+    * the value's fit to `fitW` signed bits (a register) and busy. This is exactly when `dataWrite` with the same
+    * region, check and width runs its body (which then gives the response and flags); the memories' enables come
+    * from registers and one gate, and their address and lanes can be registered ahead the same way. */
   def writeEnables(fitW: Int)(go: Seq[Bool]): Seq[Bool] =
-    go.map(g => RegNext(axil.wr.earlyValid && g && fitsEarly(fitW), false.B) && !busyR)
+    go.map(g => RegNext(axil.wr.earlyValid && g, false.B) && fitsS(fitW) && !busyR)
 
   /** The write ports of per-unit data memories `rams` (one lane-masked word a write), driven from registers: memory
     * u writes when `go(u)` of the early request holds (writeEnables), at the early `row`, in the lane `lane`, the
@@ -293,7 +296,10 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
     }.elsewhen(at(IMAX)) {
       when(!imaxOk) {
         axil.wr.resp := AxiLiteResp.SLVERR
-      }.elsewhen(axil.wr.valid) { imaxReg := wD }
+      }.elsewhen(axil.wr.valid) {
+        imaxReg := wD
+        imaxOne := dataOne
+      }
     }.elsewhen(at(STATUS)) {
       when(axil.wr.valid) {
         for (f <- statusR.fields.filter(_.w1c).sortBy(_.lsb)) when(wD(f.lsb)) { w1cFlags(f.name) := false.B }
