@@ -48,11 +48,12 @@ MASSES_SOFT = REPO / "examples/masses_rate_soft.yaml"
 FULL_P, FULL_B = (1, 2, 4, 8), (18,)
 QUICK_P, QUICK_B = (1,), (18,)
 SMALL_FULL_P, SMALL_QUICK_P = (1, 2), (1,)
-# Pipeline latencies of the small cores placed and routed for Fmax (role "fmax"): TARGET=ecp5 with l_M = 5, the
-# operands registered in fabric, the MULT18X18D's three registers and a stage summing the partial products of
-# words wider than 18 bits (docs/dsp.md); l_A = 2 gives the soft projection its four one-carry-chain steps. The
-# sweeps keep the spec's l_A = l_M = 1 (eq. (24), Table III(b)).
-FMAX_LAT = dict(lat_add=2, lat_mul=5, target="ecp5")
+# Pipeline latencies of the small cores placed and routed for Fmax (role "fmax"): TARGET=ecp5 with l_M = 6, the
+# MULT18X18D's three registers, fabric registers landing its outputs, a stage summing the partial products of
+# words wider than 18 bits and a register after the product's saturation (docs/dsp.md); l_A = 2 gives the soft
+# projection its three one-carry-chain steps and a step of selections. The sweeps keep the spec's l_A = l_M = 1
+# (eq. (24), Table III(b)).
+FMAX_LAT = dict(lat_add=2, lat_mul=6, target="ecp5")
 
 # The small ADMM problem place and route can hold (the masses core cannot): a random stable plant (2 states,
 # 1 input, horizon 3, 1 tracked output) with input-rate limits and one soft state; n_A = 19, so that P = 2 needs

@@ -68,7 +68,14 @@ def report_line(target: str, lat_mul: int, products: list[tuple[int, int]], coun
     dsps = sum(c * parts(target, a, b) for (a, b), c in zip(products, counts))
     cell = {"ecp5": "MULT18X18D", "xilinx7": "DSP48E1"}[target]
     need = min_lat_mul(target, products)
-    extra = " (+1: operands registered in fabric before the DSP)" if target == "ecp5" and lat_mul > need else ""
+    extra = ""
+    if target == "ecp5" and lat_mul > need:
+        # the order in which FixedOps.mulStages spends stages beyond the DSP pipeline's
+        uses = (["a register after the product's saturation"]
+                + (["fabric registers landing the DSP outputs before their sum"] if need > 3 else [])
+                + ["operands registered in fabric before the DSP"])
+        more = lat_mul - need
+        extra = f" (+{more}: {'; '.join(uses[:more])}{'; more registers after the saturation' if more > len(uses) else ''})"
     return (f"  Target: {target}, {dsps} {cell} (products "
             f"{', '.join(f'{a} x {b} bits: {parts(target, a, b)} each' for a, b in products)}); "
             f"l_M = {lat_mul}, the DSP pipeline needs {need}{extra}")

@@ -5,7 +5,7 @@ import chisel3.util._
 import bus.{AxiLiteIO, AxiStreamIO}
 import fixed.FixedOps
 import linalg.{DotProductParams, DotProductTree}
-import mem.InitRam
+import mem.{InitRam, KeepReg}
 import proj.{BoxProjection, SoftProjection}
 import shell.{Field, FrameIn, RegMap, Region, RowToken, SeqControl, SolverRegs}
 
@@ -147,7 +147,10 @@ class AdmmCore(val p: AdmmParams) extends Module {
     matRam(u).io.raddr := Cat(tokR.pass0, tokR.k)
     tree.io.inValid := tok1.valid
     tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(m, SInt(p.coefW.W)))
-    tree.io.op      := Mux(tok1.pass0, wPad, vPad)
+    // the operand select per multiplier from a copy of tok1.pass0 of its own (an FPGA target): one register would
+    // drive every multiplier's operand bits across the device
+    val opSel = KeepReg.copies(tok0.pass0, m, p.target != dsp.Target.Generic)
+    tree.io.op      := VecInit((0 until m).map(j => Mux(opSel(j), wPad(j), vPad(j))))
 
     // Per-row constants and nu, picked at the fetch and carried to the q step.
     val kindRom = VecInit((0 until K).map(k => p.kindAt(u, k).U(2.W)))

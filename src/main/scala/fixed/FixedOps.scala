@@ -73,7 +73,8 @@ object FixedOps {
     *
     * ecp5 (lat >= target.minLatency): each partial product on a MULT18X18D with its three registers (its input
     * registers take the operands); one product without addend is the DSP's output, otherwise a fourth stage sums
-    * the partial products and the addend. A stage more than that registers the operands in fabric first.
+    * the partial products and the addend. Stages more than that: a trailing register, then (with a sum) fabric
+    * registers that land the DSP outputs before the sum, then registers of the operands in fabric before the DSP.
     */
   def mulPipelined(a: SInt, b: SInt, lat: Int, addend: BigInt = 0, target: Target = Target.Generic): SInt = {
     val (v, n) = mulStages(a, b, lat, addend, target)
@@ -93,15 +94,21 @@ object FixedOps {
       terms.reduce(_ +& _)(prodW, 0).asSInt
     }
     if (target == Target.Ecp5) {
-      // A stage beyond the DSP's needs registers the operands in fabric first: the DSP's input registers then
-      // take a register's output over the routing to the DSP column, with no logic before it.
-      val front    = lat > need
+      // Stages beyond the DSP's needs: the first is a trailing register (a caller may put its logic before it); the
+      // second, where partial products are summed, lands the DSP outputs in fabric registers before the sum; the
+      // next registers the operands in fabric first, so that the DSP's input registers take a register's output
+      // over the routing to the DSP column, with no logic before it.
+      val extra    = lat - need
+      val sumStage = need >= 4
+      val land     = sumStage && extra >= 2
+      val front    = extra >= (if (land) 3 else 2)
       val (fa, fb) = if (front) (reg(a), reg(b)) else (a, b)
       val k        = DspWidth - 1
       val parts = for ((la, i) <- limbs(fa, DspWidth).zipWithIndex; (lb, j) <- limbs(fb, DspWidth).zipWithIndex)
         yield (ecp5Product(la, lb), k * (i + j))
       val rest = lat - (if (front) 1 else 0)
-      if (parts.length == 1 && addend == 0) (parts.head._1, rest - 3)
+      if (!sumStage) (parts.head._1, rest - 3)
+      else if (land) (reg(summed(parts.map { case (pp, sh) => (reg(pp), sh) })), rest - 5)
       else (reg(summed(parts)), rest - 4)
     } else if (lat >= 3) {
       // the operand that fits the wider port goes there (xilinx7: A is 25 bits)
@@ -131,14 +138,8 @@ object FixedOps {
     * them: the adder that takes the product then starts at a register. */
   def mulRoundSatPipelined(a: SInt, b: SInt, lat: Int, shift: Int, mode: Rounding, target: Target,
                            width: Int): (SInt, Bool) = {
-    val fold   = lat >= (if (target == Target.Ecp5) 4 else 3) && shift > 0 && mode == Rounding.Nearest
-    val addend = if (fold) BigInt(1) << (shift - 1) else BigInt(0)
-    // ecp5: a stage beyond the DSP's needs goes after the saturation rather than before the DSP, where the
-    // product would otherwise end the chain with its saturation feeding the next adder in the same cycle
-    val need   = target.minLatency(a.getWidth, b.getWidth).max(if (target == Target.Ecp5 && addend != 0) 4 else 0)
-    val (v, n) =
-      if (target == Target.Ecp5 && lat == need + 1) { val (w, k) = mulStages(a, b, lat - 1, addend, target); (w, k + 1) }
-      else mulStages(a, b, lat, addend, target)
+    val fold = lat >= (if (target == Target.Ecp5) 4 else 3) && shift > 0 && mode == Rounding.Nearest
+    val (v, n) = mulStages(a, b, lat, if (fold) BigInt(1) << (shift - 1) else 0, target)
     def rounded(x: SInt): SInt = if (fold) x >> shift else shiftRound(x, shift, mode)
     if (n >= 1 && (target != Target.Generic || lat >= 3)) {
       val (sv, of) = saturate(rounded(v), width)

@@ -30,6 +30,11 @@ class KeepRegBox(w: Int) extends BlackBox(Map("W" -> w)) with HasBlackBoxInline 
 }
 
 object KeepReg {
+  /** `n` copies of `d` registered: kept apart (`keep`, an FPGA target) so that each drives its own loads, else one
+    * register (RegNext) for all */
+  def copies[T <: Data](d: T, n: Int, keep: Boolean): Seq[T] =
+    if (keep) Seq.fill(n)(apply(d)) else { val r = RegNext(d); Seq.fill(n)(r) }
+
   /** `d` registered in a kept register (RegNext that synthesis does not merge with its equals) */
   def apply[T <: Data](d: T): T = {
     val r = Module(new KeepRegBox(d.getWidth))
