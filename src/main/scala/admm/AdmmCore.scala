@@ -159,16 +159,19 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val nuRow   = VecInit((0 until K).map(k => p.rows(u)(k).map(j => ofSlot(nuReg.map(_(j)), tok1.slot))
       .getOrElse(0.S(p.nuW.W))))
     val toQ     = p.stageQ - 1
+    // the slot's nu through a one-hot select, its decode registered a stage ahead (tok1 is tok0 registered)
+    val hot1    = RegNext(VecInit(UIntToOH(tok0.k, K).asBools))
+    val nuSel   = Mux1H(hot1, nuRow)
     val kindQ   = ShiftRegister(kindRom(tok1.k), toQ)
     val codeQ   = ShiftRegister(codeRom(tok1.k), toQ)
-    val nuQ     = ShiftRegister(nuRow(tok1.k), toQ)
+    val nuQ     = ShiftRegister(nuSel, toQ)
     // nu / rho (a rounded shift: a carry chain with nearest rounding), formed a stage after the fetch so that the
     // q step below has one carry chain
     val nuRhoQ  =
       if (toQ >= 1) {
         val nu1   = Reg(SInt(p.nuW.W))
         val code1 = Reg(UInt(codeW.W))
-        nu1   := nuRow(tok1.k)
+        nu1   := nuSel
         code1 := codeRom(tok1.k)
         ShiftRegister(shiftByCode(nu1, code1, neg = true), toQ - 1)
       }

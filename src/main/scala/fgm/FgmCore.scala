@@ -146,8 +146,11 @@ class FgmCore(val p: FgmParams) extends Module {
     tree.io.inValid := tok1.valid
     tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(m, SInt(p.coefW.W)))
     // w is loaded at the start and first read two cycles later, so its copy may trail it by one
-    val (pass0, wU) = if (split) (KeepReg(tok0.pass0), KeepReg(wCur)) else (tok1.pass0, wCur)
-    tree.io.op      := Mux(pass0, padded(wU, nw), padded(yOf(u), n))
+    // (split: the operand select per multiplier from a copy of its own, as it drives the multiplier's operand bits)
+    val (pass0, wU) = if (split) (KeepReg.copies(tok0.pass0, m, keep = true), KeepReg(wCur))
+      else (Seq.fill(m)(tok1.pass0), wCur)
+    val (wOp, yOp)  = (padded(wU, nw), padded(yOf(u), n))
+    tree.io.op      := VecInit((0 until m).map(j => Mux(pass0(j), wOp(j), yOp(j))))
 
     // First pass: h = Phi_n w enters the FIFO one row per cycle; each iteration row reads the head and rotates.
     val hHead = ofSlot((0 until Kp).map(j => hFifo(j)(u)(0)), tokSum.slot)
@@ -234,14 +237,18 @@ class FgmCore(val p: FgmParams) extends Module {
         zReg(0)(r)  := unitZ(u)
       }
     }
-    // the units' copies of y: written as yReg is, each under its unit's copies of the write controls
+    // the units' copies of y: written as yReg is, each word under copies of the write controls of its own (the
+    // same registers as warmCopy, weCold and the copy, kept apart: each drives one word beside its multiplier)
     if (split) for (u <- 0 until P) {
-      val copyC = KeepReg(ctl.copyNext)
       val d = Wire(Vec(n, SInt(p.yW.W)))
       val q = KeepReg(d)
-      for (r <- 0 until n)
-        d(r) := Mux(warmCopy(u), zReg(0)(shifted(r)).pad(p.yW), Mux(weCold(u)(r / P), unitCold(r % P).pad(p.yW),
-          Mux(copyC, yNext(0)(r), q(r))))
+      for (r <- 0 until n) {
+        val warmR = KeepReg(ctl.take && warmNow)
+        val coldR = KeepReg(tok1.valid && tok1.pass0 && !warmL && tok1.k === (r / P).U)
+        val copyR = KeepReg(ctl.copyNext)
+        d(r) := Mux(warmR, zReg(0)(shifted(r)).pad(p.yW), Mux(coldR, unitCold(r % P).pad(p.yW),
+          Mux(copyR, yNext(0)(r), q(r))))
+      }
       yOf(u) := q
     }
   } else {

@@ -172,10 +172,13 @@ object FixedOps {
   def mulRound(a: SInt, b: SInt, shift: Int, mode: Rounding, width: Int): (SInt, Bool) =
     saturate(shiftRound(a * b, shift, mode), width)
 
+  /** a < b as the sign of a - b: a carry chain (synthesis may build a comparison as a chain of LUTs instead) */
+  def lt(a: SInt, b: SInt): Bool = { val d = a -& b; d(d.getWidth - 1) }
+
   /** min(max(x, lo), hi), in the width of x; the flag is high when x was outside [lo, hi]. */
   def clamp(x: SInt, lo: SInt, hi: SInt): (SInt, Bool) = {
-    val below = x < lo
-    val above = x > hi
+    val below = lt(x, lo)
+    val above = lt(hi, x)
     (clampSelect(below, above, x, lo, hi), below || above)
   }
 

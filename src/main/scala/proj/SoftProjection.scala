@@ -77,9 +77,10 @@ class SoftProjection(inW: Int, outW: Int, latAdd: Int, rounding: Rounding) exten
     val hs3   = rs((e2 +& dp2) >> 1)
     val ups3  = rs((up2 +& e2) >> 1)
     val dns3  = rs((dn2 -& e2) >> 1)
-    val in3   = r(d2 >= 0.S && d2 >= e2)
-    val le3   = r(e2 <= 0.S)
-    val sle3  = r(e2 <= md2) // s <= 0 as e <= -d
+    // comparisons as the signs of subtractions (FixedOps.lt): carry chains
+    val in3   = r(!d2(d2.getWidth - 1) && !FixedOps.lt(d2, e2))
+    val le3   = r(!FixedOps.lt(0.S, e2))
+    val sle3  = r(!FixedOps.lt(md2, e2)) // s <= 0 as e <= -d
     val Seq(xs3, cps3, cms3, ds3) = Seq(xs2, cps2, cms2, ds2).map { case (w, f) => (r(w), r(f)) }
     val neg3  = r(neg2)
     // step 4: the case, and selections of saturated words

@@ -76,9 +76,8 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   val pendEnd = RegNext(fire && last, false.B)
   val pendIdx = RegEnable(cnt, fire)
   val pendX   = RegEnable(x(wordW - 1, 0).asSInt, fire) // the word itself is taken only when it is in its box
-  // the signs of subtractions: carry chains (synthesis may otherwise build a comparison as a chain of LUTs)
-  val below   = RegEnable((x -& lo)(x.getWidth.max(wordW)), fire)
-  val above   = RegEnable((hi -& x)(x.getWidth.max(wordW)), fire)
+  val below   = RegEnable(FixedOps.lt(x, lo), fire)
+  val above   = RegEnable(FixedOps.lt(hi, x), fire)
   val pendLo  = RegEnable(lo, fire)
   val pendHi  = RegEnable(hi, fire)
   val v       = FixedOps.clampSelect(below, above, pendX, pendLo, pendHi)
