@@ -94,7 +94,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   def shiftByCode(a: SInt, code: UInt, neg: Boolean): SInt = {
     val opts = p.shifts.map(k => shiftBy(a, if (neg) -k else k))
     val w    = opts.map(_.getWidth).max
-    VecInit(opts.map(_.pad(w)))(code)
+    WireInit(SInt(w.W), VecInit(opts.map(_.pad(w)))(code))
   }
 
   // Row tokens: tokN is the next cycle's, so the row memories are addressed a cycle ahead (outputs registered).
@@ -161,7 +161,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val toQ     = p.stageQ - 1
     // the slot's nu through a one-hot select, its decode registered a stage ahead (tok1 is tok0 registered)
     val hot1    = RegNext(VecInit(UIntToOH(tok0.k, K).asBools))
-    val nuSel   = Mux1H(hot1, nuRow)
+    val nuSel   = WireInit(SInt(p.nuW.W), Mux1H(hot1, nuRow))
     val kindQ   = ShiftRegister(kindRom(tok1.k), toQ)
     val codeQ   = ShiftRegister(codeRom(tok1.k), toQ)
     val nuQ     = ShiftRegister(nuSel, toQ)
@@ -236,13 +236,26 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val nuBN = ShiftRegister(nuZB, p.latAdd)
     val codeN = ShiftRegister(codeZ, p.latAdd)
     val kindN = ShiftRegister(kindZ, p.latAdd)
-    val (nuA, ofNA) = FixedOps.satAdd(nuAN, shiftByCode(dAN, codeN, neg = false), p.nuW)
-    val (nuB, ofNB) = FixedOps.satAdd(nuBN, shiftByCode(dBN, codeN, neg = false), p.nuW)
     val first = tokNu.pass0 // the first pass writes the cold start: z = proj(0), nu = 0
+    // nu+ and its flag, l_A stages after tokNu. From l_A = 2 the shift by the row's code is made before the last
+    // register of d, and the sum registered before its saturation (FixedOps.satAddPipelined), so that neither the
+    // shift's selection nor the saturation shares a cycle with the carry chain.
+    val (nuA, nuB, ofNA, ofNB) = if (p.latAdd >= 2) {
+      def shifted(d: SInt) = prev(shiftByCode(ShiftRegister(d, p.latAdd - 1), ShiftRegister(codeZ, p.latAdd - 1),
+        neg = false))
+      val (a, fa) = FixedOps.satAddPipelined(nuAN, shifted(dA), p.nuW, p.latAdd, zero = first)
+      val (b, fb) = FixedOps.satAddPipelined(nuBN, shifted(dB), p.nuW, p.latAdd, zero = first)
+      (a, b, fa, fb)
+    } else {
+      val (a, fa) = FixedOps.satAdd(nuAN, shiftByCode(dAN, codeN, neg = false), p.nuW)
+      val (b, fb) = FixedOps.satAdd(nuBN, shiftByCode(dBN, codeN, neg = false), p.nuW)
+      (ShiftRegister(Mux(first, 0.S, a), p.latAdd), ShiftRegister(Mux(first, 0.S, b), p.latAdd),
+        ShiftRegister(fa, p.latAdd), ShiftRegister(fb, p.latAdd))
+    }
     laneA(u).z  := ShiftRegister(ShiftRegister(zA, p.latAdd), p.latAdd)
-    laneA(u).nu := ShiftRegister(Mux(first, 0.S, nuA), p.latAdd)
+    laneA(u).nu := nuA
     laneB(u).z  := ShiftRegister(ShiftRegister(zB, p.latAdd), p.latAdd)
-    laneB(u).nu := ShiftRegister(Mux(first, 0.S, nuB), p.latAdd)
+    laneB(u).nu := nuB
     laneA(u).y  := ShiftRegister(ShiftRegister(Mux(tokZ.pass0, zA.pad(yRegW), yZ.pad(yRegW)), p.latAdd), p.latAdd)
     laneB(u).y  := ShiftRegister(ShiftRegister(Mux(tokZ.pass0, zB.pad(yRegW), yZB.pad(yRegW)), p.latAdd), p.latAdd)
 
@@ -297,7 +310,9 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val tokP   = tokAt(p.stageP)
     val ofYQ   = tokQ.valid && !tokQ.pass0 && ofY || tokP.valid && ofQ
     val ofZD   = tokZ.valid && !tokZ.pass0 && (ofZ || liveA && ofDA || kindZs === SoftD.U && ofDB)
-    val ofN    = tokNu.valid && !tokNu.pass0 && (kindN =/= SoftX.U && ofNA || kindN === SoftD.U && ofNB)
+    // (nu+'s flags come l_A stages after tokNu)
+    val ofN    = ShiftRegister(tokNu.valid && !tokNu.pass0 && kindN =/= SoftX.U, p.latAdd) && ofNA ||
+      ShiftRegister(tokNu.valid && !tokNu.pass0 && kindN === SoftD.U, p.latAdd) && ofNB
     ovfNow(u) := Seq(ofTree, ofYQ, ofZD, ofN, ovfMom(u)).map(RegNext(_, false.B)).reduce(_ || _)
   }
 
@@ -310,6 +325,10 @@ class AdmmCore(val p: AdmmParams) extends Module {
     case "vucondat" => FixedOps.satSub(shiftBy(y.get +& z, p.shift(j)), nu, p.vW)
     case _          => FixedOps.satSub(shiftBy(z, p.shift(j)), nu, p.vW)
   }
+  // one problem: the value each z register has in the next cycle, for the answer (only a row's own write can
+  // change z then: the warm copy comes at a solve's start, the operand copy after an iteration but the last)
+  val zAhead = Wire(Vec(n, SInt(p.zW.W)))
+  zAhead := zReg(0)
   /** problem q's writes of z and nu: the warm copy, or the lanes of its rows' pipelines */
   def writes(q: Int, warmCopy: Bool, weW: Vec[Bool]): Unit = for (j <- 0 until n) {
     val u = p.unitOf(j)
@@ -323,6 +342,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
       if (vc) yReg(q)(j) := yReg(q)(src)
     }.elsewhen(weW(slot)) {
       zReg(q)(j)  := lane.z
+      if (q == 0) zAhead(j) := lane.z
       nuReg(q)(j) := lane.nu
       if (vc) yReg(q)(j) := lane.y
     }
@@ -334,8 +354,9 @@ class AdmmCore(val p: AdmmParams) extends Module {
       wReg(0) := frameIn.io.frame
       warmL   := warmNow
     }
-    writes(0, RegNext(ctl.take && warmNow, false.B),
-      RowToken.enables(tokW1, tokW1.valid && !(tokW1.pass0 && warmL), K))
+    val warmCopy = RegNext(ctl.take && warmNow, false.B)
+    writes(0, warmCopy, RowToken.enables(tokW1, tokW1.valid && !(tokW1.pass0 && warmL), K))
+    assert(!(ctl.outLoad.get && (warmCopy || ctl.copyNow)), "AdmmCore: a copy in the cycle before the answer")
     // v for the whole vector in the cycle after an iteration's last write
     ctl.copyNow
   } else {
@@ -403,7 +424,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
 
   // ------------------------------------------------------------------ output: du_0 or all of z
   m_axis.tvalid := ctl.outValid
-  m_axis.tdata  := ofSlot(zReg.map(_(ctl.outIndex)), ctl.outSlot).pad(p.streamW).asUInt
+  m_axis.tdata  := ctl.answerWord((s, i) => ofSlot(zReg.map(_(i)), s).pad(p.streamW).asUInt,
+    i => zAhead(i).pad(p.streamW).asUInt, n, m_axis.fire)
   m_axis.tlast  := ctl.outIsLast
   m_axis.tuser.foreach(_ := ctl.outSlot)
   bus.Protocol.streamOut("m_axis", m_axis)

@@ -211,6 +211,10 @@ class FgmCore(val p: FgmParams) extends Module {
   // All decided a cycle ahead and registered: they fan out to every row register.
   val tokY1 = tokAt(p.stageY - 1)
   def shifted(r: Int): Int = if (r < n - nu) r + nu else r
+  // one problem: the value each z register has in the next cycle, for the answer (only a row's own write can
+  // change z then: the warm copy and the cold start come at a solve's start and in its first pass)
+  val zAhead = Wire(Vec(n, SInt(p.zW.W)))
+  zAhead := zReg(0)
   if (Kp == 1) {
     val warmNow  = regs.ctrlWarm && regs.warmValid
     val warmCopy = unitRegs(ctl.take && warmNow)
@@ -235,8 +239,10 @@ class FgmCore(val p: FgmParams) extends Module {
       when(weY(u)(k)) {
         yNext(0)(r) := unitY(u)
         zReg(0)(r)  := unitZ(u)
+        zAhead(r)   := unitZ(u)
       }
     }
+    assert(!(ctl.outLoad.get && (warmCopy.head || weCold.head.asUInt.orR)), "FgmCore: a start's write before the answer")
     // the units' copies of y: written as yReg is, each word under copies of the write controls of its own (the
     // same registers as warmCopy, weCold and the copy, kept apart: each drives one word beside its multiplier)
     if (split) for (u <- 0 until P) {
@@ -281,7 +287,8 @@ class FgmCore(val p: FgmParams) extends Module {
 
   // ------------------------------------------------------------------ output: u0 or all of z
   m_axis.tvalid := ctl.outValid
-  m_axis.tdata  := ofSlot(zReg.map(_(ctl.outIndex)), ctl.outSlot).pad(p.streamW).asUInt
+  m_axis.tdata  := ctl.answerWord((s, i) => ofSlot(zReg.map(_(i)), s).pad(p.streamW).asUInt,
+    i => zAhead(i).pad(p.streamW).asUInt, n, m_axis.fire)
   m_axis.tlast  := ctl.outIsLast
   m_axis.tuser.foreach(_ := ctl.outSlot)
   bus.Protocol.streamOut("m_axis", m_axis)

@@ -63,6 +63,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     val copyNext = Output(Bool())
     val outValid = Output(Bool())
     val outIndex = Output(UInt(log2Ceil(maxOut + 1).W))
+    /** the cycle before the answer's first word */
+    val outLoad  = Output(Bool())
     val outIsLast = Output(Bool())
     /** the last word of the result left: the solve is complete, after `runCycles` cycles */
     val done      = Output(Bool())
@@ -72,6 +74,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val sIdle :: sRun :: sOut :: Nil = Enum(3)
   val state  = RegInit(sIdle)
   val outCnt = RegInit(0.U(log2Ceil(maxOut + 1).W))
+  val outCnt1 = RegInit(1.U(log2Ceil(maxOut + 1).W)) // outCnt + 1
   val outEnd = RegInit(0.U(log2Ceil(maxOut + 1).W))
   val outAtEnd = RegInit(false.B) // outCnt === outEnd, kept in a register: the output handshake is a gate from it
   val busyCyc = RegInit(0.U(32.W))
@@ -192,19 +195,22 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
       when(lastEnd) {
         state    := sOut
         outCnt   := 0.U
+        outCnt1  := 1.U
         outAtEnd := outEnd === 0.U
       }
     }
     is(sOut) {
       when(io.outFire) {
-        outCnt := outCnt + 1.U
-        outAtEnd := outCnt + 1.U === outEnd
+        outCnt   := outCnt1
+        outCnt1  := outCnt1 + 1.U
+        outAtEnd := outCnt1 === outEnd
         when(outAtEnd) { state := sIdle }
       }
     }
   }
   io.outValid  := state === sOut
   io.outIndex  := outCnt
+  io.outLoad   := lastEnd
   io.outIsLast := outAtEnd
   io.done      := outLastFire
   io.runCycles := busyCyc
