@@ -219,7 +219,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
       softProj.io.d := qP
       softProj.io.c := bLo
       softProj.io.r := bHi
-      val isD = kindZ === SoftD.U
+      val isD = ShiftRegister(kindP === SoftD.U, p.projLat) // kindZ === SoftD, decoded before its registers
       (Mux(isD, softProj.io.dOut, zBox), softProj.io.xOut, ShiftRegister(ofFree, p.projLat) || isD && (softProj.io.xOvf || softProj.io.dOvf))
     } else (zBox, zBox, ShiftRegister(ofFree, p.projLat))
     val yZ  = ShiftRegister(yP, p.projLat)
@@ -228,10 +228,14 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val nuZB = ShiftRegister(prevNu, p.projLat)
 
     // nu+ = nu + rho (y - z+), for the row and its partner
-    val (dA, ofDA) = FixedOps.satSub(yZ, zA, p.dW)
-    val (dB, ofDB) = FixedOps.satSub(yZB, zB, p.dW)
-    val dAN  = ShiftRegister(dA, p.latAdd)
-    val dBN  = ShiftRegister(dB, p.latAdd)
+    // (from l_A = 2 the difference is registered before its saturation: d and its flag come dLag = 1 stage later)
+    val dLag = if (p.latAdd >= 2) 1 else 0
+    def dOf(y: SInt, z: SInt): (SInt, Bool) =
+      if (dLag == 1) FixedOps.saturate(prev(y -& z), p.dW) else FixedOps.satSub(y, z, p.dW)
+    val (dA, ofDA) = dOf(yZ, zA)
+    val (dB, ofDB) = dOf(yZB, zB)
+    val dAN  = ShiftRegister(dA, p.latAdd - dLag)
+    val dBN  = ShiftRegister(dB, p.latAdd - dLag)
     val nuAN = ShiftRegister(nuZ, p.latAdd)
     val nuBN = ShiftRegister(nuZB, p.latAdd)
     val codeN = ShiftRegister(codeZ, p.latAdd)
@@ -241,7 +245,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     // register of d, and the sum registered before its saturation (FixedOps.satAddPipelined), so that neither the
     // shift's selection nor the saturation shares a cycle with the carry chain.
     val (nuA, nuB, ofNA, ofNB) = if (p.latAdd >= 2) {
-      def shifted(d: SInt) = prev(shiftByCode(ShiftRegister(d, p.latAdd - 1), ShiftRegister(codeZ, p.latAdd - 1),
+      def shifted(d: SInt) = prev(shiftByCode(ShiftRegister(d, p.latAdd - 1 - dLag), ShiftRegister(codeZ, p.latAdd - 1),
         neg = false))
       val (a, fa) = FixedOps.satAddPipelined(nuAN, shifted(dA), p.nuW, p.latAdd, zero = first)
       val (b, fb) = FixedOps.satAddPipelined(nuBN, shifted(dB), p.nuW, p.latAdd, zero = first)
@@ -309,7 +313,9 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val ofTree = tree.io.outValid && tree.io.overflow
     val tokP   = tokAt(p.stageP)
     val ofYQ   = tokQ.valid && !tokQ.pass0 && ofY || tokP.valid && ofQ
-    val ofZD   = tokZ.valid && !tokZ.pass0 && (ofZ || liveA && ofDA || kindZs === SoftD.U && ofDB)
+    val liveZ  = tokZ.valid && !tokZ.pass0
+    val ofZD   = liveZ && ofZ || ShiftRegister(liveZ && liveA, dLag) && ofDA ||
+      ShiftRegister(liveZ && kindZs === SoftD.U, dLag) && ofDB
     // (nu+'s flags come l_A stages after tokNu)
     val ofN    = ShiftRegister(tokNu.valid && !tokNu.pass0 && kindN =/= SoftX.U, p.latAdd) && ofNA ||
       ShiftRegister(tokNu.valid && !tokNu.pass0 && kindN === SoftD.U, p.latAdd) && ofNB
@@ -438,21 +444,9 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val slotRom = VecInit((0 until n).map(j => p.slotOf(j).U(math.max(1, log2Ceil(K)).W)))
   // bounds live in the slot of a box row or of a soft pair's slack
   val bndOkRom = VecInit((0 until n).map(j => (p.kind(j) == Box || p.kind(j) == SoftD).B))
-  frameIn.io.boxWen  := false.B
-  frameIn.io.boxWord := 0.U
-  frameIn.io.boxHi   := false.B
-  frameIn.io.boxData := 0.S
+  regs.frameBoxWrites(frameIn, "WBOX", p.wW, nw)
   regs.writes(
-    region("WBOX") -> { () =>
-      val off = regs.offset("WBOX")
-      val j   = off >> 1
-      dataWrite(p.wW, regs.ahead("WBOX")(o => (o >> 1) < nw.U)) {
-        frameIn.io.boxWen  := true.B
-        frameIn.io.boxWord := j
-        frameIn.io.boxHi   := off(0)
-        frameIn.io.boxData := wD(p.wW - 1, 0).asSInt
-      }
-    },
+    region("WBOX") -> { () => dataWrite(p.wW, regs.ahead("WBOX")(regs.boxOk(nw))) {} },
     region("BND") -> { () =>
       dataWrite(p.zW, regs.ahead("BND")(bndOk)) {
         regs.warmValid := false.B

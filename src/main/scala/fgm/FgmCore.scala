@@ -296,10 +296,7 @@ class FgmCore(val p: FgmParams) extends Module {
   // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
   import regs.{dataWrite, inRegion, offset, wD}
   // Default: no write this cycle.
-  frameIn.io.boxWen  := false.B
-  frameIn.io.boxWord := 0.U
-  frameIn.io.boxHi   := false.B
-  frameIn.io.boxData := 0.S
+  regs.frameBoxWrites(frameIn, "XBOX", p.xW, nw)
   /** a slot word's row unit (its low bits) and the unit's row k */
   def unitK(slot: UInt): (UInt, UInt) = (if (p.pBits == 0) 0.U else slot(p.pBits - 1, 0), slot >> p.pBits)
   /** rows of unit u: k P + u < n for k below ceil((n - u) / P) (a table, so no product k P is formed) */
@@ -317,16 +314,7 @@ class FgmCore(val p: FgmParams) extends Module {
         betaRam.io.wdata := Fill(2, wD(p.betaW - 1, 0))
       }
     },
-    inRegion("XBOX") -> { () =>
-      val off = offset("XBOX")
-      val j   = off >> 1
-      dataWrite(p.xW, regs.ahead("XBOX")(o => (o >> 1) < nw.U)) {
-        frameIn.io.boxWen  := true.B
-        frameIn.io.boxWord := j
-        frameIn.io.boxHi   := off(0)
-        frameIn.io.boxData := wD(p.xW - 1, 0).asSInt
-      }
-    },
+    inRegion("XBOX") -> { () => dataWrite(p.xW, regs.ahead("XBOX")(regs.boxOk(nw))) {} },
     inRegion("UBOX") -> { () =>
       dataWrite(p.zW, regs.ahead("UBOX")(o => slotOk(o >> 1))) {
         regs.warmValid := false.B

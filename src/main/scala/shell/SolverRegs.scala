@@ -267,6 +267,19 @@ class SolverRegs(s_axil: AxiLiteIO, map: RegMap, extraStatus: Seq[(String, Bool)
     }
   }
 
+  /** The input frame's box memory written from the region `name` (word 2 j + 1: hi of word j, 2 j: lo) as the
+    * per-unit memories are (writeEnables): enable, word, bound and data from registers. The core's case for the
+    * region is `dataWrite(fitW, ahead(name)(boxOk(words)))` with an empty body, for the response and flags. */
+  def frameBoxWrites(frameIn: FrameIn, name: String, fitW: Int, words: Int): Unit = {
+    val o = earlyOffset(name)
+    frameIn.io.boxWen  := writeEnables(fitW)(Seq(earlyIn(name) && boxOk(words)(o))).head
+    frameIn.io.boxWord := RegNext(o >> 1)
+    frameIn.io.boxHi   := RegNext(o(0))
+    frameIn.io.boxData := wD(fitW - 1, 0).asSInt
+  }
+  /** a box region's word offset `o` names one of the frame's `words` words */
+  def boxOk(words: Int)(o: UInt): Bool = (o >> 1) < words.U
+
   /** A write into a data memory: refused while busy, at an address `ok` rejects, or when the value does not fit
     * `fitW` signed bits; otherwise `body` runs in the cycle of the write.
     */
