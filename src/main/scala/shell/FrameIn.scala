@@ -46,12 +46,16 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
     val boxData = Input(SInt(wordW.W))
   })
 
-  val boxRam = Module(new InitRam(s"${name}_box", words, 2, wordW, box.map { case (l, h) => Seq(l, h) }))
-  boxRam.io.clock := clock
-  boxRam.io.wen   := io.boxWen
-  boxRam.io.waddr := io.boxWord
-  boxRam.io.wmask := UIntToOH(io.boxHi, 2)
-  boxRam.io.wdata := Fill(2, io.boxData.asUInt)
+  // Two copies of the box memory, written alike: one reads the box of the word after this one, the other this
+  // word's, and the handshake picks between their outputs a cycle later (so it does not reach a read address).
+  val boxRams = Seq.fill(2)(Module(new InitRam(s"${name}_box", words, 2, wordW, box.map { case (l, h) => Seq(l, h) })))
+  for (r <- boxRams) {
+    r.io.clock := clock
+    r.io.wen   := io.boxWen
+    r.io.waddr := io.boxWord
+    r.io.wmask := UIntToOH(io.boxHi, 2)
+    r.io.wdata := Fill(2, io.boxData.asUInt)
+  }
 
   val buf  = Reg(Vec(words, SInt(wordW.W)))
   val cntW = log2Ceil(words + 1)
@@ -64,10 +68,12 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   val full    = RegInit(false.B)
   io.s_axis.tready := !full && !(io.hold && atZero)
   val fire = io.s_axis.fire
-  // The box of the next word is read a cycle ahead.
-  boxRam.io.raddr := Mux(fire, cntNext, cnt)
-  val lo = boxRam.io.rdata(wordW - 1, 0).asSInt
-  val hi = boxRam.io.rdata(2 * wordW - 1, wordW).asSInt
+  // The box of the next word is read a cycle ahead: the word after this one's if this one is taken, else this one's.
+  boxRams(0).io.raddr := cntNext
+  boxRams(1).io.raddr := cnt
+  val boxNow = Mux(RegNext(fire, false.B), boxRams(0).io.rdata, boxRams(1).io.rdata)
+  val lo = boxNow(wordW - 1, 0).asSInt
+  val hi = boxNow(2 * wordW - 1, wordW).asSInt
   // A word's comparisons against its box end in registers in the cycle of its handshake; the clamped word is
   // written a cycle later. The last word of a frame reaches io.frame through a bypass in that cycle, so the frame
   // is whole when `full` rises (the cores take it from then on; they read no word of a partial frame).
