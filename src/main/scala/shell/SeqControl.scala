@@ -19,7 +19,7 @@ case class SeqControl(tokN: RowToken, tokNN: Option[RowToken], take: Bool, copyN
     * handshake `fire`; so no wide selection by index runs into the port. */
   def answerWord(word: (UInt, UInt) => UInt, next: Int => UInt, count: Int, fire: Bool): UInt = outLoad match {
     case Some(load) =>
-      val ans = Reg(Vec(count, UInt(next(0).getWidth.W)))
+      val ans = Reg(Vec(count, UInt(next(0).getWidth.W))).suggestName("answer")
       for (i <- 0 until count)
         when(load) { ans(i) := next(i) }.elsewhen(fire) { ans(i) := (if (i + 1 < count) ans(i + 1) else ans(i)) }
       ans(0)
