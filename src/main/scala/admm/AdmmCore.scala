@@ -156,12 +156,26 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val kindRom = VecInit((0 until K).map(k => p.kindAt(u, k).U(2.W)))
     val codeRom = VecInit((0 until K).map(k => p.codeAt(u, k).U(codeW.W)))
     // nu of each slot's row, of the token's problem (an empty slot: 0)
-    val nuRow   = VecInit((0 until K).map(k => p.rows(u)(k).map(j => ofSlot(nuReg.map(_(j)), tok1.slot))
-      .getOrElse(0.S(p.nuW.W))))
+    def nuRow(t: RowToken) = (0 until K).map(k => p.rows(u)(k).map(j => ofSlot(nuReg.map(_(j)), t.slot))
+      .getOrElse(0.S(p.nuW.W)))
     val toQ     = p.stageQ - 1
-    // the slot's nu through a one-hot select, its decode registered a stage ahead (tok1 is tok0 registered)
-    val hot1    = RegNext(VecInit(UIntToOH(tok0.k, K).asBools))
-    val nuSel   = WireInit(SInt(p.nuW.W), Mux1H(hot1, nuRow))
+    // The slot's nu (at tok1) through a one-hot select whose decode is registered a stage ahead. Without momentum
+    // the select is split: groups of four slots at tok0 into registers, their OR at tok1. A row's nu changes only
+    // with its own write, an iteration earlier (and the warm copy, before the first pass, which reads no nu); the
+    // momentum's copy into nu comes in the cycle of the next iteration's row 0 at tok0, so with it one stage reads.
+    val nuSel =
+      if (acc) {
+        val hot1 = RegNext(VecInit(UIntToOH(tok0.k, K).asBools))
+        WireInit(SInt(p.nuW.W), Mux1H(hot1, nuRow(tok1)))
+      } else {
+        val hot0  = RegNext(VecInit(UIntToOH(tokN.k, K).asBools))
+        val parts = hot0.zip(nuRow(tok0)).grouped(4).toSeq.map { g =>
+          val r = Reg(UInt(p.nuW.W))
+          r := g.map { case (h, v) => Mux(h, v.asUInt, 0.U) }.reduce(_ | _) // (Mux1H passes a lone input)
+          r
+        }
+        WireInit(SInt(p.nuW.W), parts.reduce(_ | _).asSInt)
+      }
     val kindQ   = ShiftRegister(kindRom(tok1.k), toQ)
     val codeQ   = ShiftRegister(codeRom(tok1.k), toQ)
     val nuQ     = ShiftRegister(nuSel, toQ)

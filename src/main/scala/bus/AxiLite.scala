@@ -87,7 +87,9 @@ class AxiLiteSlave(addrW: Int) extends Module {
   val wAcc   = RegInit(false.B)
   private val w0 = Reg(new AxiLiteWord(addrW - 2))  // held: the decode's input
   private val w1 = Reg(new AxiLiteWord(addrW - 2))  // the access
-  val doWr   = axi.awvalid && axi.wvalid && !bValid && !wHeld && !wAcc
+  // !bValid && !wHeld && !wAcc kept in a register: the write handshake is one gate from the bus and it
+  val wFree  = RegInit(true.B)
+  val doWr   = axi.awvalid && axi.wvalid && wFree
   axi.awready := doWr
   axi.wready  := doWr
   when(doWr) {
@@ -111,6 +113,7 @@ class AxiLiteSlave(addrW: Int) extends Module {
   }.elsewhen(axi.bready) {
     bValid := false.B
   }
+  wFree := !doWr && !wHeld && !(bValid && !axi.bready) && !wAcc
   axi.bvalid := bValid
   axi.bresp  := bResp
 

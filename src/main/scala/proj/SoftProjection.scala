@@ -78,22 +78,24 @@ class SoftProjection(inW: Int, outW: Int, latAdd: Int, rounding: Rounding) exten
     val ups3  = rs((up2 +& e2) >> 1)
     val dns3  = rs((dn2 -& e2) >> 1)
     // comparisons as the signs of subtractions (FixedOps.lt): carry chains
-    val in3   = r(!d2(d2.getWidth - 1) && !FixedOps.lt(d2, e2))
-    val le3   = r(!FixedOps.lt(0.S, e2))
-    val sle3  = r(!FixedOps.lt(md2, e2)) // s <= 0 as e <= -d
+    val in2   = !d2(d2.getWidth - 1) && !FixedOps.lt(d2, e2)
+    val le2   = !FixedOps.lt(0.S, e2)
+    val sle2  = !FixedOps.lt(md2, e2) // s <= 0 as e <= -d
+    // the case, decoded into registers: step 4 only selects
+    val in3   = r(in2)
+    val keep3 = r(in2 || le2)                 // inside, or below the flat edge: x unchanged
+    val cor3  = r(!(in2 || le2) && sle2)      // beyond the corner
+    val zero3 = r(!in2 && (le2 || sle2))      // d is 0: beyond the corner or below the flat edge
     val Seq(xs3, cps3, cms3, ds3) = Seq(xs2, cps2, cms2, ds2).map { case (w, f) => (r(w), r(f)) }
     val neg3  = r(neg2)
-    // step 4: the case, and selections of saturated words
-    val keep3 = in3 || le3           // inside, or below the flat edge: x unchanged
-    val cor3  = !keep3 && sle3       // beyond the corner
-    val flat3 = !in3 && le3
+    // step 4: selections of saturated words
     def pick[T <: Data](x: T, cm: T, cp: T, dn: T, up: T): T =
       Mux(keep3, x, Mux(cor3, Mux(neg3, cm, cp), Mux(neg3, dn, up)))
     val l = 2 * latAdd - 3
     io.xOut := r(pick(xs3._1, cms3._1, cps3._1, dns3._1, ups3._1), l)
     io.xOvf := r(pick(xs3._2, cms3._2, cps3._2, dns3._2, ups3._2), l)
-    io.dOut := r(Mux(in3, ds3._1, Mux(cor3 || flat3, 0.S(outW.W), hs3._1)), l)
-    io.dOvf := r(Mux(in3, ds3._2, !(cor3 || flat3) && hs3._2), l)
+    io.dOut := r(Mux(in3, ds3._1, Mux(zero3, 0.S(outW.W), hs3._1)), l)
+    io.dOvf := r(Mux(in3, ds3._2, !zero3 && hs3._2), l)
   }
 
   private def output(xo: SInt, dOut: SInt, l: Int): Unit = {

@@ -107,7 +107,10 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   when(io.take) { full := false.B }
   bus.Protocol.noOverflow("input frame", fire, !full)
   io.full    := full
-  io.fills   := fire && last
+  // fire && last, formed from tvalid and registers (not through the handshake's wide fan-out): the last word
+  // implies a frame begun, so the hold does not apply to it
+  io.fills := io.s_axis.tvalid && last && !full && (if (words == 1) !(io.hold && atZero) else true.B)
+  assert(io.fills === (fire && last), "FrameIn: fills out of step with the handshake")
   io.frame   := VecInit(buf.init :+ Mux(pendEnd, v, buf.last))
   io.partial := !atZero
 }
