@@ -104,12 +104,21 @@ object FixedOps {
       val front    = extra >= (if (land) 3 else 2)
       val (fa, fb) = if (front) (reg(a), reg(b)) else (a, b)
       val k        = DspWidth - 1
-      val parts = for ((la, i) <- limbs(fa, DspWidth).zipWithIndex; (lb, j) <- limbs(fb, DspWidth).zipWithIndex)
+      val (limbsA, limbsB) = (limbs(fa, DspWidth), limbs(fb, DspWidth))
+      val parts = for ((la, i) <- limbsA.zipWithIndex; (lb, j) <- limbsB.zipWithIndex)
         yield (ecp5Product(la, lb), k * (i + j))
+      // The product of the two unsigned low limbs is below 2^(2k), where the product of the next two starts: the
+      // two are one word side by side, and the sum has a term fewer.
+      def joined(ps: Seq[(SInt, Int)]): Seq[(SInt, Int)] =
+        if (limbsA.length < 2 || limbsB.length < 2) ps
+        else {
+          val i11 = limbsB.length + 1
+          (Cat(ps(i11)._1, ps.head._1.asUInt(2 * k - 1, 0)).asSInt, 0) +: ps.patch(i11, Nil, 1).tail
+        }
       val rest = lat - (if (front) 1 else 0)
       if (!sumStage) (parts.head._1, rest - 3)
-      else if (land) (reg(summed(parts.map { case (pp, sh) => (reg(pp), sh) })), rest - 5)
-      else (reg(summed(parts)), rest - 4)
+      else if (land) (reg(summed(joined(parts.map { case (pp, sh) => (reg(pp), sh) }))), rest - 5)
+      else (reg(summed(joined(parts))), rest - 4)
     } else if (lat >= 3) {
       // the operand that fits the wider port goes there (xilinx7: A is 25 bits)
       val (x, y) = if (b.getWidth > a.getWidth && b.getWidth <= target.dspA) (b, a) else (a, b)
