@@ -370,7 +370,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     }
     val warmCopy = RegNext(ctl.take && warmNow, false.B)
     writes(0, warmCopy, RowToken.enables(tokW1, tokW1.valid && !(tokW1.pass0 && warmL), K))
-    assert(!(ctl.outLoad.get && (warmCopy || ctl.copyNow)), "AdmmCore: a copy in the cycle before the answer")
+    assert(!(ctl.outLoad.get._1 && (warmCopy || ctl.copyNow)), "AdmmCore: a copy in the cycle before the answer")
     // v for the whole vector in the cycle after an iteration's last write
     ctl.copyNow
   } else {
@@ -439,7 +439,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   // ------------------------------------------------------------------ output: du_0 or all of z
   m_axis.tvalid := ctl.outValid
   m_axis.tdata  := ctl.answerWord((s, i) => ofSlot(zReg.map(_(i)), s).pad(p.streamW).asUInt,
-    i => zAhead(i).pad(p.streamW).asUInt, n, m_axis.fire)
+    i => zAhead(i).pad(p.streamW).asUInt, n, m_axis.fire, keep = p.target != dsp.Target.Generic)
   m_axis.tlast  := ctl.outIsLast
   m_axis.tuser.foreach(_ := ctl.outSlot)
   bus.Protocol.streamOut("m_axis", m_axis)

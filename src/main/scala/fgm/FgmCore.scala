@@ -242,7 +242,7 @@ class FgmCore(val p: FgmParams) extends Module {
         zAhead(r)   := unitZ(u)
       }
     }
-    assert(!(ctl.outLoad.get && (warmCopy.head || weCold.head.asUInt.orR)), "FgmCore: a start's write before the answer")
+    assert(!(ctl.outLoad.get._1 && (warmCopy.head || weCold.head.asUInt.orR)), "FgmCore: a start's write before the answer")
     // the units' copies of y: written as yReg is, each word under copies of the write controls of its own (the
     // same registers as warmCopy, weCold and the copy, kept apart: each drives one word beside its multiplier)
     if (split) for (u <- 0 until P) {
@@ -288,7 +288,7 @@ class FgmCore(val p: FgmParams) extends Module {
   // ------------------------------------------------------------------ output: u0 or all of z
   m_axis.tvalid := ctl.outValid
   m_axis.tdata  := ctl.answerWord((s, i) => ofSlot(zReg.map(_(i)), s).pad(p.streamW).asUInt,
-    i => zAhead(i).pad(p.streamW).asUInt, n, m_axis.fire)
+    i => zAhead(i).pad(p.streamW).asUInt, n, m_axis.fire, keep = p.target != dsp.Target.Generic)
   m_axis.tlast  := ctl.outIsLast
   m_axis.tuser.foreach(_ := ctl.outSlot)
   bus.Protocol.streamOut("m_axis", m_axis)

@@ -65,6 +65,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     val outIndex = Output(UInt(log2Ceil(maxOut + 1).W))
     /** the cycle before the answer's first word */
     val outLoad  = Output(Bool())
+    /** outLoad of the next cycle */
+    val outLoadAhead = Output(Bool())
     val outIsLast = Output(Bool())
     /** the last word of the result left: the solve is complete, after `runCycles` cycles */
     val done      = Output(Bool())
@@ -178,7 +180,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   // The passes' ends come from the generator: it holds a pass's last position two cycles before the cycle that
   // ends the pass (the state's cycles count from the one after the start). The operand copy follows that cycle,
   // after every iteration but the last, and after the first pass when `copyAfterFirst`.
-  val lastEnd = ShiftRegister(gRun && passEnd && gLast, 2, false.B, true.B)
+  val lastEndA = RegNext(gRun && passEnd && gLast, false.B) // lastEnd a cycle ahead
+  val lastEnd  = RegNext(lastEndA, false.B)
   io.copyNext := ShiftRegister(gRun && passEnd && Mux(gP0, copyAfterFirst.B, !gLast), 2, false.B, true.B)
   io.copyNow  := RegNext(io.copyNext, false.B)
 
@@ -208,9 +211,15 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
       }
     }
   }
-  io.outValid  := state === sOut
+  // state === sOut in a register of its own: the answer's handshake is a gate from it and the port
+  val outV = RegInit(false.B)
+  when(state === sRun && lastEnd) { outV := true.B }
+  when(outLastFire) { outV := false.B }
+  assert(outV === (state === sOut), "PassSequencer: answer valid out of step")
+  io.outValid  := outV
   io.outIndex  := outCnt
   io.outLoad   := lastEnd
+  io.outLoadAhead := lastEndA
   io.outIsLast := outAtEnd
   io.done      := outLastFire
   io.runCycles := busyCyc

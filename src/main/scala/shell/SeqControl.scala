@@ -7,24 +7,29 @@ import chisel3.util._
   * the token, the frame taken, the operand copy (one problem; copyNext is it a cycle ahead), the answer's word and
   * the solve's end, and per problem whether the solve taken starts warm (several problems). `tokNN`, the token
   * after tokN from registers, for one problem (PassSequencer): row memories can register their address beside
-  * their blocks from it; `outLoad`, for one problem: the cycle before the answer's first word. */
+  * their blocks from it; `outLoad`, for one problem: the cycle before the answer's first word (and the cycle
+  * before that, from which copies of it are registered). */
 case class SeqControl(tokN: RowToken, tokNN: Option[RowToken], take: Bool, copyNow: Bool, copyNext: Bool,
     running: Bool, outValid: Bool, outSlot: UInt, outIndex: UInt, outIsLast: Bool, done: Bool, runCycles: UInt,
-    warmOf: Vec[Bool], outLoad: Option[Bool] = None) {
+    warmOf: Vec[Bool], outLoad: Option[(Bool, Bool)] = None) {
   val problems: Int = warmOf.length
 
   /** The answer's word on the stream: `word(slot, index)`, the word `index` of problem `slot`. One problem: from a
     * shift register of the `count` words instead, loaded in the cycle before the answer with `next(i)`, the value
     * word i has in the next cycle (the last rows' writes of that cycle included), and shifted by the stream's
-    * handshake `fire`; so no wide selection by index runs into the port. */
-  def answerWord(word: (UInt, UInt) => UInt, next: Int => UInt, count: Int, fire: Bool): UInt = outLoad match {
-    case Some(load) =>
-      val ans = Reg(Vec(count, UInt(next(0).getWidth.W))).suggestName("answer")
-      for (i <- 0 until count)
-        when(load) { ans(i) := next(i) }.elsewhen(fire) { ans(i) := (if (i + 1 < count) ans(i + 1) else ans(i)) }
-      ans(0)
-    case None => word(outSlot, outIndex)
-  }
+    * handshake `fire`; so no wide selection by index runs into the port. With `keep` (an FPGA target) each word
+    * takes the load from a kept copy of its own (mem.KeepReg), not one register driving every word's bits. */
+  def answerWord(word: (UInt, UInt) => UInt, next: Int => UInt, count: Int, fire: Bool, keep: Boolean): UInt =
+    outLoad match {
+      case Some((load, ahead)) =>
+        val ans   = Reg(Vec(count, UInt(next(0).getWidth.W))).suggestName("answer")
+        val loads = if (keep) mem.KeepReg.copies(ahead, count, keep = true) else Seq.fill(count)(load)
+        if (keep) assert(loads.head === load, "SeqControl: answer load copies out of step")
+        for (i <- 0 until count)
+          when(loads(i)) { ans(i) := next(i) }.elsewhen(fire) { ans(i) := (if (i + 1 < count) ans(i + 1) else ans(i)) }
+        ans(0)
+      case None => word(outSlot, outIndex)
+    }
 
   /** the token is problem j's (always, for one problem) */
   def mine(t: RowToken, j: Int): Bool = if (problems == 1) true.B else t.slot === j.U
@@ -53,7 +58,7 @@ object SeqControl {
       seq.io.outFire    := outFire
       SeqControl(seq.io.tokN, Some(seq.io.tokNN), seq.io.start, seq.io.copyNow, seq.io.copyNext, seq.io.running,
         seq.io.outValid, 0.U, seq.io.outIndex, seq.io.outIsLast, seq.io.done, seq.io.runCycles, VecInit(Seq.fill(1)(false.B)),
-        Some(seq.io.outLoad))
+        Some((seq.io.outLoad, seq.io.outLoadAhead)))
     } else {
       val seq = Module(new TurnSequencer(K, Kp, L, maxOut))
       seq.io.frameReady := frameIn.io.full
