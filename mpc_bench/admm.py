@@ -38,7 +38,7 @@ from mpc_bench.baselines import prepare_admm_software
 from mpc_bench.plots import by_b, latency_plot, resources_plot
 from mpc_bench.report import _f
 from mpc_bench.section import ints
-from mpc_bench.tools import FMAX_SEEDS, FMAX_SEEDS_QUICK, cached_design
+from mpc_bench.tools import FMAX_SEEDS, FMAX_SEEDS_QUICK, PLACER_ARGS, cached_design
 from mpc_cores.flow import REPO
 
 MASSES_SOFT = REPO / "examples/masses_rate_soft.yaml"
@@ -150,7 +150,8 @@ class Section(qp.QpSection):
                 self.cores.append(Core("admm", small.name, P, d.b,
                                        out / "cores" / f"{small.name}_p{P}_b{d.b}_la{la}_lm{lm}_{tg}",
                                        dataclasses.replace(d, P=P, iterations=ADMM_SIM_IMAX), d.iterations,
-                                       role="fmax", pnr_seeds=FMAX_SEEDS_QUICK if self.quick else FMAX_SEEDS))
+                                       role="fmax", pnr_seeds=FMAX_SEEDS_QUICK if self.quick else FMAX_SEEDS,
+                                       pnr_args=PLACER_ARGS))
         self.log(f"ADMM designs in {time.perf_counter() - t:.0f} s")
 
     def software_case(self):

@@ -33,7 +33,7 @@ from mpc_bench.qp import (
 )
 from mpc_bench.report import _f, _table, _tool_columns, _x, latency_us, ratio
 from mpc_bench.section import ints
-from mpc_bench.tools import FMAX_SEEDS, FMAX_SEEDS_QUICK, cached_design
+from mpc_bench.tools import FMAX_SEEDS, FMAX_SEEDS_QUICK, PLACER_ARGS, cached_design
 from mpc_cores.flow import REPO
 
 MASSES = REPO / "examples/masses.yaml"
@@ -354,7 +354,8 @@ class Section(QpSection):
                 self.error(f"FGM P={P} l_A={la} l_M={lm} K_p={kp}: design refused: {e}")
                 continue
             self.cores.append(Core("fgm", "masses", P, FMAX_B, out / "cores" / tag, d, d.iterations, role="fmax",
-                                   pnr_seeds=FMAX_SEEDS_QUICK if self.quick else FMAX_SEEDS, copies=copies))
+                                   pnr_seeds=FMAX_SEEDS_QUICK if self.quick else FMAX_SEEDS, copies=copies,
+                                   pnr_args=PLACER_ARGS))
 
     def software_case(self):
         return prepare_fgm_software(self.problem, self.designs, self.steps, 30)

@@ -40,14 +40,13 @@ from mpc_bench.minres import MASSES, SMALL, small_problem, synth_ecp5
 from mpc_bench.minres_report import float_units
 from mpc_bench.qp import QpSection
 from mpc_bench.report import write_alone
-from mpc_bench.tools import FMAX_SEEDS, Job, Log, ToolResults, is_cached, run_cycle_test, synth_xc7
+from mpc_bench.tools import FMAX_SEEDS, PLACER_ARGS, Job, Log, ToolResults, is_cached, run_cycle_test, synth_xc7
 from mpc_cores.flow import REPO
 
 # the masses closed loop the software solvers replay (mpc_cores.ipm.study.loop)
 STEPS_FULL, STEPS_QUICK, HOLD = 60, 20, 20
 # nextpnr placer settings of the placed interior-point core: timing weighs more in the analytic placement (default
 # weight 10, criticality exponent 2), which shortens its long routes between the DSP rows and the logic
-PLACER_ARGS = ("--placer-heap-timingweight", "40", "--placer-heap-critexp", "4")
 
 
 # ----------------------------------------------------------------------------------------- one core

@@ -35,6 +35,8 @@ PNR_SEED = 1
 # nextpnr seeds of the cores placed for Fmax: the median of three in a full run, one in QUICK (place and route is
 # most of a QUICK run)
 FMAX_SEEDS, FMAX_SEEDS_QUICK = (1, 2, 3), (1,)
+# nextpnr placer settings of the cores the bench places for their Fmax: a stronger timing weight
+PLACER_ARGS = ("--placer-heap-timingweight", "40", "--placer-heap-critexp", "4")
 
 
 # ----------------------------------------------------------------------------------------- tools and cache
