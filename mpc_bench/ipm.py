@@ -45,8 +45,6 @@ from mpc_cores.flow import REPO
 
 # the masses closed loop the software solvers replay (mpc_cores.ipm.study.loop)
 STEPS_FULL, STEPS_QUICK, HOLD = 60, 20, 20
-# nextpnr placer settings of the placed interior-point core: timing weighs more in the analytic placement (default
-# weight 10, criticality exponent 2), which shortens its long routes between the DSP rows and the logic
 
 
 # ----------------------------------------------------------------------------------------- one core

@@ -35,7 +35,8 @@ PNR_SEED = 1
 # nextpnr seeds of the cores placed for Fmax: the median of three in a full run, one in QUICK (place and route is
 # most of a QUICK run)
 FMAX_SEEDS, FMAX_SEEDS_QUICK = (1, 2, 3), (1,)
-# nextpnr placer settings of the cores the bench places for their Fmax: a stronger timing weight
+# nextpnr placer settings of the cores the bench places for their Fmax: timing weighs more in the analytic placement
+# (default weight 10, criticality exponent 2), which shortens the long routes between the DSP rows and the logic
 PLACER_ARGS = ("--placer-heap-timingweight", "40", "--placer-heap-critexp", "4")
 
 
