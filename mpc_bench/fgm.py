@@ -355,7 +355,7 @@ class Section(QpSection):
                 continue
             self.cores.append(Core("fgm", "masses", P, FMAX_B, out / "cores" / tag, d, d.iterations, role="fmax",
                                    pnr_seeds=FMAX_SEEDS_QUICK if self.quick else FMAX_SEEDS, copies=copies,
-                                   pnr_args=PLACER_ARGS))
+                                   pnr_args=PLACER_ARGS, floorplan=copies == 1))
 
     def software_case(self):
         return prepare_fgm_software(self.problem, self.designs, self.steps, 30)

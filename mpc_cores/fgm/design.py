@@ -16,7 +16,7 @@ from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_opt
                                    problems_option, run_options, solver_opt, target_option)
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError  # noqa: F401  (DesignError: part of this API)
 from mpc_cores.fixed import bits_for, quantize
-from mpc_cores.interleave import PASS_START, Interleave
+from mpc_cores.interleave import PASS_QUEUE, PASS_START, Interleave
 from mpc_cores.problem import MpcProblem, condense
 
 
@@ -83,8 +83,9 @@ class FgmDesign(FixedPointDesign):
 
     @property
     def solve_overhead(self) -> int:
-        """one problem: the start PASS_START cycles after the last word, the first pass's K rows and two cycles"""
-        return PASS_START + 2 + self.K
+        """one problem: the start PASS_START cycles after the last word, the first pass's K rows and two cycles, the
+        answer's queue"""
+        return PASS_START + 2 + self.K + PASS_QUEUE
 
     @property
     def interleave(self):

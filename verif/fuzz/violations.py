@@ -44,25 +44,29 @@ async def _survived(dut, what: str):
 
 @cocotb.test()
 async def stream_valid_dropped(dut):
-    """FGM or ADMM core: the sequencer sent back to idle while the answer waits: tvalid falls without tready."""
+    """FGM or ADMM core: the answer's valid falls while it waits, without tready (one problem: the output queue
+    emptied; several: the sequencer sent back to idle)."""
     await _held_answer(dut)
-    dut.seq.state.value = 0
-    if hasattr(dut.seq, "outV"):  # one problem: the answer's valid is a register of its own, idle with the state
-        dut.seq.outV.value = 0
+    if hasattr(dut, "ansQ"):  # one problem: the answer leaves through shell.AnswerQueue
+        dut.ansQ.nonEmpty.value = 0
+    else:
+        dut.seq.state.value = 0
     await _survived(dut, "tvalid dropped")
 
 
 @cocotb.test()
 async def stream_data_changed(dut):
-    """FGM or ADMM core: the answer's word changes while the first waits (one problem: the head of the answer's
-    shift register; several: the output index moved to the last word), and tlast rises without tready."""
+    """FGM or ADMM core: the answer's word changes while the first waits (one problem: the head of the output
+    queue; several: the output index moved to the last word), and tlast rises without tready."""
     k = await _held_answer(dut, out_all=True)
-    head = getattr(dut, "m_axis_tdata_answer_0", None)  # SeqControl.answerWord's register (one problem)
-    if head is not None:
+    if hasattr(dut, "ansQ"):  # one problem: shell.AnswerQueue's head entry
+        rd = int(dut.ansQ.rd.value)
+        head = getattr(dut.ansQ, f"d_{rd}_data")
         head.value = int(head.value) ^ 1
+        getattr(dut.ansQ, f"d_{rd}_last").value = 1
     else:
         dut.seq.outCnt.value = k.tb.core["n"] - 1
-    dut.seq.outAtEnd.value = 1   # the last-word flag (tlast) is a register of its own
+        dut.seq.outAtEnd.value = 1   # the last-word flag (tlast) is a register of its own
     await _survived(dut, "tdata changed")
 
 

@@ -54,13 +54,13 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val ctl = SeqControl(K, L, L, copyAfterFirst = true, maxOut = n, Kp, frameIn, regs,
     Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U), m_axis.fire, warmOk)
   import ctl.{mine, ofSlot}
-  regs.busy := ctl.running || ctl.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
+  regs.busy := ctl.running || ctl.outPending || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true,
-    ecp5 = p.target == dsp.Target.Ecp5, raddrAhead = ctl.tokNN.isDefined)))
+    ecp5 = p.target == dsp.Target.Ecp5, raddrAhead = ctl.tokNN.isDefined, broadcast = true)))
   val bndRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_bnd$u", K, 2, p.zW, p.boundInit(u), outReg = true,
-    ecp5 = p.target == dsp.Target.Ecp5)))
+    ecp5 = p.target == dsp.Target.Ecp5, broadcast = true)))
   // G~ (w, 1) per row, of each problem (rows of problem j from j 2^ceil(log2 K) on)
   val gwKW   = math.max(1, log2Ceil(K))
   val gwRam  = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_gw$u", if (Kp == 1) K else (1 << sW) << gwKW,
@@ -370,7 +370,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     }
     val warmCopy = RegNext(ctl.take && warmNow, false.B)
     writes(0, warmCopy, RowToken.enables(tokW1, tokW1.valid && !(tokW1.pass0 && warmL), K))
-    assert(!(ctl.outLoad.get._1 && (warmCopy || ctl.copyNow)), "AdmmCore: a copy in the cycle before the answer")
+    assert(!(ctl.outLoad && (warmCopy || ctl.copyNow)), "AdmmCore: a copy in the cycle before the answer")
     // v for the whole vector in the cycle after an iteration's last write
     ctl.copyNow
   } else {
@@ -437,11 +437,8 @@ class AdmmCore(val p: AdmmParams) extends Module {
   when(RegNext(ovfNow.asUInt, 0.U).orR || RegNext(Mux(vNow, ofV.asUInt, 0.U), 0.U).orR) { regs.stOvf := true.B }
 
   // ------------------------------------------------------------------ output: du_0 or all of z
-  m_axis.tvalid := ctl.outValid
-  m_axis.tdata  := ctl.answerWord((s, i) => ofSlot(zReg.map(_(i)), s).pad(p.streamW).asUInt,
-    i => zAhead(i).pad(p.streamW).asUInt, n, m_axis.fire, keep = p.target != dsp.Target.Generic)
-  m_axis.tlast  := ctl.outIsLast
-  m_axis.tuser.foreach(_ := ctl.outSlot)
+  ctl.answer(m_axis, (s, i) => ofSlot(zReg.map(_(i)), s).pad(p.streamW).asUInt, i => zAhead(i).pad(p.streamW).asUInt,
+    n, keep = p.target != dsp.Target.Generic)
   bus.Protocol.streamOut("m_axis", m_axis)
 
   // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)

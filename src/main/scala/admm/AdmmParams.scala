@@ -140,14 +140,14 @@ case class AdmmParams(
   val accW: Int  = termW + log2Ceil(n + 1) + 1
   /** L_A of eq. (24) of 002. */
   val cyclesEq24: Int = (n + P - 1) / P + latAdd * log2Ceil(n) + latMul + 6 * latAdd + 2
-  /** From the handshake of the last input word to the first output word: 3 + (Imax + 1) L (the start two cycles
+  /** From the handshake of the last input word to the first output word: 4 + (Imax + 1) L (the start two cycles
     * after the frame's last word, shell.PassSequencer; the first pass, G~ (w, 1) and the start iterate, takes one
-    * iteration's time). */
+    * iteration's time; the answer's output queue, shell.AnswerQueue). */
   /** Cycles between two passes of one problem: L alone, a round of Kp turns of K cycles when interleaving
     * (shell.TurnSequencer; then the overhead is the least latency's: taken, loaded, the last pass's drain, the
     * answer queue and the output register, and a frame waits up to periodCycles - 1 more for its turn). */
   val periodCycles: Int = if (Kp == 1) cyclesPerIteration else math.max(cyclesPerIteration, Kp * K)
-  val solveOverhead: Int = if (Kp == 1) 3 + cyclesPerIteration else 3 + cyclesPerIteration + 2
+  val solveOverhead: Int = if (Kp == 1) 4 + cyclesPerIteration else 3 + cyclesPerIteration + 2
   def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * periodCycles
   /** P m for the row products; accelerated: two per extrapolated state and momentum lane (two lanes with soft pairs) */
   val multipliers: Int = P * m + (if (accelerated) 2 * accStates.length * P * (if (hasSoft) 2 else 1) else 0)

@@ -48,23 +48,26 @@ class FgmCore(val p: FgmParams) extends Module {
   val warmOk = RegInit(VecInit(Seq.fill(Kp)(false.B)))
   val ctl = SeqControl(K, K + 1, p.cyclesPerIteration, copyAfterFirst = false, maxOut = n, Kp, frameIn, regs, outLast,
     m_axis.fire, warmOk)
-  regs.busy := ctl.running || ctl.outValid || frameIn.io.full || frameIn.io.partial || s_axis.fire
+  regs.busy := ctl.running || ctl.outPending || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
   val matRam = (0 until P).map { u =>
     Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true,
-      ecp5 = p.target == dsp.Target.Ecp5, raddrAhead = ctl.tokNN.isDefined))
+      ecp5 = p.target == dsp.Target.Ecp5, raddrAhead = ctl.tokNN.isDefined, broadcast = true))
   }
   val bndRam = (0 until P).map { u =>
     Module(new InitRam(s"${p.moduleName}_ubox$u", K, 2, p.zW, p.boundInit(u), outReg = true,
-      ecp5 = p.target == dsp.Target.Ecp5))
+      ecp5 = p.target == dsp.Target.Ecp5, broadcast = true))
   }
   val betaRam = Module(new InitRam(s"${p.moduleName}_beta", 1, 2, p.betaW, Seq(Seq(p.beta, p.onePlusBeta))))
   for (r <- matRam ++ bndRam :+ betaRam) r.io.clock := clock
-  betaRam.io.wen   := false.B
+  // beta's write, registered on its way in: the register file's decode does not reach beta's registers
+  val betaWen  = WireDefault(false.B)
+  val betaMask = WireDefault(0.U(2.W))
+  betaRam.io.wen   := RegNext(betaWen, false.B)
   betaRam.io.waddr := 0.U
-  betaRam.io.wmask := 0.U
-  betaRam.io.wdata := 0.U
+  betaRam.io.wmask := RegNext(betaMask)
+  betaRam.io.wdata := RegNext(Fill(2, regs.wD(p.betaW - 1, 0)))
   betaRam.io.raddr := 0.U
   val betaQ = betaRam.io.rdata(p.betaW - 1, 0).asSInt
   val opbQ  = betaRam.io.rdata(2 * p.betaW - 1, p.betaW).asSInt
@@ -112,6 +115,13 @@ class FgmCore(val p: FgmParams) extends Module {
   /** `d` registered: per row unit a kept copy when split, else one register (reset to 0) for all */
   def unitRegs[T <: Data](d: T): Seq[T] =
     if (split) Seq.fill(P)(KeepReg(d)) else { val r = RegNext(d, 0.U.asTypeOf(d)); Seq.fill(P)(r) }
+  /** per row unit, `f(u)` registered: a kept copy each when split, else one register (reset to 0) for all */
+  def unitRegsOf[T <: Data](f: Int => T): Seq[T] =
+    if (split) (0 until P).map(u => KeepReg(f(u))) else { val r = RegNext(f(0), 0.U.asTypeOf(f(0))); Seq.fill(P)(r) }
+  /** the token at `stage` (>= 0) per row unit: split, a kept copy each of the token a stage earlier, so that the
+    * decodes from it are made beside the unit's registers and only registers cross to the unit */
+  def unitTok(stage: Int): Seq[RowToken] = if (split) Seq.fill(P)(KeepReg(tokAt(stage - 1))) else Seq.fill(P)(tokAt(stage))
+  val tok1U = unitTok(1)
   val loadZ = (0 until Kp).map(j => unitRegs(tok0.valid && tok0.first && tok0.k === 0.U && mine(tok0, j)))
   val rotZs = { val t = tokAt(p.stageZ - 1); (0 until Kp).map(j => unitRegs(t.valid && !t.pass0 && mine(t, j))) }
   val rotHs = { val t = tokAt(p.stageSum - 1); (0 until Kp).map(j => unitRegs(t.valid && mine(t, j))) }
@@ -170,11 +180,17 @@ class FgmCore(val p: FgmParams) extends Module {
     // registered: it fans out to the rows of the unit across the chip (written a cycle later, weCold)
     unitCold(u) := RegNext(Mux(!lo1(p.zW - 1) && lo1 =/= 0.S, lo1, Mux(hi1(p.zW - 1), hi1, 0.S)))
 
-    // t = (I - H_n) y - h
-    val (t, ofT) = FixedOps.satSub(tree.io.sum, hHead, p.tW)
-    val tD       = ShiftRegister(t, p.latAdd)
+    // t = (I - H_n) y - h. When the bounds fit t's width (zW <= tW), projecting the difference itself gives the
+    // same z as projecting it saturated (saturation is monotone and keeps [lo, hi]): the difference is registered
+    // unsaturated and its saturation flag formed from the register, so the carry chain does not share a cycle with
+    // the saturation. Else t saturates before its register.
+    val rawT     = p.zW <= p.tW
+    val diff     = tree.io.sum -& hHead
+    val tD       = ShiftRegister(if (rawT) diff else FixedOps.saturate(diff, p.tW)._1, p.latAdd)
+    val ofT      = if (rawT) FixedOps.saturate(tD, p.tW)._2 else FixedOps.saturate(diff, p.tW)._2
+    val tokOfT   = if (rawT) tokT else tokSum
     // z+ = proj(t) on [lo, hi] of this row
-    val proj = Module(new BoxProjection(p.tW, p.zW, p.latAdd))
+    val proj = Module(new BoxProjection(tD.getWidth, p.zW, p.latAdd))
     proj.io.in := tD
     proj.io.lo := bnd(p.zW - 1, 0).asSInt
     proj.io.hi := bnd(2 * p.zW - 1, p.zW).asSInt
@@ -200,7 +216,7 @@ class FgmCore(val p: FgmParams) extends Module {
 
     // Saturation anywhere in a live row sets the sticky overflow flag.
     val ofTree = tree.io.outValid && tree.io.overflow
-    val ofTs   = tokSum.valid && !tokSum.pass0 && ofT
+    val ofTs   = tokOfT.valid && !tokOfT.pass0 && ofT
     val ofYs   = tokYsub.valid && !tokYsub.pass0 && ofY
     ovfNow(u) := ofTree || ofTs || ofYs
   }
@@ -222,8 +238,15 @@ class FgmCore(val p: FgmParams) extends Module {
       wReg(0) := frameIn.io.frame
       warmL   := warmNow
     }
-    val weCold = unitRegs(RowToken.decode(tok1, tok1.valid && tok1.pass0 && !warmL, K))
-    val weY    = unitRegs(RowToken.decode(tokY1, tokY1.valid && !tokY1.pass0, K))
+    // tok1 is a first-pass row and the solve starts cold, per row unit (split: kept copies, formed a cycle ahead
+    // from tok0 and warmL's next value)
+    val coldGo = if (split) Seq.fill(P)(KeepReg(tok0.valid && tok0.pass0 && !Mux(ctl.take, warmNow, warmL)))
+      else Seq.fill(P)(tok1.valid && tok1.pass0 && !warmL)
+    /** unit u's cold start writes row k in the next cycle */
+    def coldAt(u: Int, k: Int): Bool = coldGo(u) && tok1U(u).k === k.U
+    val weCold = unitRegsOf(u => VecInit((0 until K).map(coldAt(u, _))))
+    val tokYU  = unitTok(p.stageY - 1)
+    val weY    = unitRegsOf(u => RowToken.decode(tokYU(u), tokYU(u).valid && !tokYU(u).pass0, K))
     for (r <- 0 until n) {
       val u = r % P
       val k = r / P
@@ -242,7 +265,7 @@ class FgmCore(val p: FgmParams) extends Module {
         zAhead(r)   := unitZ(u)
       }
     }
-    assert(!(ctl.outLoad.get._1 && (warmCopy.head || weCold.head.asUInt.orR)), "FgmCore: a start's write before the answer")
+    assert(!(ctl.outLoad && (warmCopy.head || weCold.head.asUInt.orR)), "FgmCore: a start's write before the answer")
     // the units' copies of y: written as yReg is, each word under copies of the write controls of its own (the
     // same registers as warmCopy, weCold and the copy, kept apart: each drives one word beside its multiplier)
     if (split) for (u <- 0 until P) {
@@ -250,7 +273,7 @@ class FgmCore(val p: FgmParams) extends Module {
       val q = KeepReg(d)
       for (r <- 0 until n) {
         val warmR = KeepReg(ctl.take && warmNow)
-        val coldR = KeepReg(tok1.valid && tok1.pass0 && !warmL && tok1.k === (r / P).U)
+        val coldR = KeepReg(coldAt(u, r / P))
         val copyR = KeepReg(ctl.copyNext)
         d(r) := Mux(warmR, zReg(0)(shifted(r)).pad(p.yW), Mux(coldR, unitCold(r % P).pad(p.yW),
           Mux(copyR, yNext(0)(r), q(r))))
@@ -286,11 +309,8 @@ class FgmCore(val p: FgmParams) extends Module {
   }
 
   // ------------------------------------------------------------------ output: u0 or all of z
-  m_axis.tvalid := ctl.outValid
-  m_axis.tdata  := ctl.answerWord((s, i) => ofSlot(zReg.map(_(i)), s).pad(p.streamW).asUInt,
-    i => zAhead(i).pad(p.streamW).asUInt, n, m_axis.fire, keep = p.target != dsp.Target.Generic)
-  m_axis.tlast  := ctl.outIsLast
-  m_axis.tuser.foreach(_ := ctl.outSlot)
+  ctl.answer(m_axis, (s, i) => ofSlot(zReg.map(_(i)), s).pad(p.streamW).asUInt, i => zAhead(i).pad(p.streamW).asUInt,
+    n, keep = p.target != dsp.Target.Generic)
   bus.Protocol.streamOut("m_axis", m_axis)
 
   // ------------------------------------------------------------------ AXI4-Lite data memories (write-only)
@@ -309,9 +329,8 @@ class FgmCore(val p: FgmParams) extends Module {
   regs.writes(
     (regs.at(FgmRegs.BETA) || regs.at(FgmRegs.ONE_PLUS_BETA)) -> { () =>
       dataWrite(p.betaW, true.B) {
-        betaRam.io.wen   := true.B
-        betaRam.io.wmask := Mux(regs.at(FgmRegs.BETA), 1.U, 2.U)
-        betaRam.io.wdata := Fill(2, wD(p.betaW - 1, 0))
+        betaWen  := true.B
+        betaMask := Mux(regs.at(FgmRegs.BETA), 1.U, 2.U)
       }
     },
     inRegion("XBOX") -> { () => dataWrite(p.xW, regs.ahead("XBOX")(regs.boxOk(nw))) {} },

@@ -93,10 +93,10 @@ case class FgmParams(
   /** Cycles between two passes of one problem: L alone, a round of Kp turns of K cycles when interleaving. */
   val periodCycles: Int = if (Kp == 1) cyclesPerIteration else math.max(cyclesPerIteration, Kp * K)
   val cyclesEq23: Int = K + latAdd * log2Ceil(n) + 2 * latMul + 3 * latAdd + 1
-  /** From the handshake of the last input word to the first output word valid: 4 + K + Imax * L (the start two
+  /** From the handshake of the last input word to the first output word valid: 5 + K + Imax * L (the start two
     * cycles after the frame's last word, shell.PassSequencer; the first pass issues K rows and leaves one cycle, in
-    * which the cold start's last registers are written). */
-  val solveOverhead: Int = if (Kp == 1) 4 + K else 3 + cyclesPerIteration + 2
+    * which the cold start's last registers are written; the answer's output queue, shell.AnswerQueue). */
+  val solveOverhead: Int = if (Kp == 1) 5 + K else 3 + cyclesPerIteration + 2
   /** Interleaving (shell.TurnSequencer): the least latency, when the frame arrives just before its slot's turn
     * (it waits up to periodCycles - 1 more): taken, loaded, Imax + 1 turns, the last pass's drain, the answer
     * queue and the output register. */

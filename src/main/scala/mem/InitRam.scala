@@ -17,6 +17,9 @@ import chisel3.util._
   * @param raddrAhead `raddr` is the read address a cycle ahead, registered here: with ecp5, in a kept register per
   *               primitive beside it (so that the address's route across the device is split by a register, and
   *               synthesis does not merge the copies); the read's timing from that register is as without it
+  * @param broadcast every write carries one word for all its lanes (wdata is lane 0's word repeated): with ecp5,
+  *               the write data's first register is one lane wide and its second copies it to every lane, so the
+  *               word's source drives one register per memory, not one per lane
   */
 class InitRam(
     val ramName: String,
@@ -26,7 +29,8 @@ class InitRam(
     init: Seq[Seq[BigInt]],
     val outReg: Boolean = false,
     val ecp5: Boolean = false,
-    val raddrAhead: Boolean = false)
+    val raddrAhead: Boolean = false,
+    val broadcast: Boolean = false)
     extends BlackBox
     with HasBlackBoxInline {
   require(depth >= 1 && lanes >= 1 && laneW >= 1, s"InitRam $ramName: depth, lanes, laneW must be >= 1")
@@ -99,16 +103,17 @@ ${aheadDecl(true)}
        |  reg wen_p, wen_q;
        |  reg [${addrW - 1}:0] waddr_p, waddr_q;
        |  reg [${lanes - 1}:0] wmask_p, wmask_q;
-       |  reg [${rowW - 1}:0] wdata_p, wdata_q;
+       |  reg [${(if (broadcast) laneW else rowW) - 1}:0] wdata_p;
+       |  reg [${rowW - 1}:0] wdata_q;
        |  (* keep *) always @(posedge clock) begin
        |    wen_p <= wen;
        |    waddr_p <= waddr;
        |    wmask_p <= wmask;
-       |    wdata_p <= wdata;
+       |    wdata_p <= ${if (broadcast) s"wdata[${laneW - 1}:0]" else "wdata"};
        |    wen_q <= wen_p;
        |    waddr_q <= waddr_p;
        |    wmask_q <= wmask_p;
-       |    wdata_q <= wdata_p;
+       |    wdata_q <= ${if (broadcast) s"{$lanes{wdata_p}}" else "wdata_p"};
        |  end
        |`ifdef SYNTHESIS
        |${Ecp5BlockRam.primitives(addrW, lanes, laneW, init.map(rowBits), depth, (l, sl) => raddrOf(Ecp5BlockRam.name(l, sl)))}

@@ -80,7 +80,12 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   val x       = io.s_axis.tdata.asSInt
   val pend    = RegNext(fire, false.B)
   val pendEnd = RegNext(fire && last, false.B)
-  val pendIdx = RegEnable(cnt, fire)
+  // the word's one-hot position, rotated with cnt: a word's write enable is a register, not a decode of its index,
+  // each formed from tvalid and registers (word 0 is the one the hold applies to), not from the handshake's fan-out
+  val hot     = RegInit(1.U(words.W))
+  val pendHot = RegNext(VecInit((0 until words).map(i =>
+    io.s_axis.tvalid && !full && hot(i) && (if (i == 0) !io.hold else true.B))).asUInt, 0.U)
+  assert(pendHot === RegNext(Mux(fire, hot, 0.U), 0.U), "FrameIn: word enables out of step with the handshake")
   val pendX   = RegEnable(x(wordW - 1, 0).asSInt, fire) // the word itself is taken only when it is in its box
   val below   = RegEnable(FixedOps.lt(x, lo), fire)
   val above   = RegEnable(FixedOps.lt(hi, x), fire)
@@ -96,8 +101,9 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   io.id := idReg
   io.sat      := pend && (below || above || RegNext(idSat))
   io.tlastErr := fire && (io.s_axis.tlast =/= last)
-  when(pend) { buf(pendIdx) := v }
+  for (i <- 0 until words) when(pendHot(i)) { buf(i) := v }
   when(fire) {
+    hot      := (if (words == 1) 1.U else Mux(last, 1.U, (hot << 1)(words - 1, 0)))
     cnt      := cntNext
     cntNext  := Mux(cntNext === (words - 1).U, 0.U, cntNext + 1.U)
     last     := cntNext === (words - 1).U

@@ -50,8 +50,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     val imaxOne = Input(Bool())
     /** words of the result frame minus one (latched at the start) */
     val outLast = Input(UInt(log2Ceil(maxOut + 1).W))
-    /** the result frame's word handshake */
-    val outFire = Input(Bool())
+    /** the output queue takes a word in the next cycle (shell.AnswerQueue's room, from registers) */
+    val outRoom = Input(Bool())
 
     /** the solve starts this cycle (the core takes the frame) */
     val start    = Output(Bool())
@@ -61,12 +61,18 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     val copyNow  = Output(Bool())
     /** copyNow of the next cycle */
     val copyNext = Output(Bool())
+    /** the result frame's words are being sent: from the answer register into the output queue */
     val outValid = Output(Bool())
     val outIndex = Output(UInt(log2Ceil(maxOut + 1).W))
+    /** a word of the answer moves into the output queue this cycle (a register) */
+    val outShift = Output(Bool())
+    /** outShift of the next cycle */
+    val outShiftAhead = Output(Bool())
     /** the cycle before the answer's first word */
     val outLoad  = Output(Bool())
     /** outLoad of the next cycle */
     val outLoadAhead = Output(Bool())
+    /** the word moving into the queue is the answer's last */
     val outIsLast = Output(Bool())
     /** the last word of the result left: the solve is complete, after `runCycles` cycles */
     val done      = Output(Bool())
@@ -86,7 +92,11 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   // word (the earlier of the two that finds the other done): idle next cycle is idle without a frame now, or the
   // answer's last word leaving; a frame waits next cycle when its last word comes now, or one waits and the
   // answer's last word leaves.
-  val outLastFire = state === sOut && io.outFire && outAtEnd
+  // The answer's words move into the output queue (shell.AnswerQueue) at `shift`, a register decided a cycle ahead
+  // from the state and the queue's room, so that the stream's tready reaches only the queue, not the answer
+  // register's enables and the sequencer.
+  val shift = RegInit(false.B)
+  val outLastFire = state === sOut && shift && outAtEnd
   val startA = RegNext(state === sIdle && !io.frameReady && io.frameFills ||
     outLastFire && (io.frameReady || io.frameFills), false.B)
   val start = RegNext(startA, false.B)
@@ -203,7 +213,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
       }
     }
     is(sOut) {
-      when(io.outFire) {
+      when(shift) {
         outCnt   := outCnt1
         outCnt1  := outCnt1 + 1.U
         outAtEnd := outCnt1 === outEnd
@@ -216,6 +226,10 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   when(state === sRun && lastEnd) { outV := true.B }
   when(outLastFire) { outV := false.B }
   assert(outV === (state === sOut), "PassSequencer: answer valid out of step")
+  val shiftA = (state === sRun && lastEnd || outV && !outLastFire) && io.outRoom
+  shift := shiftA
+  io.outShift      := shift
+  io.outShiftAhead := shiftA
   io.outValid  := outV
   io.outIndex  := outCnt
   io.outLoad   := lastEnd

@@ -7,28 +7,53 @@ import chisel3.util._
   * the token, the frame taken, the operand copy (one problem; copyNext is it a cycle ahead), the answer's word and
   * the solve's end, and per problem whether the solve taken starts warm (several problems). `tokNN`, the token
   * after tokN from registers, for one problem (PassSequencer): row memories can register their address beside
-  * their blocks from it; `outLoad`, for one problem: the cycle before the answer's first word (and the cycle
-  * before that, from which copies of it are registered). */
+  * their blocks from it; `pass`, for one problem: the sequencer, whose answer leaves through `answer`'s register
+  * and output queue. */
 case class SeqControl(tokN: RowToken, tokNN: Option[RowToken], take: Bool, copyNow: Bool, copyNext: Bool,
     running: Bool, outValid: Bool, outSlot: UInt, outIndex: UInt, outIsLast: Bool, done: Bool, runCycles: UInt,
-    warmOf: Vec[Bool], outLoad: Option[(Bool, Bool)] = None) {
+    warmOf: Vec[Bool], pass: Option[PassSequencer] = None) {
   val problems: Int = warmOf.length
 
-  /** The answer's word on the stream: `word(slot, index)`, the word `index` of problem `slot`. One problem: from a
-    * shift register of the `count` words instead, loaded in the cycle before the answer with `next(i)`, the value
-    * word i has in the next cycle (the last rows' writes of that cycle included), and shifted by the stream's
-    * handshake `fire`; so no wide selection by index runs into the port. With `keep` (an FPGA target) each word
-    * takes the load from a kept copy of its own (mem.KeepReg), not one register driving every word's bits. */
-  def answerWord(word: (UInt, UInt) => UInt, next: Int => UInt, count: Int, fire: Bool, keep: Boolean): UInt =
-    outLoad match {
-      case Some((load, ahead)) =>
-        val ans   = Reg(Vec(count, UInt(next(0).getWidth.W))).suggestName("answer")
-        val loads = if (keep) mem.KeepReg.copies(ahead, count, keep = true) else Seq.fill(count)(load)
-        if (keep) assert(loads.head === load, "SeqControl: answer load copies out of step")
+  /** the cycle before the answer's first word moves out (one problem) */
+  def outLoad: Bool = pass.get.io.outLoad
+
+  /** an answer is on its way out: words being sent or waiting in the output queue (set by `answer`) */
+  val outPending: Bool = Wire(Bool())
+
+  /** Drives the answer's stream `port`: `word(slot, index)` is the word `index` of problem `slot`. One problem:
+    * the `count` words are loaded into a shift register in the cycle before the answer, with `next(i)`, the value
+    * word i has in the next cycle (the last rows' writes of that cycle included), and move into a four-word output
+    * queue (AnswerQueue) at the sequencer's shift; so no wide selection by index runs into the port, and the
+    * port's tready meets only the queue. With `keep` (an FPGA target) each word takes its load and shift from kept
+    * copies of its own (mem.KeepReg), not one register driving every word's bits. Several problems: the word by
+    * index, on the sequencer's handshake. */
+  def answer(port: bus.AxiStreamIO, word: (UInt, UInt) => UInt, next: Int => UInt, count: Int, keep: Boolean): Unit =
+    pass match {
+      case Some(seq) =>
+        val ans    = Reg(Vec(count, UInt(next(0).getWidth.W))).suggestName("answer")
+        val loads  = if (keep) mem.KeepReg.copies(seq.io.outLoadAhead, count, keep = true) else Seq.fill(count)(seq.io.outLoad)
+        val shifts = if (keep) mem.KeepReg.copies(seq.io.outShiftAhead, count, keep = true) else Seq.fill(count)(seq.io.outShift)
+        if (keep) assert(loads.head === seq.io.outLoad && shifts.head === seq.io.outShift,
+          "SeqControl: answer load or shift copies out of step")
         for (i <- 0 until count)
-          when(loads(i)) { ans(i) := next(i) }.elsewhen(fire) { ans(i) := (if (i + 1 < count) ans(i + 1) else ans(i)) }
-        ans(0)
-      case None => word(outSlot, outIndex)
+          when(loads(i)) { ans(i) := next(i) }.elsewhen(shifts(i)) { ans(i) := (if (i + 1 < count) ans(i + 1) else ans(i)) }
+        val q = Module(new AnswerQueue(port.dataW)).suggestName("ansQ")
+        q.io.push        := seq.io.outShift
+        q.io.data        := ans(0)
+        q.io.last        := seq.io.outIsLast
+        seq.io.outRoom   := q.io.room
+        port.tvalid      := q.io.deq.valid
+        port.tdata       := q.io.deq.bits.data
+        port.tlast       := q.io.deq.bits.last
+        q.io.deq.ready   := port.tready
+        port.tuser.foreach(_ := 0.U)
+        outPending       := outValid || q.io.deq.valid
+      case None =>
+        port.tvalid := outValid
+        port.tdata  := word(outSlot, outIndex)
+        port.tlast  := outIsLast
+        port.tuser.foreach(_ := outSlot)
+        outPending  := outValid
     }
 
   /** the token is problem j's (always, for one problem) */
@@ -48,6 +73,7 @@ object SeqControl {
     * answer leaves, the core clears it). */
   def apply(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxOut: Int, Kp: Int, frameIn: FrameIn,
       regs: SolverRegs, outLast: UInt, outFire: Bool, warmOk: Vec[Bool]): SeqControl = {
+    // outFire: the stream's handshake, which drives a several-problem sequencer (one problem: the output queue)
     val ctl = if (Kp == 1) {
       val seq = Module(new PassSequencer(K, firstLen, L, copyAfterFirst, maxOut))
       seq.io.frameReady := frameIn.io.full
@@ -55,10 +81,9 @@ object SeqControl {
       seq.io.imax       := regs.imaxReg
       seq.io.imaxOne    := regs.imaxOne
       seq.io.outLast    := outLast
-      seq.io.outFire    := outFire
       SeqControl(seq.io.tokN, Some(seq.io.tokNN), seq.io.start, seq.io.copyNow, seq.io.copyNext, seq.io.running,
         seq.io.outValid, 0.U, seq.io.outIndex, seq.io.outIsLast, seq.io.done, seq.io.runCycles, VecInit(Seq.fill(1)(false.B)),
-        Some((seq.io.outLoad, seq.io.outLoadAhead)))
+        Some(seq))
     } else {
       val seq = Module(new TurnSequencer(K, Kp, L, maxOut))
       seq.io.frameReady := frameIn.io.full

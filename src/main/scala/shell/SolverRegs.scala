@@ -58,7 +58,8 @@ object SolverRegs {
   def registers(id: String, config0: Seq[Field], config1: Seq[Field], ctrl: Seq[Field], status: Seq[Field],
       cyclesPerIteration: Int, imaxDefault: Int,
       lastCycles: String = "cycles of the last solve, first pass to last iteration",
-      solves: String = "solves completed since reset"): Seq[Register] = Seq(
+      solves: String = "solves completed since reset (one problem: a solve is complete when its answer's last word " +
+        "enters the output queue)"): Seq[Register] = Seq(
     Register("ID", ID, "core identity", Seq(Field.const("ID", 0, 32, idValue(id), s"'$id' in ASCII"))),
     Register("CONFIG0", CONFIG0, "sizes of the core", config0),
     Register("CONFIG1", CONFIG1, "sizes and word format of the core", config1),
