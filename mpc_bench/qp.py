@@ -181,11 +181,13 @@ def _fmax_section(cores: list[Core], recs: list[dict], lpf: str) -> list[str]:
             "Fmax and critical path, every seed's Fmax in brackets") + ", "
          "`--lpf-allow-unconstrained`: the LPF sets the clock and the I/O standard (LVCMOS33) but no pin sites, "
          "so nextpnr places the AXI pins itself (the Fmax below is register to register; nextpnr-ecp5 has no I/O "
-         "timing constraints).", ""]
+         "timing constraints). \"units in rows\": each row unit's multipliers and block RAMs pinned to a row of "
+         "their own (mpc_bench.floorplan).", ""]
     body = []
     for c, r in zip(cores, recs):
         kp = getattr(c.design, "problems", 1)
-        head = [c.problem, str(r["n"]), str(c.P) + (f", K_p = {kp}" if kp > 1 else ""), str(c.b)]
+        head = [c.problem, str(r["n"]), str(c.P) + (f", K_p = {kp}" if kp > 1 else "")
+                + (", units in rows" if c.floorplan else ""), str(c.b)]
         body.append(head + pnr_cells(c, _f(r["ecp5_TRELLIS_COMB_pnr"], "{}") if c.pnr else "-"))
     L += _table(["problem", "n", "P", "b", "Fmax MHz", "TRELLIS_COMB", "critical path (register to register)",
                  "logic cells", "ns"], body)

@@ -104,7 +104,6 @@ class FgmCore(val p: FgmParams) extends Module {
   // stays off the projection's comparators.
   val bndRegd = p.stageT >= 2
   val tokBnd  = tokAt(p.stageT - (if (bndRegd) 3 else 2))
-  val tokYsub = tokAt(p.stageZ + p.latMul)
   // The FIFOs' controls, per problem, each the registered condition on the token a stage earlier: they fan out to
   // every register of the FIFOs, so they come straight from flip-flops (tok1 is tok0 registered; stageZ >= 1)
   //
@@ -122,6 +121,12 @@ class FgmCore(val p: FgmParams) extends Module {
     * decodes from it are made beside the unit's registers and only registers cross to the unit */
   def unitTok(stage: Int): Seq[RowToken] = if (split) Seq.fill(P)(KeepReg(tokAt(stage - 1))) else Seq.fill(P)(tokAt(stage))
   val tok1U = unitTok(1)
+  /** the y rows' writes a cycle ahead (stage Y - 1), the y subtraction's and t's saturation flags, per row unit */
+  val tokYU    = unitTok(p.stageY - 1)
+  val tokYsubU = if (p.stageZ + p.latMul == p.stageY - 1) tokYU else unitTok(p.stageZ + p.latMul)
+  // t is registered before its saturation when the bounds fit its width (below): its flag then comes at stage T
+  val rawT     = p.zW <= p.tW
+  val tokOfTU  = unitTok(if (rawT) p.stageT else p.stageSum)
   val loadZ = (0 until Kp).map(j => unitRegs(tok0.valid && tok0.first && tok0.k === 0.U && mine(tok0, j)))
   val rotZs = { val t = tokAt(p.stageZ - 1); (0 until Kp).map(j => unitRegs(t.valid && !t.pass0 && mine(t, j))) }
   val rotHs = { val t = tokAt(p.stageSum - 1); (0 until Kp).map(j => unitRegs(t.valid && mine(t, j))) }
@@ -184,11 +189,9 @@ class FgmCore(val p: FgmParams) extends Module {
     // same z as projecting it saturated (saturation is monotone and keeps [lo, hi]): the difference is registered
     // unsaturated and its saturation flag formed from the register, so the carry chain does not share a cycle with
     // the saturation. Else t saturates before its register.
-    val rawT     = p.zW <= p.tW
     val diff     = tree.io.sum -& hHead
     val tD       = ShiftRegister(if (rawT) diff else FixedOps.saturate(diff, p.tW)._1, p.latAdd)
     val ofT      = if (rawT) FixedOps.saturate(tD, p.tW)._2 else FixedOps.saturate(diff, p.tW)._2
-    val tokOfT   = if (rawT) tokT else tokSum
     // z+ = proj(t) on [lo, hi] of this row
     val proj = Module(new BoxProjection(tD.getWidth, p.zW, p.latAdd))
     proj.io.in := tD
@@ -216,8 +219,8 @@ class FgmCore(val p: FgmParams) extends Module {
 
     // Saturation anywhere in a live row sets the sticky overflow flag.
     val ofTree = tree.io.outValid && tree.io.overflow
-    val ofTs   = tokOfT.valid && !tokOfT.pass0 && ofT
-    val ofYs   = tokYsub.valid && !tokYsub.pass0 && ofY
+    val ofTs   = tokOfTU(u).valid && !tokOfTU(u).pass0 && ofT
+    val ofYs   = tokYsubU(u).valid && !tokYsubU(u).pass0 && ofY
     ovfNow(u) := ofTree || ofTs || ofYs
   }
   when(RegNext(ovfNow.asUInt, 0.U).orR) { regs.stOvf := true.B } // the flags of a cycle registered first
@@ -245,7 +248,6 @@ class FgmCore(val p: FgmParams) extends Module {
     /** unit u's cold start writes row k in the next cycle */
     def coldAt(u: Int, k: Int): Bool = coldGo(u) && tok1U(u).k === k.U
     val weCold = unitRegsOf(u => VecInit((0 until K).map(coldAt(u, _))))
-    val tokYU  = unitTok(p.stageY - 1)
     val weY    = unitRegsOf(u => RowToken.decode(tokYU(u), tokYU(u).valid && !tokYU(u).pass0, K))
     for (r <- 0 until n) {
       val u = r % P

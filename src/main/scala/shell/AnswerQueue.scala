@@ -32,9 +32,15 @@ class AnswerQueue(w: Int) extends Module {
   private val pop = io.deq.ready && nonEmpty
   when(pop) { rd := rd + 1.U }
   private val next = count + io.push.asUInt - pop.asUInt
+  // count <= 1 and count <= 2 in registers of their own, so that the room is one gate from registers
+  private val le1 = RegInit(true.B)
+  private val le2 = RegInit(true.B)
   count    := next
   nonEmpty := next =/= 0.U
-  io.room      := count +& io.push.asUInt <= 2.U
+  le1      := next <= 1.U
+  le2      := next <= 2.U
+  io.room      := Mux(io.push, le1, le2)
+  assert(io.room === (count +& io.push.asUInt <= 2.U), "AnswerQueue: room flags out of step")
   io.deq.valid := nonEmpty
   io.deq.bits  := d(rd)
 }

@@ -226,7 +226,10 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   when(state === sRun && lastEnd) { outV := true.B }
   when(outLastFire) { outV := false.B }
   assert(outV === (state === sOut), "PassSequencer: answer valid out of step")
-  val shiftA = (state === sRun && lastEnd || outV && !outLastFire) && io.outRoom
+  // lastEnd comes in the run only, and outV is the state sOut (both asserted), so the next shift is a gate or two
+  // from registers
+  assert(!lastEnd || state === sRun, "PassSequencer: a last pass's end outside the run")
+  val shiftA = (lastEnd || outV && !(shift && outAtEnd)) && io.outRoom
   shift := shiftA
   io.outShift      := shift
   io.outShiftAhead := shiftA
