@@ -32,7 +32,10 @@ def spec_of(text: str) -> dict:
     lanes = int(re.search(r"for \(i = 0; i < (\d+); i = i \+ 1\)", text).group(1))
     lw = int(re.search(r"wdata_q\[i\*(\d+) \+:", text).group(1))
     rows = {int(a): int(v, 16) for a, v in re.findall(r"mem\[(\d+)\] = \d+'h([0-9a-f]+);", text)}
-    return {"depth": depth, "lanes": lanes, "lane_width": lw, "rows": [rows.get(a, 0) for a in range(depth)]}
+    # broadcast writes (InitRam's `broadcast`): one word for every lane, the first write register one lane wide
+    broadcast = re.search(r"wdata_p <= wdata\[\d+:0\];", text) is not None
+    return {"depth": depth, "lanes": lanes, "lane_width": lw, "rows": [rows.get(a, 0) for a in range(depth)],
+            "broadcast": broadcast}
 
 
 @pytest.mark.parametrize("suite,case,mem", MEMS, ids=[f"{c}-{m}" for _, c, m in MEMS])
@@ -56,6 +59,7 @@ def test_synthesis_branch_reads_and_writes(suite, case, mem, cores, admm_cores):
     # a row memory addressed a cycle ahead: each primitive has its own kept address register
     spec["ahead"] = "ra_bram_" in text
     assert spec["ahead"] == (mem.startswith("mat"))
+    assert spec["broadcast"], "the row memories are written with one word for all lanes"
     if spec["ahead"]:
         assert text.count("(* keep *) always @(posedge clock) ra_bram_") == prims
     (d / "spec.json").write_text(json.dumps(spec))

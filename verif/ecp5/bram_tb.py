@@ -1,7 +1,7 @@
 """cocotb tests of the ECP5 block RAM texts as synthesis sees them: the `ifdef SYNTHESIS` branch (DP16KD primitives
 with the output register) built in Verilator with -DSYNTHESIS against `dp16kd_model`, a model of the primitive
 written from the Lattice pin and INITVAL conventions (the ones Yosys's own mapping uses). BRAM_SPEC (JSON): depth,
-lanes, lane width and the initial rows.
+lanes, lane width, the initial rows, and "broadcast" when every write carries one word for all its lanes.
 
 bram_rows (toplevel: an InitRam, mem/Ecp5BlockRam.scala):
 - every row reads back its initial contents, two cycles after its address (three with the address registered
@@ -121,6 +121,8 @@ async def bram_rows(dut):
     for _ in range(3 * depth):
         await RisingEdge(dut.clock)
         a, m, d = rng.randrange(depth), rng.randrange(1, 1 << lanes), rng.getrandbits(lanes * lw)
+        if spec.get("broadcast"):  # one word for every lane (the memory takes lane 0's)
+            d = sum((d & lane) << (i * lw) for i in range(lanes))
         dut.wen.value, dut.waddr.value, dut.wmask.value, dut.wdata.value = 1, a, m, d
         rows[a] = sum(((d if m >> i & 1 else rows[a]) >> (i * lw) & lane) << (i * lw) for i in range(lanes))
     await RisingEdge(dut.clock)
