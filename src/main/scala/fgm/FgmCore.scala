@@ -111,12 +111,11 @@ class FgmCore(val p: FgmParams) extends Module {
   // multipliers y and w, from copies of their own, so that no register drives all units across the device. The
   // copies are kept (mem.KeepReg): synthesis would merge them back into one.
   val split = Kp == 1 && P > 1 && p.target != dsp.Target.Generic
-  /** `d` registered: per row unit a kept copy when split, else one register (reset to 0) for all */
-  def unitRegs[T <: Data](d: T): Seq[T] =
-    if (split) Seq.fill(P)(KeepReg(d)) else { val r = RegNext(d, 0.U.asTypeOf(d)); Seq.fill(P)(r) }
   /** per row unit, `f(u)` registered: a kept copy each when split, else one register (reset to 0) for all */
   def unitRegsOf[T <: Data](f: Int => T): Seq[T] =
     if (split) (0 until P).map(u => KeepReg(f(u))) else { val r = RegNext(f(0), 0.U.asTypeOf(f(0))); Seq.fill(P)(r) }
+  /** `d` registered per row unit (unitRegsOf) */
+  def unitRegs[T <: Data](d: T): Seq[T] = unitRegsOf(_ => d)
   /** the token at `stage` (>= 0) per row unit: split, a kept copy each of the token a stage earlier, so that the
     * decodes from it are made beside the unit's registers and only registers cross to the unit */
   def unitTok(stage: Int): Seq[RowToken] = if (split) Seq.fill(P)(KeepReg(tokAt(stage - 1))) else Seq.fill(P)(tokAt(stage))
