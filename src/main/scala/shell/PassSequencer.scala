@@ -74,7 +74,7 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     val outLoadAhead = Output(Bool())
     /** the word moving into the queue is the answer's last */
     val outIsLast = Output(Bool())
-    /** the last word of the result left: the solve is complete, after `runCycles` cycles */
+    /** the last word of the result moves into the output queue: the solve is complete, after `runCycles` cycles */
     val done      = Output(Bool())
     val runCycles = Output(UInt(32.W))
   })
@@ -90,8 +90,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   // generator runs a cycle ahead of the tokens (from startA), and the frame buffer and the core's loads take the
   // start straight from a flip-flop. startA rises in the cycle after the frame's last word or the answer's last
   // word (the earlier of the two that finds the other done): idle next cycle is idle without a frame now, or the
-  // answer's last word leaving; a frame waits next cycle when its last word comes now, or one waits and the
-  // answer's last word leaves.
+  // answer's last word moving into the output queue; a frame waits next cycle when its last word comes now, or one
+  // waits and the answer's last word moves out.
   // The answer's words move into the output queue (shell.AnswerQueue) at `shift`, a register decided a cycle ahead
   // from the state and the queue's room, so that the stream's tready reaches only the queue, not the answer
   // register's enables and the sequencer.
