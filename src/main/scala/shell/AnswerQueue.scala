@@ -9,6 +9,8 @@ import bus.StreamWord
   * count + push <= 2, from registers; pops only add room, so the queue never holds more than four words. In a
   * steady stream (tready high) a word enters and one leaves every cycle, so the answer leaves at full rate. The
   * stream's tready meets only the queue's read side, not the answer register's enables nor the sequencer.
+  * Not a bus.RegSlice: the producer here decides its push a cycle ahead, so it needs the room for the next cycle
+  * (two words of slack), where a RegSlice's ready speaks for the current one.
   */
 class AnswerQueue(w: Int) extends Module {
   val io = IO(new Bundle {
