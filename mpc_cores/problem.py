@@ -67,6 +67,22 @@ class HardStates:
     xmax: np.ndarray
 
 
+@dataclass(frozen=True, eq=False)
+class CheckSpec:
+    """The spec's `check:` section (mpc_cores.check): the closed-loop scenario (initial state, samples, samples per
+    reference, the seed of the reference draw), the number of sampled states and the target, if any: the closed-loop
+    cost gap in percent, the hard constraints' tolerance as a fraction of each constraint's range, and the budget
+    of cycles per solve within which a flow may raise the iteration counts."""
+    x0: np.ndarray | None = None
+    steps: int = 60
+    hold: int = 20
+    seed: int = 0
+    samples: int = 24
+    gap: float | None = None
+    violation: float = 1e-3
+    cycles: int = 100_000
+
+
 # eq=False: element-wise array comparison makes generated __eq__/__hash__ unusable.
 @dataclass(frozen=True, eq=False)
 class MpcProblem:
@@ -89,6 +105,7 @@ class MpcProblem:
     input_rate: InputRate | None = None
     soft_states: SoftStates | None = None
     hard_states: HardStates | None = None
+    check: CheckSpec = field(default_factory=CheckSpec)
 
     @property
     def nx(self) -> int:
@@ -304,6 +321,19 @@ def _parse_state_set(d, nx: int, fld: str, soft: bool):
     return SoftStates(indices=idx, xmin=lo, xmax=hi, sigma1=float(d["sigma1"]), sigma2=float(d["sigma2"]))
 
 
+def _parse_check(d: dict, xmin: np.ndarray, xmax: np.ndarray) -> CheckSpec:
+    x0 = None
+    if d.get("x0") is not None:
+        x0 = _vector(d["x0"], len(xmin), "check.x0")
+        bad = np.flatnonzero((x0 < xmin) | (x0 > xmax))
+        if bad.size:
+            i = int(bad[0])
+            raise SpecError(f"check.x0: the initial state must lie in the box of `states`, violated at index {i}: "
+                            f"{x0[i]:g} not in [{xmin[i]:g}, {xmax[i]:g}]")
+        x0.setflags(write=False)
+    return CheckSpec(x0=x0, **{k: v for k, v in d.items() if k != "x0" and v is not None})
+
+
 def problem_from_dict(d: dict, name: str = "problem") -> MpcProblem:
     """The problem of a spec: structure, types, ranges (mpc_cores.schema), then the sections, the size limits,
     and only then the numerics of the cost (the DARE)."""
@@ -326,6 +356,7 @@ def problem_from_dict(d: dict, name: str = "problem") -> MpcProblem:
     if soft is not None and hard is not None and set(soft.indices) & set(hard.indices):
         raise SpecError(f"soft_states and hard_states: index sets must be disjoint (eq. (3) of 002), "
                         f"both contain {sorted(set(soft.indices) & set(hard.indices))}")
+    check = _parse_check(d.get("check") or {}, xmin, xmax)
     solver = d.get("solver") or {}
     check_size(N, nx, nu, 0 if C is None else C.shape[0], 0 if soft is None else len(soft.indices),
                input_rate is not None, solver.get("P"))
@@ -353,7 +384,7 @@ def problem_from_dict(d: dict, name: str = "problem") -> MpcProblem:
         a.setflags(write=False)
     return MpcProblem(name=name, A=A, B=B, Q=Q, R=R, QN=QN, N=N, umin=umin, umax=umax,
                       xmin=xmin, xmax=xmax, C=C, rmin=rmin, rmax=rmax, Ts=Ts, solver=dict(solver),
-                      input_rate=input_rate, soft_states=soft, hard_states=hard)
+                      input_rate=input_rate, soft_states=soft, hard_states=hard, check=check)
 
 
 def load_spec(path) -> MpcProblem:

@@ -239,6 +239,11 @@ SPEC = Section({
                             "sigma2": Num(0, why=" (Remark 1 of 002)")},
                            frozenset({"indices", "min", "max", "sigma1", "sigma2"})),
     "hard_states": Section(dict.fromkeys(("indices", "min", "max")), frozenset({"indices", "min", "max"})),
+    # the design check (mpc_cores.check): its closed-loop scenario, sample count and target
+    "check": Section({"x0": None, "steps": Int(1, 100000), "hold": Int(1, 100000), "seed": Int(0),
+                      "samples": Int(0, 100000), "gap": Num(0, why=" (percent above the optimal closed-loop cost)"),
+                      "violation": Num(0, strict=False, why=" (fraction of the constraint's range)"),
+                      "cycles": Int(1, None, " (cycles per solve)")}),
 }, frozenset({"model", "cost", "horizon", "inputs", "states"}))
 
 
