@@ -73,11 +73,24 @@ def _kind(a):
         refuse(e.args[0])
 
 
-def _design(a):
+def _design(a, check: bool = True):
+    """(kind, design, check line): the design checked (mpc_cores.check) unless the kind has no closed-loop model or
+    --no-check; a failing check is refused."""
+    from mpc_cores.check import checked_design
+
     kind = _kind(a)
     ov = _overrides(a, kind)
     try:
-        return kind, kind.design(_load(a.problem, kind, ov), **ov)
+        p = _load(a.problem, kind, ov)
+        gap = check_override(kind, "gap", a.gap) if getattr(a, "gap", None) not in (None, "") else None
+        cycles = check_override(kind, "cycles", a.cycles) if getattr(a, "cycles", None) not in (None, "") else None
+        if not check or getattr(a, "no_check", False):
+            return kind, kind.design(p, **ov), "Check: skipped (--no-check, CHECK=0)"
+        if not kind.has_demo:
+            return kind, kind.design(p, **ov), (f"Check: CORE={kind.name} has no closed loop of its own (make test "
+                                                f"checks it against its golden model)")
+        d, res = checked_design(kind, p, ov, gap, cycles)
+        return kind, d, res.line()
     except (DesignError, SpecError) as e:
         refuse(str(e))
 
@@ -85,8 +98,9 @@ def _design(a):
 def cmd_design(a) -> None:
     """Design report; with --tol, choose the design with guarantees and write the spec `make verilog` takes."""
     if a.tol is None:
-        kind, d = _design(a)
+        kind, d, line = _design(a)
         print(kind.design_report(d))
+        print(line)
         if kind.certificate_fn:
             from mpc_cores.kind import load
             print(load(kind.certificate_fn)(d))
@@ -111,7 +125,7 @@ def cmd_verilog(a) -> None:
     from mpc_cores.flow import generate
     from mpc_cores.progress import stages
 
-    kind, d = _design(a)
+    kind, d, line = _design(a)
     out = Path(a.out or f"build/{kind.name}_{d.name}_p{d.P}")
     try:
         with stages(["elaborate (sbt) and export"], f"verilog {kind.name}") as step:
@@ -120,6 +134,7 @@ def cmd_verilog(a) -> None:
     except GeneratorError as e:
         refuse(str(e))
     print(kind.design_report(d, core))
+    print(line)
     files = [core["sv"], "core.json"] + [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact", "fusesoc_core")
                                          if core.get(k)]
     print("wrote " + ", ".join(str(out / f) for f in files))
@@ -132,8 +147,9 @@ def cmd_c(a) -> None:
     if kind.c_fn is None:
         with_c = [k.name for k in registry.kinds().values() if k.c_fn]
         refuse(f"CORE={kind.name}: C solvers are generated for the cores {', '.join(with_c)}")
-    kind, d = _design(a)
+    kind, d, line = _design(a)
     out = Path(a.out or f"build/{kind.name}_{d.name}_p{d.P}")
+    print(line)
     try:
         files = load(kind.c_fn)(d, out)
     except DesignError as e:
@@ -148,8 +164,9 @@ def cmd_split(a) -> None:
     if kind.split_fn is None:
         with_split = [k.name for k in registry.kinds().values() if k.split_fn]
         refuse(f"CORE={kind.name}: the heterogeneous split is generated for the cores {', '.join(with_split)}")
-    kind, d = _design(a)
+    kind, d, line = _design(a)
     out = Path(a.out or f"build/{kind.name}_{d.name}_p{d.P}_split")
+    print(line)
     try:
         files, report = load(kind.split_fn)(d, out)
     except (DesignError, GeneratorError) as e:
@@ -161,12 +178,13 @@ def cmd_split(a) -> None:
 def cmd_demo(a) -> None:
     from mpc_cores.demo import DemoError, run_demo
 
-    kind, d = _design(a)
+    kind, d, line = _design(a)
     if not kind.has_demo:
         with_demo = [k.name for k in registry.kinds().values() if k.has_demo]
         refuse(f"CORE={kind.name}: the closed-loop demo runs the cores {', '.join(with_demo)}; "
                f"`make test` checks CORE={kind.name} against its golden model")
     print(kind.design_report(d))
+    print(line)
     try:
         table = run_demo(kind, d, Path(a.problem), Path(a.out), a.steps, a.hold, a.seed)
     except (DemoError, GeneratorError) as e:
@@ -216,6 +234,11 @@ def main(argv=None) -> None:
                        "ipm: ecp5 builds the memories from DP16KD with their output register)")
         s.add_argument("--problems", help="K_p, problems interleaved on the row units (fgm, admm): 1 to 16")
         s.add_argument("--out")
+        s.add_argument("--gap", help="design check target: closed-loop cost at most this many percent above the "
+                                     "optimum; the flow chooses the iteration count (default: the spec's check.gap)")
+        s.add_argument("--cycles", help="cycles per solve the iteration count may reach (default: check.cycles)")
+        s.add_argument("--no-check", dest="no_check", action="store_true",
+                       help="emit without the design check (golden model against the optimum)")
         if name == "design":
             s.add_argument("--tol", help="target ||z_fixed - z*||_2 over the state box")
         if name == "demo":

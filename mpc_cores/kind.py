@@ -15,6 +15,8 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
   testbench            the cocotb module of verif/ with its scenarios, `cycle_test` among them (the cycle contract)
   bench                the module of mpc_bench with its section of the benchmark
   soak                 its random configurations and testbench knobs for `make soak` (mpc_cores.soak.space.SoakSpace)
+  constraints          the spec's constraint sections it enforces (of SECTIONS); a spec with any other is refused
+  facts(d)             report module's facts(d): iterations, cycles per solve, multipliers, words (mpc_cores.check)
   certificate(d)       optional: the guarantees of a design, printed by `make design` after its report
   controllers(d)       optional: the optimal (float64) and golden-model controllers of the closed loop and the
                        reference schedule's holdability, for `make demo` with the RTL (None: no demo)
@@ -33,6 +35,11 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
+
+from mpc_cores.errors import DesignError
+
+# the spec's constraint sections beyond the input box, which every kind enforces
+SECTIONS = ("input_rate", "soft_states", "hard_states")
 
 
 def load(ref: str):
@@ -67,6 +74,7 @@ class CoreKind:
     rtl_controller_fn: str | None = None  # "module:async function(dut, problem) -> (tb, controller)", tb reset
     c_fn: str | None = None        # "module:function(design, out_dir) -> list of paths": `make c`
     split_fn: str | None = None    # "module:function(design, out_dir) -> (paths, report)": `make split`
+    constraints: tuple[str, ...] = ()  # the constraint sections of SECTIONS the core enforces
 
     def __post_init__(self):
         n = self.name
@@ -78,7 +86,11 @@ class CoreKind:
                 object.__setattr__(self, attr, default)
 
     def design(self, problem, **overrides):
+        refuse_sections(problem, self.name, self.constraints)
         return load(self.design_fn)(problem, **{k: v for k, v in overrides.items() if k in self.overrides})
+
+    def facts(self, design) -> dict:
+        return load(self.report_module).facts(design)
 
     def core_json(self, design, hw: dict) -> dict:
         return load(self.report_module).core_json(design, hw)
@@ -98,3 +110,16 @@ class CoreKind:
 
     async def rtl_controller(self, dut, problem):
         return await load(self.rtl_controller_fn)(dut, problem)
+
+
+def refuse_sections(problem, kind: str, enforced: tuple[str, ...]) -> None:
+    """A spec with a constraint section the core does not enforce is refused, naming the section and the kinds that
+    enforce it: a core never drops a constraint."""
+    extra = [k for k in SECTIONS if getattr(problem, k, None) is not None and k not in enforced]
+    if extra:
+        from mpc_cores import registry
+
+        by = [k.name for k in registry.kinds().values() if extra[0] in k.constraints]
+        raise DesignError(f"CORE={kind} enforces the input box{''.join(' and ' + e for e in enforced)} only: the "
+                          f"spec has {' and '.join(extra)}, which it would not enforce (CORE={' or '.join(by)} "
+                          f"enforces {extra[0]})")

@@ -222,6 +222,13 @@ SOLVER = {
     "dual_margin": Num(1, strict=False, why=" (d_i >= max(y*_i, 1), (14) of 003)"),
 }
 
+# the design check (mpc_cores.check): its closed-loop scenario, sample count, target and budget; GAP= and CYCLES=
+# override the last two
+CHECK = {"x0": None, "steps": Int(1, 100000), "hold": Int(1, 100000), "seed": Int(0), "samples": Int(0, 100000),
+         "gap": Num(0, why=" (percent above the optimal closed-loop cost)"),
+         "violation": Num(0, strict=False, why=" (fraction of the constraint's range)"),
+         "cycles": Int(1, None, " (cycles per solve)")}
+
 _BOX = Section({"min": None, "max": None}, frozenset({"min", "max"}))
 SPEC = Section({
     "name": Text(),
@@ -239,11 +246,7 @@ SPEC = Section({
                             "sigma2": Num(0, why=" (Remark 1 of 002)")},
                            frozenset({"indices", "min", "max", "sigma1", "sigma2"})),
     "hard_states": Section(dict.fromkeys(("indices", "min", "max")), frozenset({"indices", "min", "max"})),
-    # the design check (mpc_cores.check): its closed-loop scenario, sample count and target
-    "check": Section({"x0": None, "steps": Int(1, 100000), "hold": Int(1, 100000), "seed": Int(0),
-                      "samples": Int(0, 100000), "gap": Num(0, why=" (percent above the optimal closed-loop cost)"),
-                      "violation": Num(0, strict=False, why=" (fraction of the constraint's range)"),
-                      "cycles": Int(1, None, " (cycles per solve)")}),
+    "check": Section(CHECK),
 }, frozenset({"model", "cost", "horizon", "inputs", "states"}))
 
 
@@ -280,7 +283,9 @@ def override_rule(kind, name: str):
     """The rule of override `name` for a core kind: that of the kind's own spec key `<kind>_<name>` when it
     reads one (minres_P, ipm_format, ...), else that of the shared key."""
     own = f"{kind.name}_{name}"
-    return SOLVER[own] if own in kind.spec_section and own in SOLVER else SOLVER[name]
+    if own in kind.spec_section and own in SOLVER:
+        return SOLVER[own]
+    return SOLVER[name] if name in SOLVER else CHECK[name]
 
 
 def _from_text(s):

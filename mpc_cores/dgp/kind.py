@@ -4,6 +4,7 @@ from mpc_cores.kind import CoreKind
 KIND = CoreKind(
     name="dgp",
     title="dual gradient projection, input and state constraints (iteration (35) of 003), fixed point",
+    constraints=("hard_states",),
     model_fn="mpc_cores.dgp.model:DgpFixed",
     spec_section=("frac_bits", "int_bits", "iterations", "lat_add", "lat_mul", "warm_start", "output_all", "target",
                   "eps_g", "eps_V", "tol", "accelerated", "lanes", "dual_margin"),

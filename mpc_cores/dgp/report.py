@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from mpc_cores.dgp.design import ALPHA, DgpDesign
 from mpc_cores.fixed import run_time_fields
-from mpc_cores.target import report_line
+from mpc_cores.target import dsp_count, report_line
 
 
 def _counts(d: DgpDesign) -> list[int]:
@@ -76,3 +76,12 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
     if core is not None:
         lines.append(f"  Module {core['module']}, {core['multipliers']} multipliers")
     return "\n".join(lines)
+
+
+def facts(d: DgpDesign) -> dict:
+    """What the design check and the gallery print of a design (mpc_cores.check): cycles to the first output word
+    at IMAX (the stopping test may end a solve earlier)."""
+    return {"iterations": d.iterations, "iterations_text": f"Imax = {d.iterations}",
+            "cycles": d.cycles_to_output(d.iterations), "multipliers": d.multipliers,
+            "dsp_ecp5": dsp_count("ecp5", d.products(), _counts(d)),
+            "words": f"b = {d.b}, data {d.widths['data']} bits"}

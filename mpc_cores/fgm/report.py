@@ -6,7 +6,7 @@ import numpy as np
 from mpc_cores.fgm.design import FgmDesign, roundoff_bound
 from mpc_cores.fixed import run_time_fields
 from mpc_cores.interleave import core_fields, report_lines
-from mpc_cores.target import report_line, single_dsp_advice
+from mpc_cores.target import dsp_count, report_line, single_dsp_advice
 
 
 def _fmt(intb: int, b: int, width: int) -> dict:
@@ -115,3 +115,11 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
         f"  Multipliers: {d.multipliers} (P * max(n, nw) + 2P)",
     ]
     return "\n".join(lines)
+
+
+def facts(d: FgmDesign) -> dict:
+    """What the design check and the gallery print of a design (mpc_cores.check)."""
+    counts = [d.P * d.m, 2 * d.P]
+    return {"iterations": d.iterations, "iterations_text": f"Imax = {d.iterations}", "cycles": d.cycles_per_solve(),
+            "multipliers": d.multipliers, "dsp_ecp5": dsp_count("ecp5", d.products(), counts),
+            "words": f"b = {d.b}, widest product {max(d.products(), key=lambda p: p[0] * p[1])}"}

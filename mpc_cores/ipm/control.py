@@ -37,9 +37,11 @@ class IpmModelController(Controller):
         self.m = d.problem.nu
         self.warm = warm
         self.words: list[list[int]] = []
+        self.not_converged = 0       # answers flagged not converged or not finite
 
     async def step(self, x, r):
         a = self.model.solve(CHANNEL, np.asarray(x, dtype=float), np.asarray(r, dtype=float), warm=self.warm)
+        self.not_converged += int(a.nonfinite or not a.converged)
         self.words.append([int(w) for w in a.words] + [int(a.status)])
         return np.asarray(a.u, dtype=float)
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from mpc_cores.errors import DesignError
+from mpc_cores.kind import refuse_sections
 from mpc_cores.float import vector as fv
 from mpc_cores.ipm import stage1_config
 from mpc_cores.ipm.program import Stage1, build
@@ -91,6 +92,9 @@ def design_ipm(problem, P: int | None = None, iterations: int | None = None, new
                lat_add: int | None = None, lat_mul: int | None = None, format: str | None = None,
                name: str | None = None, latency: str | None = None, target: str | None = None,
                **_ignored) -> IpmDesign:
+    from mpc_cores.ipm.kind import KIND
+
+    refuse_sections(problem, KIND.name, KIND.constraints)
     solver = problem.solver or {}
     s = sparse_mpc(problem)
     if len(s.bounded) == 0:

@@ -5,6 +5,7 @@ KIND = CoreKind(
     name="ipm",
     title="primal-dual interior-point method (Algorithm 1 of 001): Stage 1 engine and MINRES, binary32 or "
           "e<E>m<M>, 2P problems in flight",
+    constraints=("hard_states",),
     model_fn="mpc_cores.ipm.core_model:IpmCoreModel",
     spec_section=("ipm_P", "ipm_newton", "ipm_minres", "ipm_format", "ipm_latency", "ipm_mu_tol", "ipm_res_tol"),
     overrides=("P", "iterations", "newton", "lat_add", "lat_mul", "format", "latency", "target"),

@@ -49,3 +49,16 @@ def design_report(d, core: dict | None = None) -> str:
                   f"latency: {core['latency_formula']}",
                   f"Stage 1 hidden behind MINRES: {'yes' if core['stage1_hidden'] else 'no: ' + core['stage1_note']}"]
     return "\n".join(lines)
+
+
+def facts(d) -> dict:
+    """What the design check and the gallery print of a design (mpc_cores.check): the latency of one problem
+    (channel 0, warm) from the cycle model (mpc_cores.ipm.timing.simulate); the float operators' multipliers are
+    counted by the bench's synthesis, not here."""
+    from mpc_cores.ipm.design import planned_core
+    from mpc_cores.ipm.timing import simulate
+
+    c = planned_core(d, d.i_mr)
+    return {"iterations": d.i_mr, "iterations_text": f"I_NW = {d.i_nw}, I_MR = {d.i_mr}",
+            "cycles": simulate(c, [0], warm={0})[0]["latency"], "multipliers": None, "dsp_ecp5": None,
+            "words": d.format}
