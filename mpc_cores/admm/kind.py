@@ -4,6 +4,7 @@ from mpc_cores.kind import CoreKind
 KIND = CoreKind(
     name="admm",
     title="ADMM with input-rate and soft state constraints (Algorithm 2 of 002), fixed point",
+    constraints=("input_rate", "soft_states", "hard_states"),
     model_fn="mpc_cores.admm.model:AdmmFixed",
     spec_section=("frac_bits", "iterations", "P", "lat_add", "lat_mul", "rounding", "warm_start", "output_all", "target",
                   "safety", "rho", "soft_scale", "du_scale", "sizing_seed", "sizing_solves", "problems", "method", "precondition", "accelerated"),
@@ -29,7 +30,8 @@ def _method_kind(method: str, title: str) -> CoreKind:
         name=method, title=title, model_fn="mpc_cores.admm.model:AdmmFixed", generator_main="admm.AdmmMain",
         design_fn=f"mpc_cores.admm.design:design_{method}", report_module="mpc_cores.admm.report",
         testbench="verif.admm.tb", soak=f"mpc_cores.admm.soak:{method.upper()}_SOAK",
-        spec_section=KIND.spec_section, overrides=KIND.overrides, controllers_fn="mpc_cores.admm.kind:controllers",
+        spec_section=KIND.spec_section, overrides=KIND.overrides, constraints=KIND.constraints,
+        controllers_fn="mpc_cores.admm.kind:controllers",
         c_fn="mpc_cores.admm.c:write_c", split_fn=KIND.split_fn)
 
 

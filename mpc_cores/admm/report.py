@@ -4,7 +4,7 @@ from __future__ import annotations
 from mpc_cores.admm.design import AdmmDesign
 from mpc_cores.fixed import run_time_fields
 from mpc_cores.interleave import PASS_QUEUE, PASS_START, core_fields, report_lines
-from mpc_cores.target import report_line
+from mpc_cores.target import dsp_count, report_line
 
 _WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (x, u_prev, r) after saturation, and the word 1",
          "v": "operand v = rho z - nu", "y": "y = M11 v + G~ (w, 1)", "q": "q = y + nu / rho", "z": "iterate z",
@@ -134,3 +134,14 @@ def design_report(d: AdmmDesign, core: dict | None = None) -> str:
         lines.append(f"  Cycles: eq. (24) of 002 gives L_A <= {d.cycles_per_iteration} per iteration")
     lines.append(f"  Multipliers: {d.P * max(d.n, d.nw + 1)} (P * max(n_A, nw + 1); Table I: P n_A = {d.P * d.n})")
     return "\n".join(lines)
+
+
+def facts(d: AdmmDesign) -> dict:
+    """What the design check and the gallery print of a design (mpc_cores.check); the cycles per solve from the
+    per-iteration bound of eq. (24) (the generated core's count is at most this)."""
+    prods = d.products()
+    counts = [d.multipliers] if len(prods) == 1 else [d.multipliers - 2 * (len(prods) - 1)] + [2] * (len(prods) - 1)
+    return {"iterations": d.iterations, "iterations_text": f"Imax = {d.iterations}",
+            "cycles": PASS_START + 1 + PASS_QUEUE + (d.iterations + 1) * d.cycles_per_iteration,
+            "multipliers": d.multipliers, "dsp_ecp5": dsp_count("ecp5", prods, counts),
+            "words": f"b = {d.b}, widest product {max(prods, key=lambda p: p[0] * p[1])}"}
