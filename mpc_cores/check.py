@@ -85,8 +85,9 @@ class CheckResult:
                 out.append(f"{c} violated by {a:.3g} ({100 * r:.2g} % of its range > {100 * self.tol:.2g} %)")
         out += [f"{what} in {k} of {self.steps} solves" for what, k in self.flagged.items() if k]
         if self.target is not None:
-            if not self.gap <= self.target:
-                out.append(f"closed-loop cost {_pct(self.gap)} above the optimum > target {self.target:g} %")
+            if not abs(self.gap) <= self.target:
+                out.append(f"closed-loop cost {_pct(self.gap)} against the optimal MPC's, beyond the target "
+                           f"{self.target:g} %")
             if not self.subopt_median <= self.target:
                 out.append(f"median sampled suboptimality {_pct(self.subopt_median)} > target {self.target:g} %")
         return out
