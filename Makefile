@@ -21,6 +21,10 @@ PROBLEMS ?=
 # float cores (minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact or fast)
 FORMAT  ?=
 LATENCY ?=
+# design check (mpc_cores.check): target closed-loop cost gap in percent, budget of cycles per solve; CHECK=0 skips it
+GAP     ?=
+CYCLES  ?=
+CHECK   ?= 1
 PYTEST_ARGS ?=
 # parallel test workers (pytest-xdist, one per core); a test file runs on one worker (its module fixtures
 # regenerate cores in place)
@@ -28,7 +32,8 @@ JOBS        ?= auto
 
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT)) \
            $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL)) \
-           $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY))
+           $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY)) \
+           $(if $(GAP),--gap $(GAP)) $(if $(CYCLES),--cycles $(CYCLES)) $(if $(filter 0,$(CHECK)),--no-check)
 
 .PHONY: setup verilog c split design test test-slow demo clean
 
@@ -72,7 +77,7 @@ test-slow: setup
 
 ## demo: generate CORE (fgm, admm, ipm) for PROBLEM and run it in a closed loop with the Verilator model (OUT: build/demo)
 demo: setup
-	$(MPC) demo --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT))
+	$(MPC) demo $(GEN_ARGS)
 
 ## table2: closed-loop cost tables (Table II(a) of 002, Table I of 000), Fig. 5/6 and the RTL subset into
 ## build/reports (TABLE_ARGS, e.g. --no-rtl)
@@ -107,6 +112,12 @@ CONFIG_SEED ?=
 .PHONY: soak
 soak: setup
 	$(MPC) soak --core $(CORE) --solves $(N) --seed $(SEED) $(if $(CONFIG_SEED),--config-seed $(CONFIG_SEED))
+
+## gallery: every kind on every plant of examples/ through its design flow and check, into docs/gallery.md
+## (GALLERY_ARGS, e.g. --plants quadrotor,cartpole --kinds fgm,admm)
+.PHONY: gallery
+gallery: $(VENV)/.installed
+	$(MPC) gallery $(GALLERY_ARGS)
 
 ## clean: remove build folders only
 clean:

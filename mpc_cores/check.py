@@ -32,7 +32,11 @@ HARD = ("input box", "input rate", "hard states")
 
 
 class CheckFailed(DesignError):
-    """The design's check failed; the message names the numbers."""
+    """The design's check failed; the message names the numbers; `design` and `result` are the last tried."""
+
+    def __init__(self, msg: str, design=None, result: CheckResult | None = None):
+        super().__init__(msg)
+        self.design, self.result = design, result
 
 
 class OptimalController(Controller):
@@ -59,6 +63,7 @@ class CheckResult:
     diverged: bool
     flagged: dict                    # what the model flagged -> solves
     subopt: list = field(default_factory=list)   # sampled suboptimality, percent (inf: u0 leaves the feasible set)
+    sample_violations: dict = field(default_factory=dict)  # the sampled u0's input box and rate, as `violations`
     infeasible_samples: int = 0      # sampled states from which no plan meets the hard constraints
     steps: int = 0
     target: float | None = None
@@ -79,10 +84,12 @@ class CheckResult:
             out.append(self.scenario_error)
         if self.diverged:
             out.append("the closed loop diverges")
-        for c in HARD:
-            if c in self.violations and self.violations[c][1] > self.tol:
-                a, r = self.violations[c]
-                out.append(f"{c} violated by {a:.3g} ({100 * r:.2g} % of its range > {100 * self.tol:.2g} %)")
+        for where, viol in (("", self.violations), ("sampled u0: ", self.sample_violations)):
+            for c in HARD:
+                if c in viol and viol[c][1] > self.tol:
+                    a, r = viol[c]
+                    out.append(f"{where}{c} violated by {a:.3g} ({100 * r:.2g} % of its range > "
+                               f"{100 * self.tol:.2g} %)")
         out += [f"{what} in {k} of {self.steps} solves" for what, k in self.flagged.items() if k]
         if self.target is not None:
             if not abs(self.gap) <= self.target:
@@ -100,9 +107,10 @@ class CheckResult:
         f = self.facts
         viol = ", ".join(f"{c} {a:.3g} ({100 * r:.2g} %)" for c, (a, r) in self.violations.items())
         flags = "".join(f", {what} in {k} solves" for what, k in self.flagged.items() if k)
+        sv = ", ".join(f"{c} {a:.3g} ({100 * r:.2g} %)" for c, (a, r) in self.sample_violations.items() if a > 0)
         samples = (f"{len(self.subopt)} sampled states: suboptimality median {_pct(self.subopt_median)}, worst "
-                   f"{_pct(self.subopt_worst)}" + (f" ({self.infeasible_samples} infeasible states skipped)"
-                                                   if self.infeasible_samples else ""))
+                   f"{_pct(self.subopt_worst)}" + (f", u0 outside {sv}" if sv else "")
+                   + (f" ({self.infeasible_samples} infeasible states skipped)" if self.infeasible_samples else ""))
         loop = (self.scenario_error or f"closed loop ({self.steps} steps): cost {_pct(self.gap)} against the optimum"
                 f"{', DIVERGES' if self.diverged else ''}; worst violation {viol or 'none (input box only)'}{flags}")
         target = f"; target {self.target:g} %" if self.target is not None else ""
@@ -166,10 +174,11 @@ def _golden(kind, d, warm: bool | None = None):
     return g
 
 
-async def _samples(kind, d, qp: MpcQP, rng) -> tuple[list, int]:
+async def _samples(kind, d, qp: MpcQP, rng) -> tuple[list, int, dict]:
+    """(suboptimality per feasible sample, infeasible samples, the u0's worst input-box and rate violations)"""
     p = qp.p
     g = _golden(kind, d, warm=False)
-    subopt, infeasible = [], 0
+    subopt, infeasible, U, dU = [], 0, [], []
     for _ in range(p.check.samples):
         x = rng.uniform(p.xmin, p.xmax)
         r = rng.uniform(p.rmin, p.rmax) if p.ny else np.zeros(0)
@@ -182,12 +191,19 @@ async def _samples(kind, d, qp: MpcQP, rng) -> tuple[list, int]:
         if hasattr(g, "u_prev"):
             g.u_prev = up.copy()
         u0 = np.asarray(await g.step(x, r), dtype=float)
+        U.append(u0)
+        dU.append(u0 - up)
         try:
             cost = qp.solve(x, r if p.ny else None, up, u0=u0).cost
         except Infeasible:
             cost = float("inf")
         subopt.append(100.0 * (cost - best) / max(best, 1e-12))
-    return subopt, infeasible
+    viol = _violations(p, np.zeros((1, p.nx)), np.array(U).reshape(-1, p.nu)) if U else {}
+    viol = {c: v for c, v in viol.items() if c == "input box"}
+    if U and p.input_rate is not None:
+        over = np.maximum(0.0, np.maximum(np.array(dU) - p.input_rate.dumax, p.input_rate.dumin - np.array(dU)))
+        viol["input rate"] = (float(over.max()), float((over / (p.input_rate.dumax - p.input_rate.dumin)).max()))
+    return subopt, infeasible, viol
 
 
 def check_design(kind, d, target: float | None = None) -> CheckResult:
@@ -212,7 +228,8 @@ def check_design(kind, d, target: float | None = None) -> CheckResult:
         res.gap = 100.0 * (traj.cost - opt.cost) / max(opt.cost, 1e-12)
     res.flagged = {"a saturated datapath word": int(getattr(g, "overflow_steps", 0)),
                    "an answer flagged not converged": int(getattr(g, "not_converged", 0))}
-    res.subopt, res.infeasible_samples = asyncio.run(_samples(kind, d, qp, np.random.default_rng(c.seed + 1)))
+    res.subopt, res.infeasible_samples, res.sample_violations = asyncio.run(
+        _samples(kind, d, qp, np.random.default_rng(c.seed + 1)))
     return res
 
 
@@ -233,7 +250,7 @@ def checked_design(kind, problem: MpcProblem, overrides: dict, target: float | N
     res = check_design(kind, d, target)
     if target is None or "iterations" in overrides or "iterations" not in kind.overrides:
         if not res.ok:
-            raise CheckFailed(refusal(kind, d, res))
+            raise CheckFailed(refusal(kind, d, res), d, res)
         return d, res
     tried = {res.facts["iterations"]: (d, res)}
 
@@ -255,7 +272,7 @@ def checked_design(kind, problem: MpcProblem, overrides: dict, target: float | N
             i = 2 * lo
             if i > 65535 or kind.facts(kind.design(problem, **overrides, iterations=i))["cycles"] > budget:
                 raise CheckFailed(refusal(kind, d, res) + f"; no iteration count up to {lo} meets the target within "
-                                  f"the budget of {budget} cycles per solve (CYCLES=, check.cycles)")
+                                  f"the budget of {budget} cycles per solve (CYCLES=, check.cycles)", d, res)
             if at(i)[1].ok:
                 hi = i
             else:

@@ -7,6 +7,7 @@
   table2   closed-loop cost tables (mpc_bench.tables)
   bench    benchmark report (mpc_bench)
   soak     random configurations against the golden model in Verilator, report in docs/soak/ (mpc_cores.soak)
+  gallery  every kind on every plant of examples/ through its design flow and check, into docs/gallery.md
   test     the verification suite (pytest on tests/ of a source checkout)
 
 Every kind of the registry (mpc_cores.registry) is available through --core; refusals are one line
@@ -248,14 +249,15 @@ def main(argv=None) -> None:
     for name, what in (("table2", "closed-loop cost tables (options: see `mpc-cores table2 --help`)"),
                        ("bench", "benchmark report (options: see `mpc-cores bench --help`)"),
                        ("soak", "random configurations against the golden model (see `mpc-cores soak --help`)"),
+                       ("gallery", "every kind on every plant of examples/ into docs/gallery.md (see --help)"),
                        ("test", "the verification suite (pytest options follow)")):
         sub.add_parser(name, help=what, add_help=False)
-    if argv and argv[0] in ("table2", "bench", "soak", "test"):
+    if argv and argv[0] in ("table2", "bench", "soak", "gallery", "test"):
         cmd, rest = argv[0], argv[1:]
         if cmd == "test":
             return cmd_test(rest)
-        return _forward({"table2": "mpc_bench.tables", "bench": "mpc_bench.bench", "soak": "mpc_cores.soak.run"}[cmd],
-                        rest)
+        return _forward({"table2": "mpc_bench.tables", "bench": "mpc_bench.bench", "soak": "mpc_cores.soak.run",
+                         "gallery": "mpc_bench.gallery"}[cmd], rest)
     a = ap.parse_args(argv)
     if a.cmd == "demo" and not a.out:
         a.out = "build/demo"
