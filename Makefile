@@ -21,6 +21,8 @@ PROBLEMS ?=
 # float cores (minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact or fast)
 FORMAT  ?=
 LATENCY ?=
+# iteration count (Imax; I_MR for ipm): without it, the spec's, or the design check's choice for a GAP target
+ITER    ?=
 # design check (mpc_cores.check): target closed-loop cost gap in percent, budget of cycles per solve; CHECK=0 skips it
 GAP     ?=
 CYCLES  ?=
@@ -33,7 +35,7 @@ JOBS        ?= auto
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT)) \
            $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL)) \
            $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY)) \
-           $(if $(GAP),--gap $(GAP)) $(if $(CYCLES),--cycles $(CYCLES)) $(if $(filter 0,$(CHECK)),--no-check)
+           $(if $(ITER),--iterations $(ITER)) $(if $(GAP),--gap $(GAP)) $(if $(CYCLES),--cycles $(CYCLES)) $(if $(filter 0,$(CHECK)),--no-check)
 
 .PHONY: setup verilog c split design test test-slow demo clean
 
