@@ -1,17 +1,23 @@
 """RTL of the generated ADMM core against the bit-exact golden model (mpc_cores/admm/model.py), over problems with
-input-rate and soft state constraints and a spread of P, latencies and rounding; generator refusals.
+input-rate and soft state constraints and a spread of P, latencies and rounding, and the plain sparse form of a
+spec without input_rate; generator refusals.
 
-All cores are elaborated in one generator run (session fixture); each case builds its Verilator model once and
-runs every scenario of verif/admm/tb.py on it.
+The suite's cores are elaborated in one generator run (session fixture; the plain form's core in one of its own);
+each case builds its Verilator model once and runs every scenario of verif/admm/tb.py on it.
 """
 from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
-from conftest import ADMM_CASES, case_params
-from mpc_cores.flow import GeneratorError, run_generator
+from conftest import ADMM_BUILD, ADMM_CASES, case_params
+from mpc_cores.admm.control import AdmmFixedController, admm_references
+from mpc_cores.admm.design import design_admm
+from mpc_cores.closedloop import run_closed_loop
+from mpc_cores.flow import REPO, GeneratorError, generate_admm, run_generator
+from mpc_cores.problem import load_spec
 from mpc_cores.sim import run_cocotb
 
 SCENARIOS = 9  # cocotb tests in verif/admm/tb.py
@@ -22,11 +28,15 @@ PLAIN = [c for c in ADMM_CASES if not c.endswith("_acc")]
 
 @pytest.mark.parametrize("cid", case_params(PLAIN))
 def test_rtl_matches_golden_model(cid, admm_cores, request):
-    out = admm_cores[cid]
+    run_scenarios(admm_cores[cid], request.config.getoption("--random-solves") or ADMM_CASES[cid][2])
+
+
+def run_scenarios(out, solves: int) -> None:
+    """Every scenario of verif/admm/tb.py on the core in `out`, `solves` random solves in the bit-exact one; the
+    measured cycle contract and interleaving against core.json."""
     core = json.loads((out / "core.json").read_text())
     measure = out / "measured.jsonl"
     measure.unlink(missing_ok=True)
-    solves = request.config.getoption("--random-solves") or ADMM_CASES[cid][2]
     tests, failed = run_cocotb(out / core["sv"], core["module"], "verif.admm.tb", out / "sim",
                                {"CORE_OUT": str(out), "CORE_RANDOM": str(solves), "CORE_MEASURE": str(measure)})
     assert tests == SCENARIOS, f"{tests} cocotb tests ran, expected {SCENARIOS}"
@@ -41,6 +51,54 @@ def test_rtl_matches_golden_model(cid, admm_cores, request):
     assert il["problems"] == core["problems"] and il["mac_utilisation"] == pytest.approx(core["mac_utilisation"])
     if core["problems"] > 1:
         assert cyc["period_cycles"] == core["period_cycles"]
+
+
+# The plain sparse form (a spec without input_rate: decision inputs u_k, states not augmented, w = (x, r), u_0 out)
+# on masses.yaml (n_A = 128, nw = 12), P = 1, a small Imax
+NORATE = "masses_norate_p1_b16"
+NORATE_SOLVES = 12
+NORATE_STEPS, NORATE_HOLD, NORATE_SEED = 8, 4, 3
+
+
+@pytest.fixture(scope="module")
+def norate_core():
+    """(spec path, design, output folder) of the plain form's core, elaborated in a generator run of its own."""
+    spec = REPO / "examples/masses.yaml"
+    d = design_admm(load_spec(spec), P=1, iterations=6)
+    out = ADMM_BUILD / NORATE
+    generate_admm([(d, out)])
+    return spec, d, out
+
+
+def test_rtl_norate_matches_golden_model(norate_core, request):
+    """The plain form is the same generator and datapath with other data: every scenario of verif/admm/tb.py word for
+    word against the golden model built from its config.json (warm starts shift the u_k like the du_k)."""
+    _, d, out = norate_core
+    core = json.loads((out / "core.json").read_text())
+    cfg = json.loads((out / "config.json").read_text())
+    assert cfg["rate"] is False and core["rate"] is False and core["form"] == "w = (x, r), u_0 out"
+    assert (core["n"], core["nw"], core["nx"]) == (128, 12, 8) and not d.rate
+    run_scenarios(out, request.config.getoption("--random-solves") or NORATE_SOLVES)
+
+
+def test_rtl_norate_closed_loop(norate_core):
+    """The core in the closed loop (mpc_cores.closedloop_tb, AdmmRtlController: w = (x, r) out, u_0 = clip of the
+    first words back, from core.json's `rate`): the words and the states of the golden model's loop."""
+    spec, d, out = norate_core
+    core = json.loads((out / "core.json").read_text())
+    p = load_spec(spec)
+    golden = AdmmFixedController(d)
+    t_fix = run_closed_loop(p, golden, np.zeros(p.nx), admm_references(p, NORATE_STEPS, NORATE_HOLD, NORATE_SEED))
+    result = out / "closed_loop.json"
+    result.unlink(missing_ok=True)
+    tests, failed = run_cocotb(out / core["sv"], core["module"], "mpc_cores.closedloop_tb", out / "sim",
+                               {"CORE_OUT": str(out), "CL_SPEC": str(spec), "CL_STEPS": str(NORATE_STEPS),
+                                "CL_HOLD": str(NORATE_HOLD), "CL_SEED": str(NORATE_SEED), "CL_RESULT": str(result)},
+                               log=out / "closed_loop.log")
+    assert (tests, failed) == (1, 0), f"see {out / 'closed_loop.log'}"
+    rtl = json.loads(result.read_text())
+    assert rtl["words"] == golden.words
+    assert np.array_equal(np.array(rtl["x"]), t_fix.x)
 
 
 def test_contract_in_core_json(admm_cores):

@@ -132,3 +132,26 @@ def test_make_split_cli(split):
                        cwd=REPO)
     assert p.returncode != 0 and p.stderr.strip().splitlines() == [
         "error: CORE=fgm: the heterogeneous split is generated for the cores admm, ama, vucondat"]
+
+
+def test_split_api_plain_form(tmp_path):
+    """A design without input_rate (w = (x, r), u_0 out): `_solve_split` with the block's model answering equals
+    `_solve` and the golden model built from its config.json, over a warm-started sequence."""
+    from mpc_cores.admm.model import AdmmFixed
+
+    d = design_admm(load_spec(REPO / "examples/masses.yaml"), iterations=6, sizing_solves=8)
+    cfg = d.config()
+    assert cfg["rate"] is False
+    admm_c.write_c(d, tmp_path / "c")
+    nm = admm_c.emit.names(d.module_name)
+    assert "w = (x, r) saturated to its box" in (tmp_path / "c" / f"{nm.stem}.c").read_text()
+    lib = harness.load(tmp_path / "c", nm, cfg, build_dir=tmp_path, split=True)
+    ls, model = LinStep(linstep_config(d)), AdmmFixed(cfg)
+    rng = np.random.default_rng(4)
+    a, b = lib.new_state(), lib.new_state()
+    for k in range(6):
+        w = rng.integers(np.array(d.wlo), np.array(d.whi) + 1)
+        got = lib.solve(a, w, None, linstep=lambda v: (lambda s, o, _: (s, o.any()))(*ls(v)))
+        sw = lib.solve(b, w, None)
+        assert np.array_equal(got[0], sw[0]) and got[1] == sw[1], k
+        assert np.array_equal(got[0], model.solve(w).z[: d.nu]), k

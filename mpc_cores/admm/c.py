@@ -248,9 +248,10 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 {emit.helpers(cfg["rounding"], "clip", "dot", "shift_by")}
 {_proj(False)}"""
     acc = bool(cfg.get("accelerated"))
+    w_form = "(x, u_prev, r)" if cfg.get("rate", True) else "(x, r)"   # the QP's form (mpc_cores.admm.problem)
     body = f"""\
     int64_t w[NW + 1], gw[N], z[N], nu[N], v[N], s[N], y[N], q[N];{acc_decl(cfg) if acc else ""}
-    /* w = (x, u_prev, r) saturated to its box (SAT), then the constant word 2^b; G~ (w, 1) once per solve */
+    /* w = {w_form} saturated to its box (SAT), then the constant word 2^b; G~ (w, 1) once per solve */
     for (i = 0; i < NW; i++) {{
         w[i] = mpc_clip(w_in[i], WLO[i], WHI[i]);
         sat |= w[i] != w_in[i];

@@ -1,9 +1,11 @@
 """ADMM controllers for the closed loop of mpc_cores/closedloop.py (same interface: `async step(x, r) -> u`).
 
-The ADMM core solves the sparse QP (8) of 002 with input-rate augmentation: its parameter is w = (x, u_prev, r)
-and the first nu words of the z it returns are du_0, so every controller here keeps the previously applied input
-u_prev itself (zero before the first step) and applies u = clip(u_prev + du_0, umin, umax)
-(mpc_cores.admm.model.applied_input), which meets the rate and input limits even when z is not converged.
+The ADMM core solves the sparse QP (8) of 002. With input-rate augmentation (a spec with input_rate; the design's
+and the QP's `rate`) its parameter is w = (x, u_prev, r) and the first nu words of the z it returns are du_0, so
+every controller here keeps the previously applied input u_prev itself (zero before the first step) and applies
+u = clip(u_prev + du_0, umin, umax), which meets the rate and input limits even when z is not converged. Without
+it the parameter is w = (x, r), z starts with u_0 and the controller applies clip(u_0, umin, umax)
+(mpc_cores.admm.model.applied_input).
 
   AdmmOsqpController   float64, the soft-constrained QP (8) solved to optimality by OSQP (the reference)
   AdmmFixedController  the bit-exact golden model of the core (mpc_cores.admm.model.AdmmFixed), warm-started
@@ -34,8 +36,11 @@ def admm_references(problem: MpcProblem, steps: int, hold: int, seed: int = 0) -
     return reference_schedule(problem, steps, hold, seed, holdable=0.0)
 
 
-def parameters(traj: Trajectory) -> np.ndarray:
-    """The parameters w_k = (x_k, u_{k-1}, r_k) the controller was given along a run (u_{-1} = 0)."""
+def parameters(traj: Trajectory, rate: bool = True) -> np.ndarray:
+    """The parameters the controller was given along a run: w_k = (x_k, u_{k-1}, r_k) (u_{-1} = 0) in the
+    rate-augmented form, (x_k, r_k) otherwise."""
+    if not rate:
+        return np.hstack([traj.x[:-1], traj.r])
     up = np.vstack([np.zeros((1, traj.u.shape[1])), traj.u[:-1]])
     return np.hstack([traj.x[:-1], up, traj.r])
 
@@ -50,18 +55,26 @@ def rate_and_box_ok(problem: MpcProblem, traj: Trajectory, tol: float = 1e-9) ->
 
 
 class _AdmmController(Controller):
-    def __init__(self, problem: MpcProblem, nu: int):
+    """rate: the QP's form (rate-augmented: w = (x, u_prev, r), du_0 out; else w = (x, r), u_0 out)."""
+
+    def __init__(self, problem: MpcProblem, nu: int, rate: bool = True):
         self.problem = problem
         self.nu = nu
+        self.rate = bool(rate)
         self.u_prev = np.zeros(nu)
 
     def reset(self) -> None:
         self.u_prev = np.zeros(self.nu)
 
-    def _apply(self, du0: np.ndarray) -> np.ndarray:
-        # = mpc_cores.admm.model.applied_input(d, du0, u_prev)
+    def _w(self, x, r) -> np.ndarray:
+        """the parameter of the form (AdmmQP.w)"""
+        return np.concatenate([x, self.u_prev, r] if self.rate else [x, r])
+
+    def _apply(self, v0: np.ndarray) -> np.ndarray:
+        # = mpc_cores.admm.model.applied_input(d, v0, u_prev): v0 is du_0 (rate form) or u_0
         p = self.problem
-        u = np.clip(self.u_prev + np.asarray(du0, dtype=float)[: self.nu], p.umin, p.umax)
+        v0 = np.asarray(v0, dtype=float)[: self.nu]
+        u = np.clip(self.u_prev + v0 if self.rate else v0, p.umin, p.umax)
         self.u_prev = u
         return u
 
@@ -72,21 +85,20 @@ class AdmmOsqpController(_AdmmController):
 
     def __init__(self, problem: MpcProblem | AdmmQP, eps: float = 1e-10):
         self.qp = problem if isinstance(problem, AdmmQP) else build_admm_qp(problem)
-        super().__init__(self.qp.problem, self.qp.nu)
+        super().__init__(self.qp.problem, self.qp.nu, self.qp.rate)
         self.eps = eps
 
     async def step(self, x, r):
-        w = np.concatenate([x, self.u_prev, r])
-        return self._apply(solve_soft_qp_osqp(self.qp, w, eps=self.eps))
+        return self._apply(solve_soft_qp_osqp(self.qp, self._w(x, r), eps=self.eps))
 
 
 class AdmmFixedController(_AdmmController):
-    """The bit-exact golden model of the core: the du_0 words it would send back, recorded in `.words`.
+    """The bit-exact golden model of the core: the du_0 (or u_0) words it would send back, recorded in `.words`.
     imax / warm override the design's iterations / warm_start (the core's IMAX register and CTRL.WARM_START)."""
     name = "golden"
 
     def __init__(self, design: AdmmDesign, imax: int | None = None, warm: bool | None = None):
-        super().__init__(design.problem, design.nu)
+        super().__init__(design.problem, design.nu, design.rate)
         self.d = design
         self.b = design.b
         self.model = AdmmFixed(design)
@@ -97,20 +109,22 @@ class AdmmFixedController(_AdmmController):
         self.sat_steps = 0           # solves in which a parameter word was outside the accepted box
 
     def w_words(self, x, u_prev, r) -> np.ndarray:
-        """The nw parameter words streamed to the core: w = (x, u_prev, r) with b fraction bits."""
-        return quantize(np.concatenate([x, u_prev, r]), self.b)
+        """The nw parameter words streamed to the core with b fraction bits: w = (x, u_prev, r) in the
+        rate-augmented form, (x, r) otherwise."""
+        return quantize(np.concatenate([x, u_prev, r] if self.rate else [x, r]), self.b)
 
     async def solve_words(self, w: np.ndarray) -> np.ndarray:
-        """The first nu words of z (du_0) for parameter words w; the golden model here, the core in an RTL loop."""
+        """The first nu words of z (du_0, or u_0) for parameter words w; the golden model here, the core in an RTL
+        loop."""
         res = self.model.solve(w, imax=self.imax, warm=self.warm)
         self.overflow_steps += res.overflow
         self.sat_steps += res.sat
         return res.z[: self.nu]
 
     async def step(self, x, r):
-        du0 = np.asarray(await self.solve_words(self.w_words(x, self.u_prev, r)), dtype=np.int64)[: self.nu]
-        self.words.append([int(v) for v in du0])
-        return self._apply(du0 / float(1 << self.b))
+        v0 = np.asarray(await self.solve_words(self.w_words(x, self.u_prev, r)), dtype=np.int64)[: self.nu]
+        self.words.append([int(v) for v in v0])
+        return self._apply(v0 / float(1 << self.b))
 
     def reset(self) -> None:
         super().reset()
@@ -119,11 +133,13 @@ class AdmmFixedController(_AdmmController):
 
 class AdmmRtlController(AdmmFixedController):
     """The generated ADMM core in Verilator, driven by the cocotb testbench `tb` (verif.tb.TB): the words of
-    `w_words` go out on s_axis, du_0 comes back on m_axis; the rest is AdmmFixedController's."""
+    `w_words` go out on s_axis, du_0 (or u_0: core.json's `rate`) comes back on m_axis; the rest is
+    AdmmFixedController's."""
     name = "rtl"
 
     def __init__(self, tb, problem: MpcProblem):
-        _AdmmController.__init__(self, problem, tb.nu)
+        # core.json written before the plain form existed: rate-augmented
+        _AdmmController.__init__(self, problem, tb.nu, bool(tb.core.get("rate", True)))
         self.tb = tb
         self.b = int(tb.core["frac_bits"])
         self.imax = self.warm = None
@@ -145,14 +161,14 @@ class AdmmFloatController(_AdmmController):
 
     def __init__(self, design: AdmmDesign, imax: int | None = None, warm: bool | None = None,
                  quantised: bool = False):
-        super().__init__(design.problem, design.nu)
+        super().__init__(design.problem, design.nu, design.rate)
         self.d = design
         self.model = AdmmFloat(design, quantised=quantised)
         self.imax = imax
         self.warm = warm
 
     async def step(self, x, r):
-        z, _, _ = self.model.solve(np.concatenate([x, self.u_prev, r]), imax=self.imax, warm=self.warm)
+        z, _, _ = self.model.solve(self._w(x, r), imax=self.imax, warm=self.warm)
         return self._apply(z[: self.nu])
 
     def reset(self) -> None:

@@ -1,10 +1,13 @@
 """ADMM front end: from an MPC problem with input-rate and soft state constraints to the quantised data and word
-widths of the core (Algorithm 2 of 002).
+widths of the core (Algorithm 2 of 002). Without an input_rate section the QP is the plain sparse form (decision
+inputs u_k, w = (x, r), u_0 out; mpc_cores.admm.problem), the same core with other data (config "rate": false).
 
 Penalty. The matching condition z = y (10) is weighted per component: rho_j = rho 2^{s_j}, rho = 2^k, with
 s_j = log2(soft_scale) on the soft pairs (x_i, delta_i) (III-C of 002: the slack multipliers nu_delta ~ sigma1
 need a larger step to converge; both members of a pair share it so that the projection onto the cone stays
-Euclidean), s_j = log2(du_scale) on du and 0 elsewhere. Every multiplication by rho_j is a shift by k_j = k + s_j.
+Euclidean), s_j = log2(du_scale) on du (rate-augmented form only: without input_rate the decision inputs u_k
+carry R's curvature and take rho; a du_scale set there is refused) and 0 elsewhere. Every multiplication by rho_j
+is a shift by k_j = k + s_j.
 With D = diag(rho_j) the y-step (12a) is the KKT solve
 
     [[H_A + D, F'], [F, 0]]^{-1} = [[M11, M12], [M12', M22]],   y = M11 (D z - nu) + G~ (w, 1),
@@ -105,6 +108,11 @@ class AdmmDesign(FixedPointDesign):
         return 2.0 ** self.rho_log2
 
     @property
+    def rate(self) -> bool:
+        """the rate-augmented form: w = (x, u_prev, r), du_0 out; else w = (x, r), u_0 out"""
+        return self.qp.rate
+
+    @property
     def rho_vec(self) -> np.ndarray:
         return np.ldexp(1.0, self.shift)
 
@@ -162,6 +170,9 @@ class AdmmDesign(FixedPointDesign):
             "safety": self.safety, "estimated": list(self.estimated), "method": self.method,
             **({"accelerated": True, "momentum": momentum_words(self.b).tolist()} if self.accelerated else {}),
             **({"problems": self.problems} if self.problems > 1 else {}),
+            # absent: the rate-augmented form (so that its configurations, and the cores built from them, stay as
+            # they were)
+            **({} if self.rate else {"rate": False}),
         }
 
 
@@ -208,11 +219,10 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
         problem, overrides, frac_bits=18, rounding="nearest", iterations=40)
     safety = float(opt("safety", SAFETY_DEFAULT))
     target = target_option(problem, overrides)
-    try:
-        qp = build_admm_qp(problem)
-    except ValueError as e:
-        raise DesignError(str(e)) from None
+    qp = build_admm_qp(problem)
     n = qp.n
+    if not qp.rate and (overrides.get("du_scale") is not None or problem.solver.get("du_scale") is not None):
+        raise DesignError("du_scale: the spec has no input_rate section, so there is no du to scale (remove du_scale)")
 
     check_run_options(n, "n_A", b, P, lat_add, lat_mul, rounding, iterations)
     if not safety >= 1:
@@ -250,11 +260,11 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
         kdef = math.floor(math.log2(bound)) - (1 if 2.0 ** math.floor(math.log2(bound)) >= bound else 0)
         k = _pow2_exponent(opt_m("rho", 2.0 ** kdef), "rho")
         s_soft = _pow2_exponent(opt_m("soft_scale", 1.0), "soft_scale")
-        s_du = _pow2_exponent(opt_m("du_scale", 1.0), "du_scale")
+        s_du = _pow2_exponent(opt_m("du_scale", 1.0), "du_scale") if qp.rate else 0
     else:
         k = _pow2_exponent(opt("rho", RHO_DEFAULT), "rho")
         s_soft = _pow2_exponent(opt("soft_scale", SOFT_SCALE_DEFAULT), "soft_scale")
-        s_du = _pow2_exponent(opt("du_scale", DU_SCALE_DEFAULT), "du_scale")
+        s_du = _pow2_exponent(opt("du_scale", DU_SCALE_DEFAULT), "du_scale") if qp.rate else 0
     shift = np.full(n, k, dtype=np.int64)
     shift[qp.soft_x] += s_soft
     shift[qp.soft_d] += s_soft
@@ -264,7 +274,7 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
         what = "mu" if accelerated else "2 mu"
         raise DesignError(f"method ama{' accelerated' if accelerated else ''} needs every rho_j < {what} = {bound:.6g} "
                           f"(mu = lambda_min of H_A on Ker F): got max rho_j = {rho_vec.max():g}; lower rho, "
-                          f"soft_scale or du_scale")
+                          f"soft_scale{' or du_scale' if qp.rate else ''}")
     if scaling is not None:
         shift = shift - scaling.c - 2 * scaling.d
         rho_vec = np.ldexp(1.0, shift)

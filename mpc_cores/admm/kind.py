@@ -16,8 +16,9 @@ KIND = CoreKind(
 
 
 def controllers(d):
-    """Closed loop of `make demo`: the soft QP (8) by OSQP to optimality, the golden model (u = clip(u_prev + du_0)),
-    references over 80 % of the box with the soft limits, the input box and the rate limit active (Fig. 5 of 002)."""
+    """Closed loop of `make demo`: the soft QP (8) by OSQP to optimality, the golden model (u = clip(u_prev + du_0),
+    or clip(u_0) without input_rate), references over 80 % of the box with the soft limits, the input box and the
+    rate limit active (Fig. 5 of 002)."""
     from mpc_cores.admm.control import AdmmFixedController, AdmmOsqpController
 
     return AdmmOsqpController(d.problem), AdmmFixedController(d), 0.0

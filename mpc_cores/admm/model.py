@@ -10,8 +10,9 @@ sh(a, k) = a << k for k >= 0, shift_round(a, -k, rounding) for k < 0; sat(., W) 
   0. w  = clip(w_in, wlo, whi)                              (input saturation, flag `sat`)
      w1 = (w, one), zero-padded to n_A                      (G~ has nw + 1 columns)
      gw_r = tree_sum_j sat(rnd(G~_rj w1_j), W_sum)          (once per solve; partial sums saturate to W_sum)
-  1. warm start: (z, nu) = the previous solve's (z, nu) shifted by one stage (drop du_0 and (x~_0, delta_0),
-     repeat du_{N-1} and (x~_N, delta_N)); cold start: z = proj(0), nu = 0
+  1. warm start: (z, nu) = the previous solve's (z, nu) shifted by one stage (drop the decision input v_0 (du_0,
+     or u_0 without the rate augmentation) and (x~_0, delta_0), repeat v_{N-1} and (x~_N, delta_N)); cold start:
+     z = proj(0), nu = 0
   then Imax times, all components in parallel:
   2. v_j  = sat(sh(z_j, k_j) - nu_j, W_v)                   (rho_j z - nu; a shift, no multiplier)
   3. y_r  = sat(tree_sum_j sat(rnd(M11_rj v_j), W_sum) + gw_r, W_y)      (Algorithm 2 line 2)
@@ -29,8 +30,9 @@ Methods (config "method", mpc_cores/admm/design.py): step 2 is the method's oper
   ama       v_j = sat(-nu_j, W_v)
   vucondat  v_j = sat(sh(y_j + z_j, k_j) - nu_j, W_v), y the previous iteration's y of step 3 (cold start: y = z,
             warm: shifted like z), k_j the shifts of sigma_j
-The core returns z (and keeps (z, nu), and y for vucondat, for the next warm start). A saturation in steps 0-6 other than the input
-clip sets `overflow` (and the flag of that signal); the input clip sets `sat`.
+The core returns z (and keeps (z, nu), and y for vucondat, for the next warm start); its first nu words are du_0
+in the rate-augmented form (config "rate", absent: true) and u_0 otherwise (applied_input). A saturation in steps
+0-6 other than the input clip sets `overflow` (and the flag of that signal); the input clip sets `sat`.
 """
 from __future__ import annotations
 
@@ -64,7 +66,8 @@ def shift_by(a: np.ndarray, k: np.ndarray, rounding: str) -> np.ndarray:
 
 
 def shift_stages(v: np.ndarray, N: int, nu: int) -> np.ndarray:
-    """Warm start: drop the first stage (du_0; x~_0, delta_0), repeat the last (du_{N-1}; x~_N, delta_N)."""
+    """Warm start: drop the first stage (v_0; x~_0, delta_0), repeat the last (v_{N-1}; x~_N, delta_N); v_k the
+    decision input, du_k or u_k: the layout of both forms is N blocks of nu, then N + 1 equal stages."""
     du, st = v[..., : N * nu], v[..., N * nu:]
     stage = st.shape[-1] // (N + 1)
     return np.concatenate([du[..., nu:], du[..., -nu:], st[..., stage:], st[..., -stage:]], axis=-1)
@@ -159,6 +162,9 @@ class AdmmFixed:
         self.wlo = np.array(cfg["wlo"], dtype=np.int64)
         self.whi = np.array(cfg["whi"], dtype=np.int64)
         self.method = cfg.get("method", "admm")
+        # the QP's form: rate-augmented (w = (x, u_prev, r), du_0 out) or not (w = (x, r), u_0 out); configs
+        # written before the plain form existed are all rate-augmented
+        self.rate = bool(cfg.get("rate", True))
         # fast AMA with the gradient restart of O'Donoghue and Candes (method ama only)
         self.accelerated = bool(cfg.get("accelerated", False))
         self.mom = np.array(cfg["momentum"], dtype=np.int64) if self.accelerated else None
@@ -314,7 +320,8 @@ class AdmmFloat:
 
     def solve(self, w, imax: int | None = None, warm: bool | None = None, z0=None, nu0=None,
               record: bool = False):
-        """(z, nu, iterates) from w = (x, u_prev, r) in reals (clipped to the accepted box when quantised)."""
+        """(z, nu, iterates) from w in reals (d.qp.w: (x, u_prev, r) or (x, r); clipped to the accepted box when
+        quantised)."""
         d = self.d
         imax = d.iterations if imax is None else int(imax)
         warm = d.warm_start if warm is None else bool(warm)
@@ -346,10 +353,13 @@ class AdmmFloat:
 
 
 def applied_input(d, z, u_prev) -> np.ndarray:
-    """u_0 = clip(u_prev + du_0, umin, umax): meets the rate and the input box even when z is not converged
-    (du_0 lies in its box, and clipping towards the box only shrinks the step from u_prev inside it)."""
+    """The input to apply from the first nu entries of z (d: a design or an AdmmQP, whose `rate` says the form).
+    Rate-augmented: u_0 = clip(u_prev + du_0, umin, umax), which meets the rate and the input box even when z is
+    not converged (du_0 lies in its box, and clipping towards the box only shrinks the step from u_prev inside
+    it). Otherwise z starts with u_0 itself: clip(u_0, umin, umax) (u_prev unused)."""
     p = d.problem
-    return np.clip(np.asarray(u_prev, dtype=float) + np.asarray(z, dtype=float)[: d.nu], p.umin, p.umax)
+    u0 = np.asarray(z, dtype=float)[: d.nu]
+    return np.clip(np.asarray(u_prev, dtype=float) + u0 if d.rate else u0, p.umin, p.umax)
 
 
 __all__ = ["AdmmFixed", "AdmmFloat", "AdmmSolveResult", "applied_input", "proj_soft", "shift_by", "shift_stages",

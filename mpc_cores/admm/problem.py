@@ -1,25 +1,32 @@
 """Sparse (uncondensed) form (8) of 002 for the state-constrained MPC problem (2), and its float64 references.
 
-Input-rate constraints by state augmentation: x~_k = (x_k, u_{k-1}), the decision input is du_k = u_k - u_{k-1},
+Two forms, by whether the spec has an `input_rate` section (AdmmQP.rate).
+
+Rate-augmented (input_rate): the state is augmented with the previous input, x~_k = (x_k, u_{k-1}), and the
+decision input is du_k = u_k - u_{k-1},
 
     x~_{k+1} = A~ x~_k + B~ du_k,   A~ = [[A, B], [0, I]],   B~ = [[B], [I]],
 
 so |du| <= dumax is a box on the decision variable and umin <= u_k <= umax a hard box on the u-part of x~_{k+1}.
-Decision vector, in the order of 002 (III-B):
+Without input_rate the decision inputs are the u_k themselves (boxed by the input box) and x~_k = x_k.
+Decision vector, in the order of 002 (III-B), with v_k = du_k (rate) or u_k:
 
-    z = (du_0, ..., du_{N-1}, x~_0, delta_0, x~_1, delta_1, ..., x~_N, delta_N),   n_A = N(nu + nx~ + |S|) + nx~ + |S|.
+    z = (v_0, ..., v_{N-1}, x~_0, delta_0, x~_1, delta_1, ..., x~_N, delta_N),   n_A = N(nu + nx~ + |S|) + nx~ + |S|.
 
 Cost (same scaling as mpc_cores.problem.condense, i.e. no factor 1/2 on the stage terms):
 
-    sum_{k<N} (x_k - xs)'Q(x_k - xs) + (u_k - us)'R(u_k - us) + du_k' W du_k + (x_N - xs)'QN(x_N - xs)
+    sum_{k<N} (x_k - xs)'Q(x_k - xs) + (u_k - us)'R(u_k - us) [+ du_k' W du_k] + (x_N - xs)'QN(x_N - xs)
     + sum_{k=0..N} sigma1 1'delta_k + sigma2 ||delta_k||^2 = 0.5 z'H_A z + h(w)'z + const(w),
 
-with (xs, us) the steady state of the reference r; R acts on u_k through the u-part of x~_{k+1}. delta_0 is
-penalised too (a constant for given x, but it gives every slack curvature: Lemma 2 of 002 needs it).
-Equality F z = b(w): x~_0 = (x, u_prev) and the dynamics. The parameter streamed to the core is
-w = (x, u_prev, r): the previously applied input is part of the state the user sends.
-K: box on du; hard boxes (inputs, `hard_states`) on stages 1..N (stage 0 is pinned by F z = b, a constraint
-there could only make the problem infeasible); soft sets |x_i - c_i| <= r_i + delta_i, delta_i >= 0 on all stages.
+with (xs, us) the steady state of the reference r; in the rate form R acts on u_k through the u-part of x~_{k+1},
+otherwise on the decision u_k directly (R is positive definite, so every decision input carries curvature without
+a rate weight). delta_0 is penalised too (a constant for given x, but it gives every slack curvature: Lemma 2 of
+002 needs it). Equality F z = b(w): x~_0 = (x, u_prev) (rate) or x_0 = x, and the dynamics. The parameter
+streamed to the core is w = (x, u_prev, r) in the rate form (the previously applied input is part of the state
+the user sends), w = (x, r) otherwise.
+K: box on the decision inputs (du: the rate box; u: the input box); hard boxes (the inputs in x~ under the rate
+form, `hard_states`) on stages 1..N (stage 0 is pinned by F z = b, a constraint there could only make the problem
+infeasible); soft sets |x_i - c_i| <= r_i + delta_i, delta_i >= 0 on all stages.
 """
 from __future__ import annotations
 
@@ -40,11 +47,11 @@ FREE, BOX, SOFT_X, SOFT_D = 0, 1, 2, 3
 class AdmmQP:
     problem: MpcProblem
     N: int
-    nu: int            # inputs (= size of each du_k)
-    nx: int            # augmented state size nx~ = nx + nu
+    nu: int            # inputs (= size of each decision input du_k or u_k)
+    nx: int            # state size per stage: nx~ = nx + nu (rate form) or nx
     ns: int            # soft components per stage |S|
     n: int             # n_A
-    nw: int            # w = (x, u_prev, r)
+    nw: int            # w = (x, u_prev, r) (rate form) or (x, r)
     H: np.ndarray      # H_A (n x n), PSD
     h_w: np.ndarray    # h(w) = h_w w + h0
     h0: np.ndarray
@@ -61,8 +68,10 @@ class AdmmQP:
     whi: np.ndarray
     sigma1: float
     sigma2: float
+    rate: bool = True  # the rate-augmented form (decision inputs du_k, w carries u_prev); else decision inputs u_k
 
     def du_index(self, k: int) -> slice:
+        """the k-th decision input: du_k in the rate form, u_k otherwise"""
         return slice(k * self.nu, (k + 1) * self.nu)
 
     def stage_offset(self, k: int) -> int:
@@ -82,8 +91,17 @@ class AdmmQP:
     def b(self, w) -> np.ndarray:
         return self.b_w @ np.asarray(w, dtype=float)
 
+    def w(self, x, u_prev, r) -> np.ndarray:
+        """The parameter of this form: (x, u_prev, r) in the rate form, (x, r) otherwise (u_prev unused)."""
+        parts = [x, u_prev, r] if self.rate else [x, r]
+        return np.concatenate([np.asarray(a, dtype=float).reshape(-1) for a in parts])
+
     def inputs(self, z) -> np.ndarray:
-        """u_0..u_{N-1} (N x nu) of a decision vector: the u-parts of x~_1..x~_N."""
+        """u_0..u_{N-1} (N x nu) of a decision vector: the u-parts of x~_1..x~_N (rate form), or the decision
+        inputs themselves."""
+        z = np.asarray(z)
+        if not self.rate:
+            return z[: self.N * self.nu].reshape(self.N, self.nu).copy()
         nx0 = self.problem.nx
         return np.array([z[self.x_index(k + 1)][nx0:] for k in range(self.N)])
 
@@ -106,10 +124,11 @@ def _constant(qp: AdmmQP, w) -> float:
 
 
 def build_admm_qp(p: MpcProblem) -> AdmmQP:
-    if p.input_rate is None:
-        raise ValueError(f"problem {p.name!r} has no input_rate section: the ADMM form augments the state with u_prev")
+    """The sparse form (8) of p: rate-augmented when p has an input_rate section, else with the inputs as
+    decision variables (module docstring)."""
+    rate = p.input_rate is not None
     N, nx0, nu = p.N, p.nx, p.nu
-    nx = nx0 + nu
+    nx = nx0 + nu if rate else nx0
     soft, hard = p.soft_states, p.hard_states
     S = () if soft is None else soft.indices
     ns = len(S)
@@ -117,8 +136,11 @@ def build_admm_qp(p: MpcProblem) -> AdmmQP:
     ny = p.ny
     nw = nx + ny
 
-    At = np.block([[p.A, p.B], [np.zeros((nu, nx0)), np.eye(nu)]])
-    Bt = np.vstack([p.B, np.eye(nu)])
+    if rate:
+        At = np.block([[p.A, p.B], [np.zeros((nu, nx0)), np.eye(nu)]])
+        Bt = np.vstack([p.B, np.eye(nu)])
+    else:
+        At, Bt = p.A, p.B
     Mx, Mu = steady_state_maps(p)
 
     H = np.zeros((n, n))
@@ -135,23 +157,31 @@ def build_admm_qp(p: MpcProblem) -> AdmmQP:
         return N * nu + k * (nx + ns)
 
     for k in range(N):
-        H[du(k), du(k)] = 2 * p.input_rate.weight
         kind[du(k)] = BOX
-        lo[du(k)] = p.input_rate.dumin
-        hi[du(k)] = p.input_rate.dumax
+        if rate:
+            H[du(k), du(k)] = 2 * p.input_rate.weight
+            lo[du(k)] = p.input_rate.dumin
+            hi[du(k)] = p.input_rate.dumax
+        else:                       # u_k itself: R's curvature and the input box
+            H[du(k), du(k)] = 2 * p.R
+            h_w[du(k), nx:] = -2 * p.R @ Mu
+            lo[du(k)] = p.umin
+            hi[du(k)] = p.umax
     soft_x, soft_d = [], []
     for k in range(N + 1):
         o = off(k)
-        xs_, us_ = slice(o, o + nx0), slice(o + nx0, o + nx)
+        xs_ = slice(o, o + nx0)
         Qk = p.QN if k == N else p.Q
         H[xs_, xs_] = 2 * Qk
         h_w[xs_, nx:] = -2 * Qk @ Mx
-        if k >= 1:  # u_{k-1} lives in x~_k
-            H[us_, us_] = 2 * p.R
-            h_w[us_, nx:] = -2 * p.R @ Mu
-            kind[us_] = BOX
-            lo[us_] = p.umin
-            hi[us_] = p.umax
+        if k >= 1:
+            if rate:                # u_{k-1} lives in x~_k
+                us_ = slice(o + nx0, o + nx)
+                H[us_, us_] = 2 * p.R
+                h_w[us_, nx:] = -2 * p.R @ Mu
+                kind[us_] = BOX
+                lo[us_] = p.umin
+                hi[us_] = p.umax
             if hard is not None:
                 idx = [o + i for i in hard.indices]
                 kind[idx] = BOX
@@ -165,7 +195,7 @@ def build_admm_qp(p: MpcProblem) -> AdmmQP:
             soft_x.append(xi)
             soft_d.append(di)
 
-    # F z = b(w): x~_0 = w[:nx]; x~_{k+1} - A~ x~_k - B~ du_k = 0
+    # F z = b(w): x~_0 = w[:nx]; x~_{k+1} - A~ x~_k - B~ v_k = 0
     neq = (N + 1) * nx
     F = np.zeros((neq, n))
     b_w = np.zeros((neq, nw))
@@ -180,13 +210,13 @@ def build_admm_qp(p: MpcProblem) -> AdmmQP:
     npairs = (N + 1) * ns
     soft_c = np.tile(soft.center, N + 1) if ns else np.zeros(0)
     soft_r = np.tile(soft.radius, N + 1) if ns else np.zeros(0)
-    wlo = np.concatenate([p.xmin, p.umin, p.rmin])
-    whi = np.concatenate([p.xmax, p.umax, p.rmax])
+    wlo = np.concatenate([p.xmin, p.umin, p.rmin] if rate else [p.xmin, p.rmin])
+    whi = np.concatenate([p.xmax, p.umax, p.rmax] if rate else [p.xmax, p.rmax])
     H = 0.5 * (H + H.T)
     out = AdmmQP(problem=p, N=N, nu=nu, nx=nx, ns=ns, n=n, nw=nw, H=H, h_w=h_w, h0=h0, F=F, b_w=b_w, kind=kind,
                  lo=lo, hi=hi, soft_x=np.array(soft_x, dtype=int), soft_d=np.array(soft_d, dtype=int),
                  soft_c=soft_c, soft_r=soft_r, wlo=wlo, whi=whi,
-                 sigma1=0.0 if soft is None else soft.sigma1, sigma2=0.0 if soft is None else soft.sigma2)
+                 sigma1=0.0 if soft is None else soft.sigma1, sigma2=0.0 if soft is None else soft.sigma2, rate=rate)
     assert len(out.soft_x) == npairs
     # F has full row rank by construction: an identity block on x~_k in every block row (block triangular)
     for a in (H, h_w, h0, F, b_w, kind, lo, hi, out.soft_x, out.soft_d, soft_c, soft_r, wlo, whi):
@@ -261,7 +291,7 @@ def _osqp(qp: AdmmQP, w, hard: bool, eps: float):
 
 
 def solve_soft_qp_osqp(qp: AdmmQP, w, eps: float = 1e-10) -> np.ndarray:
-    """Optimal z of the soft-constrained QP (8) at w = (x, u_prev, r)."""
+    """Optimal z of the soft-constrained QP (8) at w (qp.w: (x, u_prev, r) or (x, r))."""
     res = _osqp(qp, w, hard=False, eps=eps)
     if res.info.status_val != osqp.SolverStatus.OSQP_SOLVED:
         raise RuntimeError(f"OSQP did not solve the soft-constrained QP: status {res.info.status!r}")

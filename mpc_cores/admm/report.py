@@ -6,7 +6,7 @@ from mpc_cores.fixed import run_time_fields
 from mpc_cores.interleave import PASS_QUEUE, PASS_START, core_fields, report_lines
 from mpc_cores.target import dsp_count, report_line
 
-_WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (x, u_prev, r) after saturation, and the word 1",
+_WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (of w) after saturation, and the word 1",
          "v": "operand v = rho z - nu", "y": "y = M11 v + G~ (w, 1)", "q": "q = y + nu / rho", "z": "iterate z",
          "d": "y - z", "nu": "multiplier nu", "sum": "products and adder-tree partial sums",
          "msum": "sum of |products| of a row of M11 v", "gsum": "sum of |products| of a row of G~ (w, 1)"}
@@ -38,6 +38,8 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
         "module": hw["module"],
         "sv": f"{hw['module']}.sv",
         "n": d.n, "nu": d.nu, "nw": d.nw, "nx": q.nx, "ns": q.ns, "N": d.N,
+        "rate": d.rate,              # rate-augmented: w = (x, u_prev, r), du_0 out; else w = (x, r), u_0 out
+        "form": form(d),
         "P": d.P, "K": hw["K"],
         "frac_bits": b,
         **run_time_fields(d, sw),
@@ -76,6 +78,11 @@ def interleave_fields(d: AdmmDesign, hw: dict) -> dict:
     return fields
 
 
+def form(d: AdmmDesign) -> str:
+    """the QP's form in a phrase: what the core takes and what its first nu words are"""
+    return "w = (x, u_prev, r), du_0 out" if d.rate else "w = (x, r), u_0 out"
+
+
 def _precondition_line(d: AdmmDesign) -> list[str]:
     """the power-of-two preconditioner folded into the shifts, if the design has one"""
     if d.scaling is None:
@@ -103,7 +110,9 @@ def _method_core_lines(d: AdmmDesign) -> list[str]:
         return [f"  Method: Vu-Condat (Chambolle-Pock, L = I): tau = 1/rho, sigma = rho/2; rho = 2^{d.rho_log2}, "
                 f"sigma_j = 2^k_j with k_j in {ks} (the datapath's shifts), v = sigma (y + z) - nu"]
     a2 = d.assumption2
-    return [f"  rho = 2^{d.rho_log2}, shifts k_j in {ks} (soft pairs, du scaled{', preconditioned' if d.scaling is not None else ''})",
+    scaled = ("soft pairs, du scaled" if d.rate else "soft pairs scaled") + (
+        ", preconditioned" if d.scaling is not None else "")
+    return [f"  rho = 2^{d.rho_log2}, shifts k_j in {ks} ({scaled})",
             f"  Assumption 2 (002) on the quantised M11: eig on Ker F in [{a2['kernel_min']:.4g}, {a2['kernel_max']:.6f}] "
             f"(inside (0, 1)), spectral radius {a2['spectral_radius']:.6f} (< 1)"]
 
@@ -112,9 +121,13 @@ def design_report(d: AdmmDesign, core: dict | None = None) -> str:
     b = d.b
     one = 1 << b
     q = d.qp
+    nx = "nx~" if d.rate else "nx"
     lines = [
-        f"ADMM core for '{d.name}': n_A = {d.n} = N (nu + nx~ + |S|) + nx~ + |S| = {d.N} ({d.nu} + {q.nx} + {q.ns}) "
-        f"+ {q.nx} + {q.ns}, nw = {d.nw} (x, u_prev, r)",
+        f"ADMM core for '{d.name}': n_A = {d.n} = N (nu + {nx} + |S|) + {nx} + |S| = {d.N} ({d.nu} + {q.nx} + {q.ns}) "
+        f"+ {q.nx} + {q.ns}, nw = {d.nw}",
+        f"  Form: {form(d)} " + ("(input_rate: the state augmented with u_prev, decision inputs du_k; "
+                                 "u_0 = clip(u_prev + du_0, umin, umax))" if d.rate else
+                                 "(no input_rate: decision inputs u_k; u_0 = clip(u_0, umin, umax))"),
         f"  P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}, {d.rounding} products, b = {b} fraction bits",
         report_line(d.target, d.lat_mul, d.products(), [d.multipliers]),
         *_method_lines(d),

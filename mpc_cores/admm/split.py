@@ -93,6 +93,7 @@ class LinStep:
 def write_split(d, out_dir) -> tuple[list[Path], str]:
     """`make split` (CoreKind.split_fn): the block and the C solvers of design d into out_dir, and a short report."""
     from mpc_cores.admm.c import write_c
+    from mpc_cores.admm.report import form
     from mpc_cores.csrc.emit import names
 
     out = Path(out_dir)
@@ -100,7 +101,7 @@ def write_split(d, out_dir) -> tuple[list[Path], str]:
     files = [out / meta["sv"], out / "linstep.json"] + write_c(d, out)
     p = names(d.module_name).p
     report = "\n".join([
-        f"heterogeneous split of {d.module_name} ({d.method}): s = M11 v in hardware, the rest in C",
+        f"heterogeneous split of {d.module_name} ({d.method}; {form(d)}): s = M11 v in hardware, the rest in C",
         f"  block {meta['module']}: n = {meta['n']}, P = {meta['P']} row units, {meta['multipliers']} multipliers, "
         f"v words {meta['op_width']} bits in {meta['in_stream_width']}-bit beats, s words {meta['sum_width']} bits "
         f"in {meta['out_stream_width']}-bit beats (tuser: row saturated, v saturated, tlast misplaced)",

@@ -198,7 +198,7 @@ async def split_closed_loop(dut):
 
     class Split(_AdmmController):
         async def step(self, x, r):
-            w = quantize(np.concatenate([x, self.u_prev, r]), b)
+            w = quantize(self._w(x, r), b)
             words, flags, _ = await bridge(lib.solve)(hw_state, w, None, linstep=on_hw)
             assert lib.linstep_error is None, lib.linstep_error
             sw_words, sw_flags, _ = lib.solve(sw_state, w, None)
@@ -213,7 +213,8 @@ async def split_closed_loop(dut):
 
     steps, hold = int(os.environ.get("CL_STEPS", "12")), int(os.environ.get("CL_HOLD", "4"))
     refs = admm_references(problem, steps, hold, seed=int(os.environ.get("CL_SEED", "0")))
-    traj = await closed_loop(problem, Split(problem, int(cfg["nu"])), np.zeros(problem.nx), refs)
+    traj = await closed_loop(problem, Split(problem, int(cfg["nu"]), bool(cfg.get("rate", True))), np.zeros(problem.nx),
+                             refs)
     record["x"] = traj.x.tolist()
     Path(os.environ["CL_RESULT"]).write_text(json.dumps(record))
 
