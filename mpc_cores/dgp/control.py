@@ -22,7 +22,7 @@ import numpy as np
 
 from mpc_cores.closedloop import Controller
 from mpc_cores.dgp.model import DgpFixed
-from mpc_cores.dgp.problem import DgpQP, dgp_qp, solve_osqp
+from mpc_cores.dgp.problem import DgpQP, dgp_qp, solve_qp
 from mpc_cores.fixed import quantize
 from mpc_cores.problem import MpcProblem
 
@@ -30,8 +30,9 @@ HOLDABLE = 0.9   # references whose steady-state input lies in 90 % of the input
 
 
 class DgpOsqpController(Controller):
-    """Double precision: the DGP core's QP (with the state constraints) solved to optimality by OSQP. A state from
-    which the constraints cannot be met raises RuntimeError naming it."""
+    """Double precision: the DGP core's QP (with the state constraints) solved to optimality by OSQP
+    (mpc_cores.dgp.problem.solve_qp). A state from which an LP proves the constraints cannot be met raises
+    RuntimeError naming it as infeasible; OSQP failing on a feasible QP raises RuntimeError saying so."""
     name = "osqp"
 
     def __init__(self, problem: MpcProblem | DgpQP, eps: float = 1e-10):
@@ -41,11 +42,14 @@ class DgpOsqpController(Controller):
 
     def solve(self, x, r) -> np.ndarray:
         w = np.concatenate([np.asarray(x, dtype=float), np.asarray(r, dtype=float)])
-        z, _, _, st = solve_osqp(self.qp, w, eps=self.eps)
-        if st != "solved":
-            raise RuntimeError(f"the DGP QP has no solution at the state x = {np.round(x, 6).tolist()} "
-                               f"(OSQP: {st})")
-        return z
+        a = solve_qp(self.qp, w, eps=self.eps)
+        if a.status == "infeasible":
+            raise RuntimeError(f"the DGP QP is infeasible at the state x = {np.round(x, 6).tolist()} (an LP proves "
+                               f"it: the largest slack on the constraints is {a.margin / self.qp.sigma:.4g} < 0)")
+        if a.status != "solved":
+            raise RuntimeError(f"OSQP failed to solve the DGP QP at the state x = {np.round(x, 6).tolist()}, which "
+                               f"an LP shows feasible (OSQP: {a.status})")
+        return a.z
 
     async def step(self, x, r):
         return self.solve(x, r)[: self.nu]

@@ -1,10 +1,11 @@
 """DGP front end: from an MPC problem with state constraints to the quantised data and word widths of the core.
 
 The dual box (14)-(15) of 003: d_i >= max(y*_i, 1) with y* the dual solutions over the accepted box of w = (x, r),
-found by solving the QP (OSQP) at every vertex of that box (4096 of them at most, else 4096 random vertices) and at
-random interior points, times a margin (`dual_margin`, 2 by default); the projection box is [0, alpha d] with
-alpha = 2, the choice of (22). This is sampled, not the certified bound of Remark 1 of 003: y* is piecewise affine
-in w and may peak inside the box.
+found by solving the QP (OSQP; where it stops short, an LP decides feasibility and the dual active-set method
+solves a feasible QP: mpc_cores.dgp.problem.solve_qp) at every vertex of that box (4096 of them at most, else 4096
+random vertices) and at random interior points, times a margin (`dual_margin`, 2 by default); the projection box
+is [0, alpha d] with alpha = 2, the choice of (22). This is sampled, not the certified bound of Remark 1 of 003: y*
+is piecewise affine in w and may peak inside the box.
 
 Fraction bits p from (36) and integer bits r from (37), on the scaled problem (L = 1, mpc_cores.dgp.problem):
   p >= log2( m sqrt(n) / ( sqrt(eps / L_V + (n / m) (2 D / L_V)^2) - sqrt(n / m) 2 D / L_V ) ) - 1,
@@ -26,7 +27,7 @@ import numpy as np
 
 from mpc_cores.design_base import (FixedPointDesign, apply_target, module_suffix, run_options, solver_opt,
                                    target_option)
-from mpc_cores.dgp.problem import DgpQP, dgp_qp, solve_osqp
+from mpc_cores.dgp.problem import DgpQP, dgp_qp, solve_qp
 from mpc_cores.errors import DesignError
 from mpc_cores.fixed import bits_for, quantize
 from mpc_cores.problem import MpcProblem
@@ -155,8 +156,8 @@ _DUALS_CACHE: dict = {}
 
 def sample_duals(qp: DgpQP, p: MpcProblem, samples: int = 256, seed: int = 0) -> np.ndarray:
     """Largest dual (upper rows, lower rows) over the vertices of the box of w = (x, r) (every one up to 4096,
-    else 4096 random ones) and `samples` random points of it; refuses a state of the box for which the QP is
-    infeasible. Cached per problem data within a process."""
+    else 4096 random ones) and `samples` random points of it (solve_qp); refuses a state of the box for which an LP
+    proves the QP infeasible. Cached per problem data within a process."""
     import hashlib
 
     key = hashlib.sha256(b"".join(np.ascontiguousarray(a, dtype=float).tobytes() for a in
@@ -174,12 +175,16 @@ def sample_duals(qp: DgpQP, p: MpcProblem, samples: int = 256, seed: int = 0) ->
     pts += [rng.uniform(wlo, whi) for _ in range(samples)]
     ymax = np.zeros(qp.m)
     for w in pts:
-        _, yp, ym, st = solve_osqp(qp, w, eps=1e-7)
-        if st != "solved":
-            raise DesignError(f"the QP is infeasible at the state x = {np.round(w[:nx], 4).tolist()} of the accepted "
-                              f"box (OSQP: {st}); shrink `states` to a box of states from which the constraints "
-                              f"can be met")
-        ymax = np.maximum(ymax, np.concatenate([yp, ym]))
+        a = solve_qp(qp, w, eps=1e-7)
+        x = np.round(w[:nx], 4).tolist()
+        if a.status == "infeasible":
+            raise DesignError(f"the QP is infeasible at the state x = {x} of the accepted box (an LP proves it: the "
+                              f"largest slack on the constraints is {a.margin / qp.sigma:.4g} < 0); shrink `states` "
+                              f"to a box of states from which the constraints can be met")
+        if a.status != "solved":
+            raise DesignError(f"OSQP failed to solve the QP at the state x = {x} of the accepted box, which an LP "
+                              f"shows feasible (slack {a.margin / qp.sigma:.4g}; OSQP: {a.status})")
+        ymax = np.maximum(ymax, np.concatenate([a.yp, a.ym]))
     _DUALS_CACHE[key] = ymax
     return ymax.copy()
 

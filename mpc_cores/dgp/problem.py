@@ -81,9 +81,8 @@ def dgp_qp(p: MpcProblem) -> DgpQP:
                  Lw=s * np.vstack(Lw), sigma=s, n=n, nw=nw, nu=qp.nu, N=N, n_input_rows=n)
 
 
-def solve_osqp(qp: DgpQP, w, eps: float = 1e-9):
-    """(z*, y*+, y*-, status) of the scaled problem by OSQP (y in the scaled problem's units); status 'solved' or
-    OSQP's word for what went wrong (an infeasible state)."""
+def _osqp(qp: DgpQP, w, eps: float):
+    """OSQP's result for the scaled problem at w (adaptive rho, scaling and polish on: OSQP's defaults and ours)"""
     import osqp
 
     from mpc_cores.quiet import c_output_silenced
@@ -94,10 +93,120 @@ def solve_osqp(qp: DgpQP, w, eps: float = 1e-9):
                A=sp.csc_matrix(qp.G), l=lo, u=hi, verbose=False, eps_abs=eps, eps_rel=eps, max_iter=200_000,
                polishing=True)
     with c_output_silenced():
-        res = prob.solve(raise_error=False)
+        return prob.solve(raise_error=False)
+
+
+def solve_osqp(qp: DgpQP, w, eps: float = 1e-9):
+    """(z*, y*+, y*-, status) of the scaled problem by OSQP (y in the scaled problem's units); status 'solved' or
+    OSQP's word for what went wrong (an infeasible state, or OSQP stopping short: solve_qp tells them apart)."""
+    import osqp
+
+    res = _osqp(qp, w, eps)
     st = "solved" if res.info.status_val == osqp.SolverStatus.OSQP_SOLVED else str(res.info.status)
     y = res.y if res.y is not None else np.zeros(qp.mc)
     return res.x, np.maximum(y, 0.0), np.maximum(-y, 0.0), st
+
+
+FEAS_TOL = 1e-9      # the LP's slack below which the constraint set is empty (relative to the bounds' size)
+
+
+def feasible(qp: DgpQP, w, tol: float = FEAS_TOL) -> tuple[bool, float]:
+    """Whether some z meets lo(w) <= G z <= hi(w), decided by an LP (HiGHS): the largest slack t <= 1 with
+    G z <= hi - t and G z >= lo + t on the finite bounds. Returns (t* >= -tol max(1, |bounds|), t*), t* in the
+    scaled problem's units (divide by sigma for the spec's)."""
+    from scipy.optimize import linprog
+
+    lo, hi = qp.bounds(w)
+    up, dn = np.isfinite(hi), np.isfinite(lo)
+    b = np.concatenate([hi[up], -lo[dn]])
+    if b.size == 0:
+        return True, 1.0
+    A = np.hstack([np.vstack([qp.G[up], -qp.G[dn]]), np.ones((b.size, 1))])
+    c = np.zeros(qp.n + 1)
+    c[-1] = -1.0
+    res = linprog(c, A_ub=A, b_ub=b, bounds=[(None, None)] * qp.n + [(None, 1.0)], method="highs")
+    # z = 0 with t = min(b) is a feasible point and t <= 1 bounds the objective: any status but 0 (optimal) is
+    # HiGHS failing, not an answer about the constraints
+    if res.status != 0:
+        raise RuntimeError(f"the feasibility LP failed: HiGHS status {res.status} ({res.message})")
+    t = -float(res.fun)
+    return t >= -tol * max(1.0, float(np.abs(b).max())), t
+
+
+def kkt_residual(qp: DgpQP, z, y, w) -> float:
+    """The largest relative KKT residual of (z, y), y = y+ - y- (scaled units): stationarity Q z + q + G'y = 0,
+    the bounds, and complementarity (which also catches a multiplier of the wrong sign)."""
+    w = np.asarray(w, dtype=float)
+    lo, hi = qp.bounds(w)
+    s = qp.G @ z
+    terms = (qp.Q @ z, qp.Phi @ w, qp.G.T @ y)
+    stat = float(np.abs(sum(terms)).max()) / (1.0 + max(float(np.abs(t).max()) for t in terms))
+    size = max(1.0, float(np.abs(np.concatenate([lo[np.isfinite(lo)], hi[np.isfinite(hi)]])).max(initial=0.0)))
+    gap = np.zeros(qp.mc)
+    u, d = y > 0, y < 0
+    gap[u] = y[u] * (hi[u] - s[u])
+    gap[d] = -y[d] * (s[d] - lo[d])
+    comp = float(np.abs(gap).max(initial=0.0)) / (size * (1.0 + float(np.abs(y).max(initial=0.0))))
+    return max(stat, violation(qp, z, w) / size, comp)
+
+
+def dual_active_set(qp: DgpQP, w):
+    """(z*, y*) of the QP at w, y = y+ - y-, by the dual active-set method of Goldfarb and Idnani (quadprog):
+    exact up to rounding where OSQP's first-order iterations stall on large multipliers; None when quadprog finds
+    the constraints inconsistent."""
+    import quadprog
+
+    w = np.asarray(w, dtype=float)
+    lo, hi = qp.bounds(w)
+    up, dn = np.flatnonzero(np.isfinite(hi)), np.flatnonzero(np.isfinite(lo))
+    C = np.vstack([-qp.G[up], qp.G[dn]]).T          # C'z >= b: -G z >= -hi, G z >= lo
+    try:
+        z, _, _, _, lam, _ = quadprog.solve_qp(np.array(qp.Q, dtype=float), -(qp.Phi @ w), C,
+                                               np.concatenate([-hi[up], lo[dn]]), 0)
+    except ValueError:
+        return None
+    y = np.zeros(qp.mc)
+    y[up] += lam[: up.size]
+    y[dn] -= lam[up.size:]
+    return z, y
+
+
+def _retries(qp: DgpQP, w, eps: float):
+    """Answers to a feasible QP that OSQP left unsolved at eps: OSQP to a looser tolerance (large multipliers can
+    keep the dual residual above a tight eps however long it runs, while a looser one is reached, and OSQP's
+    polish then solves the KKT system of the active set exactly); the dual active-set method."""
+    res = _osqp(qp, w, max(eps, 1e-4))
+    if res.x is not None and res.y is not None:
+        yield res.x, res.y
+    ans = dual_active_set(qp, w)
+    if ans is not None:
+        yield ans
+
+
+@dataclass(frozen=True, eq=False)
+class QpAnswer:
+    """What solve_qp found at one w (y+, y- in the scaled problem's units)"""
+    z: np.ndarray | None
+    yp: np.ndarray
+    ym: np.ndarray
+    status: str                  # 'solved', 'infeasible' (the LP proved it) or OSQP's word for its failure
+    margin: float | None = None  # the LP's slack t* (feasible), when the LP was run
+
+
+def solve_qp(qp: DgpQP, w, eps: float = 1e-9) -> QpAnswer:
+    """The QP at w by OSQP; where OSQP does not return 'solved', an LP (feasible) decides whether the state is
+    infeasible, and a feasible QP is solved again (_retries), an answer being taken when its KKT residual is at
+    most max(eps, 1e-9)."""
+    z, yp, ym, st = solve_osqp(qp, w, eps)
+    if st == "solved":
+        return QpAnswer(z, yp, ym, st)
+    ok, t = feasible(qp, w)
+    if not ok:
+        return QpAnswer(None, yp, ym, "infeasible", t)
+    for zr, yr in _retries(qp, w, eps):
+        if np.all(np.isfinite(zr)) and np.all(np.isfinite(yr)) and kkt_residual(qp, zr, yr, w) <= max(eps, 1e-9):
+            return QpAnswer(zr, np.maximum(yr, 0.0), np.maximum(-yr, 0.0), "solved", t)
+    return QpAnswer(z, yp, ym, st, t)
 
 
 def objective(qp: DgpQP, z, w) -> float:
