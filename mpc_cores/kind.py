@@ -113,13 +113,10 @@ class CoreKind:
 
 
 def refuse_sections(problem, kind: str, enforced: tuple[str, ...]) -> None:
-    """A spec with a constraint section the core does not enforce is refused, naming the section and the kinds that
-    enforce it: a core never drops a constraint."""
+    """A spec with a constraint section the core does not enforce is refused, naming the section: a core never
+    drops a constraint (docs/spec.md lists the kinds that enforce each section)."""
     extra = [k for k in SECTIONS if getattr(problem, k, None) is not None and k not in enforced]
     if extra:
-        from mpc_cores import registry
-
-        by = [k.name for k in registry.kinds().values() if extra[0] in k.constraints]
         raise DesignError(f"CORE={kind} enforces the input box{''.join(' and ' + e for e in enforced)} only: the "
-                          f"spec has {' and '.join(extra)}, which it would not enforce (CORE={' or '.join(by)} "
-                          f"enforces {extra[0]})")
+                          f"spec has {' and '.join(extra)}, which it would not enforce (the kinds that do: "
+                          f"docs/spec.md#constraint-sections)")
