@@ -157,6 +157,8 @@ ADMM_CASES = {
     "rand_soft_n26_p2_l24_ecp5": (lambda: random_problem("ra26", 3, 1, 3, 2, 6, input_rate=RATE,
                                                          soft_states=SOFT2),
                                   dict(P=2, frac_bits=16, lat_add=2, lat_mul=4, target="ecp5"), 30),
+    # the plain sparse form (no input_rate: decision inputs u_k, w = (x, r), u_0 out) on masses, n_A = 128
+    "masses_norate_p1_b16": (lambda: load_spec(REPO / "examples/masses.yaml"), dict(P=1, iterations=6), 12),
     # no soft states (box projection only), P = 5 does not divide n_A = 19
     "rand_rate_n19_p5": (lambda: random_problem("rr19", 3, 1, 4, 1, 7, input_rate=RATE),
                          dict(P=5, frac_bits=15), 40),

@@ -2,7 +2,7 @@
 input-rate and soft state constraints and a spread of P, latencies and rounding, and the plain sparse form of a
 spec without input_rate; generator refusals.
 
-The suite's cores are elaborated in one generator run (session fixture; the plain form's core in one of its own);
+The suite's cores are elaborated in one generator run (session fixture);
 each case builds its Verilator model once and runs every scenario of verif/admm/tb.py on it.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ from conftest import ADMM_BUILD, ADMM_CASES, case_params
 from mpc_cores.admm.control import AdmmFixedController, admm_references
 from mpc_cores.admm.design import design_admm
 from mpc_cores.closedloop import run_closed_loop
-from mpc_cores.flow import REPO, GeneratorError, generate_admm, run_generator
+from mpc_cores.flow import REPO, GeneratorError, run_generator
 from mpc_cores.problem import load_spec
 from mpc_cores.sim import run_cocotb
 
@@ -53,38 +53,23 @@ def run_scenarios(out, solves: int) -> None:
         assert cyc["period_cycles"] == core["period_cycles"]
 
 
-# The plain sparse form (a spec without input_rate: decision inputs u_k, states not augmented, w = (x, r), u_0 out)
-# on masses.yaml (n_A = 128, nw = 12), P = 1, a small Imax
+# The plain sparse form's core (a spec without input_rate; ADMM_CASES) in the closed loop
 NORATE = "masses_norate_p1_b16"
-NORATE_SOLVES = 12
 NORATE_STEPS, NORATE_HOLD, NORATE_SEED = 8, 4, 3
 
 
-@pytest.fixture(scope="module")
-def norate_core():
-    """(spec path, design, output folder) of the plain form's core, elaborated in a generator run of its own."""
-    spec = REPO / "examples/masses.yaml"
-    d = design_admm(load_spec(spec), P=1, iterations=6)
-    out = ADMM_BUILD / NORATE
-    generate_admm([(d, out)])
-    return spec, d, out
-
-
-def test_rtl_norate_matches_golden_model(norate_core, request):
-    """The plain form is the same generator and datapath with other data: every scenario of verif/admm/tb.py word for
-    word against the golden model built from its config.json (warm starts shift the u_k like the du_k)."""
-    _, d, out = norate_core
-    core = json.loads((out / "core.json").read_text())
-    cfg = json.loads((out / "config.json").read_text())
+def test_rtl_norate_layout(admm_cores):
+    core = json.loads((admm_cores[NORATE] / "core.json").read_text())
+    cfg = json.loads((admm_cores[NORATE] / "config.json").read_text())
     assert cfg["rate"] is False and core["rate"] is False and core["form"] == "w = (x, r), u_0 out"
-    assert (core["n"], core["nw"], core["nx"]) == (128, 12, 8) and not d.rate
-    run_scenarios(out, request.config.getoption("--random-solves") or NORATE_SOLVES)
+    assert (core["n"], core["nw"], core["nx"]) == (128, 12, 8)
 
 
-def test_rtl_norate_closed_loop(norate_core):
+def test_rtl_norate_closed_loop(admm_cores):
     """The core in the closed loop (mpc_cores.closedloop_tb, AdmmRtlController: w = (x, r) out, u_0 = clip of the
     first words back, from core.json's `rate`): the words and the states of the golden model's loop."""
-    spec, d, out = norate_core
+    spec, out = REPO / "examples/masses.yaml", admm_cores[NORATE]
+    d = design_admm(load_spec(spec), P=1, iterations=6)
     core = json.loads((out / "core.json").read_text())
     p = load_spec(spec)
     golden = AdmmFixedController(d)

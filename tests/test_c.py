@@ -27,8 +27,6 @@ DESIGNS = {
     **{f"admm_{k}": ("admm", p, ov) for k, (p, ov, _) in ADMM_CASES.items()},
     "admm_rand_outall_cold": ("admm", ADMM_CASES["rand_rate_n19_p5"][0], dict(frac_bits=15, output_all=True,
                                                                               warm_start=False, iterations=12)),
-    # the plain sparse form of a spec without input_rate (w = (x, r), u_0 out; the warm start shifts the u_k)
-    "admm_masses_norate": ("admm", MASSES, dict(iterations=8)),
 }
 SOLVES = {"fgm": 80, "admm": 40}
 
@@ -178,7 +176,7 @@ def _float_reference(kind, d):
 
 
 @pytest.mark.parametrize("did", ["fgm_masses_p1_b16", "admm_rand_soft_n19_p3_l00_trunc", "admm_rand_rate_n19_p5",
-                                 "admm_masses_norate"])
+                                 "admm_masses_norate_p1_b16"])
 def test_float_variant(did, designs, tmp_path):
     """The float variant (double) against the float64 reference of the same algorithm and warm start (numpy FGM of
     the bench, AdmmFloat) over a warm-started sequence in the parameter box: within 1e-9 (docs/c.md: only the order
