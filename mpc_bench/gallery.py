@@ -2,9 +2,10 @@
 its design flow and the design check (mpc_cores.check), into docs/gallery.md (plant x kind).
 
 Each pair runs `checked_design` with the gallery's target (TARGET_GAP: the closed-loop cost within 1 % of the
-optimal MPC's, the hard constraints within 0.1 % of their ranges) and the spec's budget of cycles per solve, so the
-flow chooses the iteration count. A pair is:
-  usable        the check passes at the chosen count;
+optimal MPC's, the hard constraints within 0.1 % of their ranges) and budget (BUDGET cycles per solve), so the flow
+chooses the iteration count. A pair is:
+  usable        the check passes at the chosen count, within the budget, and the core fits the LFE5U-85F;
+  does not fit  the check passes, but the core's products take more MULT18X18D than the part has;
   fails check   no count within the budget passes (the numbers of the last one tried);
   refused       the design flow refuses the spec (the rule it names), or the kind does not enforce a section.
 
@@ -26,6 +27,7 @@ from mpc_cores.progress import bar
 
 EXAMPLES = REPO / "examples"
 TARGET_GAP = 1.0
+BUDGET = 20_000   # cycles per solve: 100 us at 200 MHz
 PART_DSPS = 156   # MULT18X18D of the LFE5U-85F
 
 
@@ -37,7 +39,7 @@ def _sections(p) -> list[str]:
     return [s for s in SECTIONS if getattr(p, s) is not None]
 
 
-def run_pair(spec: str, kind_name: str, gap: float, samples: int | None) -> dict:
+def run_pair(spec: str, kind_name: str, gap: float, samples: int | None, budget: int = BUDGET) -> dict:
     """One plant x kind: the outcome and the check's numbers (picklable, for the process pool)."""
     import dataclasses
 
@@ -52,8 +54,12 @@ def run_pair(spec: str, kind_name: str, gap: float, samples: int | None) -> dict
     row = {"plant": p.name, "kind": kind_name, "sections": _sections(p)}
     t = time.time()
     try:
-        d, res = checked_design(kind, p, {}, target=gap)
-        row["outcome"] = "usable"
+        d, res = checked_design(kind, p, {}, target=gap, budget=budget)
+        f = res.facts
+        row["outcome"] = ("fails check" if f["cycles"] > budget else
+                          "does not fit" if f["dsp_ecp5"] is not None and f["dsp_ecp5"] > PART_DSPS else "usable")
+        if f["cycles"] > budget:
+            row["why"] = f"{f['cycles']} cycles per solve at the spec's iteration count, over the budget of {budget}"
     except CheckFailed as e:
         d, res = e.design, e.result
         row["outcome"] = "fails check"
@@ -92,15 +98,17 @@ def _fits(row) -> str:
     return f"{'yes' if dsp <= PART_DSPS else 'no'} ({dsp} MULT18X18D)"
 
 
-def markdown(rows: list[dict], gap: float, seconds: float) -> str:
+def markdown(rows: list[dict], gap: float, budget: int, seconds: float) -> str:
     out = ["# Examples gallery", "",
            "Every core kind on every plant of `examples/` whose constraint sections it enforces: its design flow with "
            f"the design check ([verification.md](verification.md#design-check)) at a target of {gap:g} % "
            "(closed-loop cost against the optimal MPC's, and the median suboptimality of the sampled states), the "
-           "iteration count chosen by the flow within the spec's budget of cycles per solve. Written by "
+           f"iteration count chosen by the flow within a budget of {budget:,} cycles per solve. Written by "
            f"`make gallery` ({seconds / 60:.1f} min); each plant's source is in the header of its spec.", "",
-           "Outcome: **usable** (the check passes), **fails check** (no iteration count within the budget passes; "
-           "the numbers are those of the last count tried) or **refused** (the rule). Violations: the worst along "
+           "Outcome: **usable** (the check passes within the budget and the core fits the LFE5U-85F), **does not "
+           "fit** (it passes, but its products take more MULT18X18D than the part's 156), **fails check** (no "
+           "iteration count within the budget passes; the numbers are those of the last count tried) or "
+           "**refused** (the rule). Violations: the worst along "
            "the closed loop, absolute and as a fraction of the constraint's range (soft states for information). "
            "Multipliers: the core's products; MULT18X18D: those products on the ECP5's 18 x 18 DSPs (the "
            "LFE5U-85F has 156); interior-point cores are floating point, counted by `make bench`.", ""]
@@ -137,16 +145,18 @@ def _short(r) -> str:
         return f"usable, {_num(r.get('gap'))}"
     if r["outcome"] == "fails check":
         return f"fails, {_num(r.get('gap'))}"
+    if r["outcome"] == "does not fit":
+        return f"does not fit, {_num(r.get('gap'))}"
     return "refused"
 
 
 def run(specs: list[Path], kinds: list[str], gap: float = TARGET_GAP, samples: int | None = None,
-        workers: int = 2) -> list[dict]:
+        workers: int = 2, budget: int = BUDGET) -> list[dict]:
     """The rows of every plant x kind (kinds without a closed loop, MINRES, are left out)."""
     pairs = [(str(s), k) for s in specs for k in kinds if registry.get(k).has_demo]
     rows = []
     with ProcessPoolExecutor(max_workers=workers) as ex:
-        futs = [ex.submit(run_pair, s, k, gap, samples) for s, k in pairs]
+        futs = [ex.submit(run_pair, s, k, gap, samples, budget) for s, k in pairs]
         for f in bar(futs, desc="gallery", unit="pair"):
             rows.append(f.result())
     return rows
@@ -157,6 +167,7 @@ def main(argv=None) -> None:
     ap.add_argument("--plants", help="comma-separated spec names of examples/ (default: all)")
     ap.add_argument("--kinds", help=f"comma-separated kinds (default: {', '.join(registry.names())})")
     ap.add_argument("--gap", type=float, default=TARGET_GAP)
+    ap.add_argument("--budget", type=int, default=BUDGET, help="cycles per solve")
     ap.add_argument("--samples", type=int, help="sampled states per pair (default: the spec's check.samples)")
     ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
     ap.add_argument("--out", default=str(REPO / "docs" / "gallery.md"))
@@ -167,9 +178,9 @@ def main(argv=None) -> None:
         specs = [s for s in specs if s.stem in want]
     kinds = a.kinds.split(",") if a.kinds else list(registry.names())
     t = time.time()
-    rows = run(specs, kinds, a.gap, a.samples, a.workers)
+    rows = run(specs, kinds, a.gap, a.samples, a.workers, a.budget)
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(a.out).write_text(markdown(rows, a.gap, time.time() - t))
+    Path(a.out).write_text(markdown(rows, a.gap, a.budget, time.time() - t))
     print(f"wrote {a.out}: {sum(r['outcome'] == 'usable' for r in rows)} usable of {len(rows)} pairs")
 
 

@@ -42,5 +42,5 @@ def test_a_subset_of_pairs(plant, kind, outcome):
         assert row["cycles"] > 0 and "gap" in row
     if outcome == "usable":
         assert abs(row["gap"]) <= 1.0 and all(r <= 1e-3 for _, r in row["violations"].values())
-    md = markdown([row], 1.0, 1.0)
+    md = markdown([row], 1.0, 20_000, 1.0)
     assert f"| {row['plant']} | {kind} | {outcome}" in md
