@@ -77,7 +77,7 @@ def run_pair(spec: str, kind_name: str, gap: float, samples: int | None, budget:
         row.update(gap=res.gap, violations={c: v for c, v in res.violations.items()}, diverged=res.diverged,
                    subopt=(res.subopt_median, res.subopt_worst), iterations=f["iterations_text"], cycles=f["cycles"],
                    multipliers=f["multipliers"], dsp_ecp5=f["dsp_ecp5"], words=f["words"],
-                   flagged={k: v for k, v in res.flagged.items() if v})
+                   flagged={k: v for k, v in res.flagged.items() if v}, outside=res.outside, steps=res.steps)
     row["seconds"] = time.time() - t
     return row
 
@@ -88,7 +88,10 @@ def _num(v, fmt="{:+.3g} %") -> str:
 
 def _viol(row) -> str:
     v = row.get("violations") or {}
-    return "<br>".join(f"{c}: {a:.3g} ({100 * r:.2g} %)" for c, (a, r) in v.items()) or "—"
+    out = [f"{c}: {a:.3g} ({100 * r:.2g} %)" for c, (a, r) in v.items()]
+    if row.get("outside"):
+        out.append(f"outside the accepted box in {row['outside']} of {row['steps']} steps")
+    return "<br>".join(out) or "—"
 
 
 def _fits(row) -> str:
@@ -109,7 +112,8 @@ def markdown(rows: list[dict], gap: float, budget: int, seconds: float) -> str:
            "fit** (it passes, but its products take more MULT18X18D than the part's 156), **fails check** (no "
            "iteration count within the budget passes; the numbers are those of the last count tried) or "
            "**refused** (the rule). Violations: the worst along "
-           "the closed loop, absolute and as a fraction of the constraint's range (soft states for information). "
+           "the closed loop, absolute and as a fraction of the constraint's range (soft states for information), and the "
+           "steps whose state or reference left the box the core accepts (the core saturates them). "
            "Multipliers: the core's products; MULT18X18D: those products on the ECP5's 18 x 18 DSPs (the "
            "LFE5U-85F has 156); interior-point cores are floating point, counted by `make bench`.", ""]
     kinds = [k for k in registry.names()]

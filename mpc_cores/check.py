@@ -66,6 +66,7 @@ class CheckResult:
     sample_violations: dict = field(default_factory=dict)  # the sampled u0's input box and rate, as `violations`
     infeasible_samples: int = 0      # sampled states from which no plan meets the hard constraints
     steps: int = 0
+    outside: int = 0                 # loop steps whose state or reference lay outside the box the core accepts
     target: float | None = None
     tol: float = 1e-3
     scenario_error: str = ""
@@ -107,6 +108,8 @@ class CheckResult:
         f = self.facts
         viol = ", ".join(f"{c} {a:.3g} ({100 * r:.2g} %)" for c, (a, r) in self.violations.items())
         flags = "".join(f", {what} in {k} solves" for what, k in self.flagged.items() if k)
+        if self.outside:
+            flags += f", the state or reference outside the accepted box (saturated at the core) in {self.outside} steps"
         sv = ", ".join(f"{c} {a:.3g} ({100 * r:.2g} %)" for c, (a, r) in self.sample_violations.items() if a > 0)
         samples = (f"{len(self.subopt)} sampled states: suboptimality median {_pct(self.subopt_median)}, worst "
                    f"{_pct(self.subopt_worst)}" + (f", u0 outside {sv}" if sv else "")
@@ -223,6 +226,8 @@ def check_design(kind, d, target: float | None = None) -> CheckResult:
     with np.errstate(all="ignore"):
         traj = asyncio.run(closed_loop(p, g, x0, refs))
     res.diverged = _diverged(p, traj.x)
+    res.outside = int(np.sum(np.any((traj.x[:-1] < p.xmin) | (traj.x[:-1] > p.xmax), axis=1)
+                             | np.any((traj.r < p.rmin) | (traj.r > p.rmax), axis=1)))
     res.violations = _violations(p, traj.x, traj.u)
     if opt is not None:
         res.gap = 100.0 * (traj.cost - opt.cost) / max(opt.cost, 1e-12)
