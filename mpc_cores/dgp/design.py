@@ -10,7 +10,10 @@ is piecewise affine in w and may peak inside the box.
 Fraction bits p from (36) and integer bits r from (37), on the scaled problem (L = 1, mpc_cores.dgp.problem):
   p >= log2( m sqrt(n) / ( sqrt(eps / L_V + (n / m) (2 D / L_V)^2) - sqrt(n / m) 2 D / L_V ) ) - 1,
        eps = min(eps_g sigma, eps_V), m = 2 mc one-sided rows, D = ||d||_2, L_V = lambda_max(Q);
-  r >= log2(max(y^, z^, g^) + 1) + 1,  y^ = alpha ||d||_inf, z^ = ||E||_inf y^ + ||e||_inf, g^ = ||A||_inf z^ + ||b||_inf.
+  r >= log2(max(y^, z^, g^) + 1) + 1,  y^ = alpha ||d||_inf, z^ = max_i z^_i, g^ = max_i (sum_j |G_ij| z^_j + b^_i),
+       z^_i = sum_j |K_ij| alpha max(d+_j, d-_j) + e^_i, e^ and b^ the largest |e(w)| and |bounds(w)| over the box:
+       (37) taken row by row (its z^ = ||E||_inf y^ + ||e||_inf and g^ = ||A||_inf z^ + ||b||_inf bound the same
+       words, less tightly: they pair the largest dual with the longest row, and count y+ and y- both).
 Every data word (y, v, z, s, g and the bounds) has r + p bits, as in section VI of 003. The accelerated form's
 extrapolated dual is clipped to the same box [0, alpha d], so (37) holds for it unchanged; (36) is applied as it
 stands (the accelerated form's round-off is checked by simulation, docs/dgp.md).
@@ -247,10 +250,15 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     wabs = np.maximum(np.abs(wlo), np.abs(whi))
     K, Fe = qp.K, qp.Fe
     yhat = ALPHA * float(d.max())
-    ehat = float(np.max(np.abs(Fe) @ wabs))
-    zhat = 2 * float(np.max(np.abs(K).sum(axis=1))) * yhat + ehat          # ||E||_inf, E = [K, -K]
+    # (37) row by row: the dual words lie in [0, alpha d], so |v_j| = |y+_j - y-_j| <= alpha max(d+_j, d-_j) and
+    # |z_i| <= sum_j |K_ij| |v_j| + |e_i|, |s_i| <= sum_j |G_ij| |z_j|; the norms of (37) bound the same sums by
+    # ||E||_inf ||y||_inf and ||A||_inf ||z||_inf, which pair the largest dual with the longest row
+    evec = np.abs(Fe) @ wabs
+    ehat = float(evec.max())
+    zvec = np.abs(K) @ (ALPHA * np.maximum(d[:mc], d[mc:])) + evec
+    zhat = float(zvec.max())
     bnd = np.maximum(np.abs(qp.lo0) + np.abs(qp.Lw) @ wabs, np.abs(qp.hi0) + np.abs(qp.Lw) @ wabs)
-    ghat = float(np.max(np.abs(qp.G).sum(axis=1))) * zhat + float(bnd.max())
+    ghat = float(np.max(np.abs(qp.G) @ zvec + bnd))
     r37 = math.ceil(math.log2(max(yhat, zhat, ghat) + 1) + 1)
     r = int(opt("int_bits", r37))
     if r < r37:
