@@ -25,10 +25,11 @@ def wmax(width: int) -> int:
 
 
 def quantize(x, b: int, mode: str = "nearest") -> np.ndarray:
-    """Real values to integer words with b fraction bits ('nearest', 'floor' or 'ceil')."""
+    """Real values to integer words with b fraction bits ('nearest', 'floor' or 'ceil'); beyond +-2^62 (wider than
+    any word the design flows accept, which refuse such widths) clipped there rather than wrapped by the cast."""
     s = np.asarray(x, dtype=float) * (1 << b)
     f = {"nearest": np.round, "floor": np.floor, "ceil": np.ceil}[mode]
-    return f(s).astype(np.int64)
+    return np.clip(f(s), -(2.0 ** 62), 2.0 ** 62).astype(np.int64)
 
 
 def to_real(q, b: int) -> np.ndarray:
