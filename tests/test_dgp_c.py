@@ -130,7 +130,7 @@ def replay(cfg: dict, lib: Lib, episodes: int, imax_hi: int, seed: int) -> Count
     """Episodes of 4 consecutive solves of a parameter drifting from a random point of the box (as in a closed loop:
     the warm start is close), side by side with the golden model: Imax in [1, imax_hi] or the reset values (ctrl
     NULL), mostly warm, OUT_ALL or not, 5 % of the words outside the box (within the stream word), a reset now and
-    then. Asserts every word, flag, iteration count and the state's dual words; returns what was seen."""
+    then. Asserts (the output words clamped to the input box included) every word, flag, iteration count and the state's dual words; returns what was seen."""
     model = DgpFixed(cfg)
     rng = np.random.default_rng(seed)
     lo, hi = model.xlo, model.xhi
@@ -166,7 +166,7 @@ def replay(cfg: dict, lib: Lib, episodes: int, imax_hi: int, seed: int) -> Count
             seen.update({"solves": 1, "met": bool(r.met[0]), "not met": not r.met[0], "sat": bool(r.sat[0]),
                          "overflow": bool(r.overflow[0]), "warm, y != 0": bool(flags[0] and np.any(y)),
                          "warm met": bool(flags[0] and r.met[0] and np.any(y)), "reset values": imax is None,
-                         "out_all": out_all})
+                         "out_all": out_all, "clamped": bool(np.any(exp != r.zraw[0, : len(exp)]))})
     return seen
 
 
@@ -175,7 +175,7 @@ def test_bit_exact(form, designs, built):
     """Every word, the output count, the warm, iteration, test, SAT and OVERFLOW flags and the final dual words as
     the golden model's, over warm-started sequences with Imax below and above the iterations needed."""
     seen = replay(designs[form].config(), built[form][0], 10, IMAX_HI[form], seed=len(form))
-    for k in ("met", "not met", "sat", "warm met", "reset values", "out_all"):
+    for k in ("met", "not met", "sat", "warm met", "reset values", "out_all", "clamped"):
         assert seen[k], (k, seen)
 
 

@@ -43,10 +43,11 @@ def params():
 
 
 @functools.lru_cache(maxsize=None)
-def cold(accelerated: bool):
-    """The fixed-point solves of params() from y = 0, run to the stopping test"""
+def cold(accelerated: bool, clamp: bool = True):
+    """The fixed-point solves of params() from y = 0, run to the stopping test (clamp: the output words clamped to
+    the input box, as the core streams them; False: the iteration's own answer)"""
     d = design(accelerated)
-    return solve_cold(DgpFixed(d), params(), IMAX_PLAIN if not accelerated else d.iterations)
+    return solve_cold(DgpFixed(d, clamp=clamp), params(), IMAX_PLAIN if not accelerated else d.iterations)
 
 
 def quantised_qp(d):
@@ -92,7 +93,7 @@ def test_one_iteration_within_the_rounding_of_33_34():
     dzs, dys = [], []
     for i in range(len(W)):
         z, it, _, y = dgp_float(qq, W[i] / one, 1, False, d.eps_g, d.eV / one, ud=d.ud / one, y0=Y0[i] / one)
-        dzs.append(np.abs(r.z[i] - z * one).max())
+        dzs.append(np.abs(r.zraw[i] - z * one).max())     # the iteration's z (before the output clamp)
         dys.append(np.abs(r.y[i] - y * one).max())
     assert max(dzs) <= bz + 1e-3, (max(dzs), bz)
     assert max(dys) <= by + 1e-3, (max(dys), by)
@@ -116,7 +117,8 @@ def test_fixed_tracks_float64(accelerated):
     for i in range(count):
         z, it, met, y = float_run(d, i, IMAX_PLAIN)
         assert (int(r.iterations[i]), bool(r.met[i])) == (it, met), i
-        assert np.linalg.norm(r.z[i] - z * one) <= ez + 1, i
+        # the output words are clamped to the quantised input box, a projection (nonexpansive): clamp float64's too
+        assert np.linalg.norm(r.z[i] - np.clip(z * one, d.out_lo, d.out_hi)) <= ez + 1, i
         assert np.linalg.norm(r.y[i] - y * one) <= exi + A2 * ez, i
 
 
@@ -127,9 +129,10 @@ def test_fixed_tracks_float64(accelerated):
 @pytest.mark.parametrize("accelerated", [False, True], ids=["plain", "accelerated"])
 def test_solutions_meet_eps_V_and_eps_g(accelerated):
     """From y = 0 on STATES random parameters of the box: every solve meets its stopping test and its answer is an
-    (eps_V, eps_g)-solution of the QP against OSQP (real units, the design's eps)."""
+    (eps_V, eps_g)-solution of the QP against OSQP (real units, the design's eps). The guarantee is the
+    iteration's, on its answer before the output clamp (the clamped words: test_output_words_meet_the_input_box)."""
     d = design(accelerated)
-    r = cold(accelerated)
+    r = cold(accelerated, clamp=False)
     assert r.met.all(), r.iterations
     assert not r.sat.any() and not r.overflow.any()
     dV, viol, active = accuracy(d, params(), r.z)
@@ -144,6 +147,28 @@ def test_solutions_meet_eps_V_and_eps_g(accelerated):
         lo, hi = d.qp.bounds(w)
         s = d.qp.G @ z
         assert dV[i] >= -(yp @ np.maximum(s - hi, 0) + ym @ np.maximum(lo - s, 0)) - 1e-7, i
+
+
+def test_output_words_meet_the_input_box():
+    """examples/masses.yaml with Imax = 4: the iteration's answer leaves the input box (by up to eps_g and more
+    when the test is not met), the returned words are that answer clamped to the quantised box [out_lo, out_hi]
+    (ceil / floor of umin / umax), and the iteration itself is unchanged (iterations, flags, final dual)."""
+    p = load_spec(Path(__file__).resolve().parent.parent / "examples" / "masses.yaml")
+    d = design_dgp(p, iterations=4)
+    one = 1 << d.b
+    assert np.array_equal(d.out_lo, np.ceil(np.tile(p.umin, p.N) * one).astype(np.int64))
+    assert np.array_equal(d.out_hi, np.floor(np.tile(p.umax, p.N) * one).astype(np.int64))
+    assert d.config()["out_lo"] == d.out_lo.tolist() and d.config()["out_hi"] == d.out_hi.tolist()
+    W = random_parameters(d, 40, seed=3)
+    r = DgpFixed(d).solve_batch(W)
+    u = DgpFixed(d, clamp=False).solve_batch(W)
+    outside = np.any((u.z < d.out_lo) | (u.z > d.out_hi), axis=1)
+    assert outside.sum() >= 5, outside.sum()                    # the unclamped answers do leave the box
+    assert np.all((r.z >= d.out_lo) & (r.z <= d.out_hi))
+    assert np.array_equal(r.z, np.clip(u.z, d.out_lo, d.out_hi)) and np.array_equal(r.zraw, u.z)
+    assert np.all((r.z[:, : d.nu] / one >= p.umin) & (r.z[:, : d.nu] / one <= p.umax))    # u0 in the real box
+    for f in ("iterations", "met", "sat", "overflow", "y"):
+        assert np.array_equal(getattr(r, f), getattr(u, f)), f
 
 
 # ---------------------------------------------------------------------------

@@ -1,7 +1,8 @@
 """The DGP core as portable C99 (`make c CORE=dgp`): `<module>_solver.{h,c}`, bit-exact against DgpFixed (iteration
 (35) of 003 in the order of mpc_cores/dgp/model.py: the input clip, e and the bounds once per solve, the exact row
 sums of rounded products, every saturation of a data word and its flag, the plain form's averaged primal and test
-(32c), the accelerated form's gap test, gradient restart and beta_k table, the warm start from the final dual y),
+(32c), the accelerated form's gap test, gradient restart and beta_k table, the warm start from the final dual y,
+the output words clamped to the quantised input box),
 and `<module>_solver_float.{h,c}`, the same iteration in double on the unquantised scaled data (dgp_float).
 
 The data words (r + p bits, about 38) times the coefficients (about 30 bits) do not fit int64_t, so a product is
@@ -242,13 +243,16 @@ def _epilogue(api: capi.Api) -> str:
         sets = ["sat = sat", "overflow = f_data", f"overflow_signals = (uint8_t)(f_data ? {api.P}_OVF_DATA : 0)"]
         fin = ""
     sets_c = "".join(f"        status->{s};\n" for s in sets)
+    # the fixed-point output words are clamped to the quantised input box (the iteration's z stays unclamped)
+    clamp, zo = ("", "zo[i]") if api.float_ else ("                         /* clamped to the input box */",
+                                                   "mpc_clip(zo[i], OUT_LO[i], OUT_HI[i])")
     return f"""\
     for (i = 0; i < M; i++)
         state->y[i] = ({st})y[i];
 {fin}    state->warm_valid = 1;
     nout = ctrl->out_all ? N : NU;
-    for (i = 0; i < nout; i++)
-        out[i] = ({api.value_t})zo[i];
+    for (i = 0; i < nout; i++){clamp}
+        out[i] = ({api.value_t}){zo};
     if (status) {{
         status->iterations = (uint16_t)iters;
         status->warm = (uint8_t)warm;
@@ -312,11 +316,12 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 #define EV {emit.int_lit(cfg["eV"])}
 {emit.width_macros(cfg["widths"], OVF)}
 /* K = -Q^-1 G', G, Fe = -Q^-1 Phi, Lw words; the bounds' constant parts, the dual box alpha d, the box of
-   accepted parameter words w = (x, r){"; the table beta_k = k / (k + 3)" if acc else ""} */
+   accepted parameter words w = (x, r), the input box of the output words{"; the table beta_k = k / (k + 3)" if acc else ""} */
 {emit.array("K", mats["K"], ctype="COEF_T")}{emit.array("G", mats["G"], ctype="COEF_T")}\
 {emit.array("FE", mats["Fe"], ctype="COEF_T")}{emit.array("LW", mats["Lw"], ctype="COEF_T")}\
 {emit.array("LO0", cfg["lo0"])}{emit.array("HI0", cfg["hi0"])}{emit.array("UD", cfg["ud"])}\
-{emit.array("XLO", cfg["xlo"])}{emit.array("XHI", cfg["xhi"])}{beta}
+{emit.array("XLO", cfg["xlo"])}{emit.array("XHI", cfg["xhi"])}\
+{emit.array("OUT_LO", cfg["out_lo"])}{emit.array("OUT_HI", cfg["out_hi"])}{beta}
 {emit.helpers(cfg["rounding"], "floor", "clip", "sat")}
 {MULR}{"" if acc else chr(10) + FLOOR_DIV}"""
     vectors = capi.selftest_vectors(_OneSolve(DgpFixed(cfg)), cfg["xlo"], cfg["xhi"], int(cfg["widths"]["stream"]),

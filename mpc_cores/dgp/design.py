@@ -62,6 +62,8 @@ class DgpDesign(FixedPointDesign):
     beta: np.ndarray             # words, BETA_TABLE (accelerated form)
     xlo: np.ndarray              # accepted box of w words
     xhi: np.ndarray
+    out_lo: np.ndarray = None    # words, n: the quantised input box the output words are clamped to (z's format)
+    out_hi: np.ndarray = None
     bits36: int = 0              # p from (36)
     bits37: int = 0              # r from (37)
     analysis: dict = field(default_factory=dict)
@@ -146,7 +148,18 @@ class DgpDesign(FixedPointDesign):
             "lo0": self.lo0.tolist(), "hi0": self.hi0.tolist(), "ud": self.ud.tolist(), "eg": int(self.eg), "eV": int(self.eV),
             "beta": self.beta.tolist(), "xlo": self.xlo.tolist(), "xhi": self.xhi.tolist(),
             "restart_shift": restart_shifts(self.widths),
+            "out_lo": self.out_lo.tolist(), "out_hi": self.out_hi.tolist(),
         }
+
+
+def output_box(problem: MpcProblem, b: int, W: int) -> tuple[np.ndarray, np.ndarray]:
+    """The box the output words (z = (u_0, ..., u_N-1), p fraction bits) are clamped to as they leave the core: the
+    input box quantised inward (lo up, hi down: a clamped word meets the box exactly), within the W-bit data word.
+    Only the output is clamped; the iteration's z (and the averaged primal's sum) stay unclamped."""
+    wmin, wmax = -(1 << (W - 1)), (1 << (W - 1)) - 1
+    lo = np.clip(quantize(np.tile(problem.umin, problem.N), b, "ceil"), wmin, wmax)
+    hi = np.clip(quantize(np.tile(problem.umax, problem.N), b, "floor"), wmin, wmax)
+    return lo, np.maximum(hi, lo)
 
 
 def restart_shifts(widths: dict) -> list[int]:
@@ -280,6 +293,7 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
                     analysis={"D": D, "L_V": LV, "eps": eps, "sigma": qp.sigma, "y_hat": yhat, "z_hat": zhat,
                               "g_hat": ghat, "e_hat": ehat, "d_max": float(d.max()), "m": m})
     _size_words(dsn, r)
+    dsn.out_lo, dsn.out_hi = output_box(problem, b, dsn.widths["data"])
     apply_target(dsn, lat_mul, dsn.products())
     return dsn
 

@@ -22,6 +22,8 @@ One solve (w: nw parameter words; y = (y+, y-) the 2 mc dual words, upper rows t
      wy = y_new if restart else clip(y_new + rnd(beta_k (y_new - y)), 0, ud);  y = y_new
      (the extrapolated dual stays in the dual box [0, ud], so that the gap -wy'g bounds V(z) - V* by weak duality)
 At Imax without the test met, the output is that of the last iteration. The status reports the iterations run.
+  5. the output words are clamped to the quantised input box: z_out = clip(z_out, out_lo, out_hi) (z is all
+     inputs u_k; the box of design.output_box). Only the output: the iteration's z, Sz and y are unclamped.
 """
 from __future__ import annotations
 
@@ -59,19 +61,24 @@ def dot_round(a: np.ndarray, b: np.ndarray, p: int) -> np.ndarray:
 
 @dataclass
 class DgpResult:
-    z: np.ndarray               # (S, n) output words: the averaged primal (plain) or the last z (accelerated)
+    z: np.ndarray               # (S, n) output words: the averaged primal (plain) or the last z (accelerated),
+                                #   clamped to the quantised input box [out_lo, out_hi]
     iterations: np.ndarray      # (S,) iterations run
     met: np.ndarray             # (S,) the stopping test held
     sat: np.ndarray             # (S,) an input word saturated
     overflow: np.ndarray        # (S,) a data word saturated
     y: np.ndarray               # (S, 2 mc) final dual words (the next warm start)
+    zraw: np.ndarray | None = None   # (S, n) the output words before the clamp (the iteration's own answer)
 
 
 class DgpFixed:
     """Bit-exact model of one DGP core instance, with its warm-start state."""
 
-    def __init__(self, d):
+    def __init__(self, d, clamp: bool = True):
+        """clamp: clamp the output words to the quantised input box (the core's behaviour); False: return the
+        iteration's own answer (for the analysis of the algorithm, whose guarantees are on that answer)"""
         cfg = d if isinstance(d, dict) else d.config()
+        self.clamp = clamp
         self.cfg = cfg
         self.n, self.nw, self.nu, self.mc = int(cfg["n"]), int(cfg["nw"]), int(cfg["nu"]), int(cfg["mc"])
         self.b = int(cfg["frac_bits"])
@@ -87,6 +94,7 @@ class DgpFixed:
         self.lo0, self.hi0, self.ud = i64("lo0", -1), i64("hi0", -1), i64("ud", -1)
         self.beta = i64("beta", -1)
         self.xlo, self.xhi = i64("xlo", -1), i64("xhi", -1)
+        self.out_lo, self.out_hi = i64("out_lo", -1), i64("out_hi", -1)
         self.eg = int(cfg["eg"])
         self.eV = int(cfg["eV"])
         self.y_prev: np.ndarray | None = None   # warm start (None after reset)
@@ -162,7 +170,9 @@ class DgpFixed:
             live = live & ~fin
             if not live.any():
                 break
-        return DgpResult(z=zout, iterations=iters, met=met, sat=sat, overflow=ovf, y=y)
+        # the output only: the state above is unclamped
+        zc = np.clip(zout, self.out_lo, self.out_hi) if self.clamp else zout
+        return DgpResult(z=zc, iterations=iters, met=met, sat=sat, overflow=ovf, y=y, zraw=zout)
 
 
 def dgp_float(qp, w, imax: int, accelerated: bool, eps_g: float, eps_V: float, ud=None, y0=None):

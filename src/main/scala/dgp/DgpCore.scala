@@ -16,7 +16,8 @@ import shell.{Field, FrameIn, RegMap, Register, SolverRegs}
   * (e = Fe w, the bounds lo, hi = lo0, hi0 + Lw w), then per iteration pass K (z = K v + e, v = wy+ - wy-) and pass
   * G (s = G z), whose rows feed the element stage (g, the projected dual step, the sums of the stopping test);
   * the iteration ends in a decision cycle (stop when the test holds or at IMAX). Output: the averaged primal
-  * (plain form; a serial divider forms Sz / I) or the last z (accelerated), u0 or all of z, then a status word
+  * (plain form; a serial divider forms Sz / I) or the last z (accelerated), u0 or all of z, each word clamped to
+  * the quantised input box on its way out (the iteration's state unclamped), then a status word
   * (iterations run in bits 15:0, test met 16, input saturated 17, datapath overflow 18) with tlast.
   */
 class DgpCore(val p: DgpParams) extends Module {
@@ -302,10 +303,21 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the status word follows the last of the nu (n with OUT_ALL) solution words */
   val statusNow = outIdx === Mux(regs.ctrlOutAll, n.U, nu.U)
   val statusWord = Cat(solveOvf, solveSat, metR, itersR)
-  val word = Wire(SInt(W.W))
+  // the output words are clamped to the quantised input box [outLo_i, outHi_i] (one comparator pair per output word
+  // position, against constants) and registered: only the output, the iteration's z and Sz stay unclamped
+  def clampAt(x: SInt, i: Int): SInt = {
+    val l = p.outLo(i).S(W.W); val h = p.outHi(i).S(W.W)
+    Mux(x < l, l, Mux(x > h, h, x))
+  }
+  val word = Reg(SInt(W.W))
   val wordOk = Wire(Bool())
   if (acc) {
-    word := z(outIdx); wordOk := true.B
+    // z is final from the decision cycle on: word 0 is loaded there, word i + 1 when word i leaves
+    val zc = VecInit((0 until n).map(i => clampAt(z(i), i)))
+    val outNext = RegInit(0.U(16.W))
+    when(st === St.decide && finish) { word := zc(0); outNext := 1.U }
+    when(m_axis.fire) { word := zc(outNext); outNext := outNext + 1.U }
+    wordOk := true.B
   } else {
     // zbar_i = floor((2 Sz_i + I) / (2 I)): Sz / I rounded to nearest
     val div = Module(new SerialDivider(p.divW, 18))
@@ -313,9 +325,11 @@ class DgpCore(val p: DgpParams) extends Module {
     div.io.start := st === St.out && !have && !div.io.busy && !div.io.done && !statusNow
     div.io.x := (sz.get(outIdx) << 1) +& itersR.zext
     div.io.d := itersR << 1
-    when(div.io.done) { have := true.B }
+    val q = div.io.q(W - 1, 0).asSInt
+    val qc = VecInit((0 until n).map(i => clampAt(q, i)))(outIdx)
+    when(div.io.done) { have := true.B; word := qc }
     when(m_axis.fire) { have := false.B }
-    word := div.io.q(W - 1, 0).asSInt; wordOk := have
+    wordOk := have
   }
   m_axis.tvalid := st === St.out && (statusNow || wordOk)
   m_axis.tdata  := Mux(statusNow, statusWord.pad(p.streamW), word.pad(p.streamW).asUInt)

@@ -13,6 +13,7 @@ import fixed.FixedOps
   * @param g      G, mc x n (s = G z)
   * @param fe     Fe, n x nw (e = Fe w)
   * @param lw     Lw, mc x nw (lo = lo0 + Lw w, hi = hi0 + Lw w)
+  * @param outLo  the quantised input box the n output words are clamped to (z = (u_0, ..., u_N-1), data words)
   */
 case class DgpParams(
     name: String,
@@ -48,7 +49,9 @@ case class DgpParams(
     eV: BigInt,
     beta: Seq[BigInt],
     xlo: Seq[BigInt],
-    xhi: Seq[BigInt]) {
+    xhi: Seq[BigInt],
+    outLo: Seq[BigInt],
+    outHi: Seq[BigInt]) {
 
   require(n >= 1 && nw >= 1 && mc >= 1, s"sizes must be >= 1: n=$n nw=$nw mc=$mc")
   require(nu >= 1 && n % nu == 0, s"nu must divide n: got nu=$nu, n=$n")
@@ -65,9 +68,11 @@ case class DgpParams(
   require(lw.length == mc && lw.forall(_.length == nw), s"Lw must be $mc x $nw")
   require(lo0.length == mc && hi0.length == mc && ud.length == 2 * mc, "lo0, hi0 (mc) and ud (2 mc) lengths")
   require(xlo.length == nw && xhi.length == nw, s"xlo/xhi must have $nw entries")
+  require(outLo.length == n && outHi.length == n && outLo.zip(outHi).forall { case (l, h) => l <= h },
+    s"out_lo/out_hi must have $n entries with out_lo <= out_hi")
   private def fits(v: BigInt, w: Int) = v >= FixedOps.minOf(w) && v <= FixedOps.maxOf(w)
   require((k ++ g ++ fe ++ lw).flatten.forall(fits(_, coefW)), s"a matrix entry does not fit the coefficient width $coefW")
-  require((lo0 ++ hi0 ++ ud).forall(fits(_, dataW)), s"a bound does not fit the data width $dataW")
+  require((lo0 ++ hi0 ++ ud ++ outLo ++ outHi).forall(fits(_, dataW)), s"a bound does not fit the data width $dataW")
   require(beta.forall(fits(_, betaW)), s"a beta word does not fit $betaW bits")
 
   /** chunks per row of each pass: F (rows of Fe and Lw, nw columns), K (mc columns), G (n columns) */
@@ -139,6 +144,7 @@ object DgpParams {
       streamW = w("stream").num.toInt, imaxDefault = j("iterations").num.toInt, warmDefault = j("warm_start").bool,
       outAllDefault = j("output_all").bool, k = mat(j("K")), g = mat(j("G")), fe = mat(j("Fe")), lw = mat(j("Lw")),
       lo0 = ints(j("lo0")), hi0 = ints(j("hi0")), ud = ints(j("ud")), eg = BigInt(j("eg").num.toLong),
-      eV = BigInt(j("eV").num.toLong), beta = ints(j("beta")), xlo = ints(j("xlo")), xhi = ints(j("xhi")))
+      eV = BigInt(j("eV").num.toLong), beta = ints(j("beta")), xlo = ints(j("xlo")), xhi = ints(j("xhi")),
+      outLo = ints(j("out_lo")), outHi = ints(j("out_hi")))
   }
 }
