@@ -144,12 +144,14 @@ def scenario(problem: MpcProblem) -> tuple[np.ndarray, np.ndarray]:
     return x0, refs
 
 
+def worst(v, lo, hi) -> tuple[float, float]:
+    """(largest violation of lo <= v <= hi, largest as a fraction of hi - lo) over the rows of v"""
+    over = np.maximum(0.0, np.maximum(v - hi, lo - v))
+    return float(over.max(initial=0.0)), float((over / (hi - lo)).max(initial=0.0))
+
+
 def _violations(p: MpcProblem, X: np.ndarray, U: np.ndarray) -> dict:
     """class -> (worst absolute violation, worst as a fraction of the constraint's range) along a trajectory."""
-    def worst(v, lo, hi):
-        over = np.maximum(0.0, np.maximum(v - hi, lo - v))
-        return float(over.max(initial=0.0)), float((over / (hi - lo)).max(initial=0.0))
-
     out = {"input box": worst(U, p.umin, p.umax)}
     if p.input_rate is not None:
         dU = np.diff(np.vstack([np.zeros((1, p.nu)), U]), axis=0)
@@ -201,11 +203,9 @@ async def _samples(kind, d, qp: MpcQP, rng) -> tuple[list, int, dict]:
         except Infeasible:
             cost = float("inf")
         subopt.append(100.0 * (cost - best) / max(best, 1e-12))
-    viol = _violations(p, np.zeros((1, p.nx)), np.array(U).reshape(-1, p.nu)) if U else {}
-    viol = {c: v for c, v in viol.items() if c == "input box"}
+    viol = {"input box": worst(np.array(U), p.umin, p.umax)} if U else {}
     if U and p.input_rate is not None:
-        over = np.maximum(0.0, np.maximum(np.array(dU) - p.input_rate.dumax, p.input_rate.dumin - np.array(dU)))
-        viol["input rate"] = (float(over.max()), float((over / (p.input_rate.dumax - p.input_rate.dumin)).max()))
+        viol["input rate"] = worst(np.array(dU), p.input_rate.dumin, p.input_rate.dumax)
     return subopt, infeasible, viol
 
 

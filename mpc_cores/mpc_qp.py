@@ -26,6 +26,30 @@ from mpc_cores.problem import MpcProblem, steady_state_maps
 from mpc_cores.quiet import c_output_silenced
 
 
+FEAS_TOL = 1e-9      # the LP's slack below which the constraint set is empty (relative to the bounds' size)
+
+
+def slack_lp(A, lo, hi, tol: float = FEAS_TOL) -> tuple[bool, float]:
+    """Whether some v meets lo <= A v <= hi, decided by an LP (HiGHS): the largest slack t <= 1 with A v <= hi - t
+    and A v >= lo + t on the finite bounds (rows with lo = hi hold t <= 0). Returns (t* >= -tol max(1, |bounds|),
+    t*)."""
+    A = sp.csr_matrix(A)
+    up, dn = np.isfinite(hi), np.isfinite(lo)
+    b = np.concatenate([hi[up], -lo[dn]])
+    if b.size == 0:
+        return True, 1.0
+    M = sp.hstack([sp.vstack([A[up], -A[dn]]), np.ones((b.size, 1))], format="csr")
+    c = np.zeros(A.shape[1] + 1)
+    c[-1] = -1.0
+    res = linprog(c, A_ub=M, b_ub=b, bounds=[(None, None)] * A.shape[1] + [(None, 1.0)], method="highs")
+    # a slack t = min(b - A v) exists for any v and t <= 1 bounds the objective: any status but 0 (optimal) is
+    # HiGHS failing, not an answer about the constraints
+    if res.status != 0:
+        raise RuntimeError(f"the feasibility LP failed: HiGHS status {res.status} ({res.message})")
+    t = -float(res.fun)
+    return t >= -tol * max(1.0, float(np.abs(b).max())), t
+
+
 class Infeasible(ValueError):
     """No plan meets the hard constraints from this state (decided by an LP)."""
 
@@ -133,18 +157,9 @@ class MpcQP:
         return q, lo, hi, const
 
     def feasible(self, x, r=None, u_prev=None, u0=None) -> bool:
-        """An LP over the constraints alone (HiGHS): is there a plan from x (with u_0 = u0 when given)?"""
+        """An LP over the constraints alone (slack_lp): is there a plan from x (with u_0 = u0 when given)?"""
         _, lo, hi, _ = self._data(x, r, u_prev, u0)
-        eq = lo == hi
-        A = self.A.tocsr()
-        fin_hi, fin_lo = ~eq & np.isfinite(hi), ~eq & np.isfinite(lo)
-        A_ub = sp.vstack([A[fin_hi], -A[fin_lo]], format="csr")
-        b_ub = np.concatenate([hi[fin_hi], -lo[fin_lo]])
-        res = linprog(np.zeros(self.nv), A_ub=A_ub, b_ub=b_ub, A_eq=A[eq], b_eq=lo[eq], bounds=(None, None),
-                      method="highs")
-        if res.status not in (0, 2):
-            raise RuntimeError(f"the feasibility LP failed: {res.message}")
-        return res.status == 0
+        return slack_lp(self.A, lo, hi)[0]
 
     def solve(self, x, r=None, u_prev=None, u0=None) -> Plan:
         """The optimal plan from x (u_0 fixed to u0 when given); Infeasible when no plan meets the hard constraints."""
@@ -164,4 +179,4 @@ class MpcQP:
         return Plan(u=u, x=xs, cost=float(0.5 * v @ (self.P @ v) + q @ v + const))
 
 
-__all__ = ["Infeasible", "MpcQP", "Plan"]
+__all__ = ["Infeasible", "MpcQP", "Plan", "slack_lp"]

@@ -107,30 +107,13 @@ def solve_osqp(qp: DgpQP, w, eps: float = 1e-9):
     return res.x, np.maximum(y, 0.0), np.maximum(-y, 0.0), st
 
 
-FEAS_TOL = 1e-9      # the LP's slack below which the constraint set is empty (relative to the bounds' size)
-
-
-def feasible(qp: DgpQP, w, tol: float = FEAS_TOL) -> tuple[bool, float]:
-    """Whether some z meets lo(w) <= G z <= hi(w), decided by an LP (HiGHS): the largest slack t <= 1 with
-    G z <= hi - t and G z >= lo + t on the finite bounds. Returns (t* >= -tol max(1, |bounds|), t*), t* in the
-    scaled problem's units (divide by sigma for the spec's)."""
-    from scipy.optimize import linprog
+def feasible(qp: DgpQP, w) -> tuple[bool, float]:
+    """Whether some z meets lo(w) <= G z <= hi(w), decided by an LP (mpc_cores.mpc_qp.slack_lp): (feasible, the
+    largest slack t*), t* in the scaled problem's units (divide by sigma for the spec's)."""
+    from mpc_cores.mpc_qp import slack_lp
 
     lo, hi = qp.bounds(w)
-    up, dn = np.isfinite(hi), np.isfinite(lo)
-    b = np.concatenate([hi[up], -lo[dn]])
-    if b.size == 0:
-        return True, 1.0
-    A = np.hstack([np.vstack([qp.G[up], -qp.G[dn]]), np.ones((b.size, 1))])
-    c = np.zeros(qp.n + 1)
-    c[-1] = -1.0
-    res = linprog(c, A_ub=A, b_ub=b, bounds=[(None, None)] * qp.n + [(None, 1.0)], method="highs")
-    # z = 0 with t = min(b) is a feasible point and t <= 1 bounds the objective: any status but 0 (optimal) is
-    # HiGHS failing, not an answer about the constraints
-    if res.status != 0:
-        raise RuntimeError(f"the feasibility LP failed: HiGHS status {res.status} ({res.message})")
-    t = -float(res.fun)
-    return t >= -tol * max(1.0, float(np.abs(b).max())), t
+    return slack_lp(qp.G, lo, hi)
 
 
 def kkt_residual(qp: DgpQP, z, y, w) -> float:
