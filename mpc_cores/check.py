@@ -251,6 +251,30 @@ def checked_design(kind, problem: MpcProblem, overrides: dict, target: float | N
     the design's count, then bisecting to within 1/16 of it."""
     target = problem.check.gap if target is None else target
     budget = problem.check.cycles if budget is None else budget
+    try:
+        return _checked_count(kind, problem, overrides, target, budget)
+    except CheckFailed as first:
+        # Precision: a fixed-point kind whose word format the overrides leave free gets FRAC_STEPS more fraction
+        # bits before it is refused (an ill-conditioned plant's iterates can stall on the quantisation floor at the
+        # default format, which no iteration count cures); the smallest format that meets the target wins.
+        b0 = getattr(first.design, "b", None)
+        if target is None or b0 is None or "frac_bits" in overrides or "frac_bits" not in kind.overrides:
+            raise
+        for step in FRAC_STEPS:
+            try:
+                return _checked_count(kind, problem, {**overrides, "frac_bits": b0 + step}, target, budget)
+            except CheckFailed:
+                continue
+            except DesignError:
+                break
+        raise
+
+
+#: fraction bits added, in turn, to a fixed-point design whose check fails at its default format
+FRAC_STEPS = (1, 2, 4)
+
+
+def _checked_count(kind, problem: MpcProblem, overrides: dict, target: float | None, budget: int):
     d = kind.design(problem, **overrides)
     res = check_design(kind, d, target)
     if target is None or "iterations" in overrides or "iterations" not in kind.overrides:

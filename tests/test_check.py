@@ -127,6 +127,18 @@ def test_the_flow_chooses_the_iterations_for_a_target():
         assert not check_design(kind, kind.design(p, iterations=below), 0.5).ok
 
 
+def test_the_flow_adds_fraction_bits_when_the_format_floors_the_loop():
+    """The quadrotor's condensed Hessian (condition number 1.3e4) stalls the FGM at 16 fraction bits at any count;
+    the flow moves to the smallest format that meets the target, at fewer than 100 iterations."""
+    import dataclasses
+    kind = registry.get("fgm")
+    p = load_spec(EX / "quadrotor.yaml")
+    p = dataclasses.replace(p, check=dataclasses.replace(p.check, samples=8))
+    d, res = checked_design(kind, p, {}, target=1.0, budget=20000)
+    assert res.ok and d.b > 16 and d.iterations <= 100
+    assert not check_design(kind, kind.design(p, iterations=d.iterations, frac_bits=16), 1.0).ok
+
+
 def test_the_budget_bounds_the_search():
     kind = registry.get("fgm")
     p = load_spec(EX / "masses.yaml")
