@@ -18,6 +18,8 @@ LAT_ADD ?=
 LAT_MUL ?=
 # FGM: problems interleaved on the row units (K_p)
 PROBLEMS ?=
+# ADMM family: multipliers per row unit (a row in chunks), or fit (the fewest chunks that fit the LFE5U-85F)
+LANES   ?=
 # float cores (minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact or fast)
 FORMAT  ?=
 LATENCY ?=
@@ -34,7 +36,7 @@ JOBS        ?= auto
 
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT)) \
            $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL)) \
-           $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY)) \
+           $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(LANES),--lanes $(LANES)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY)) \
            $(if $(ITER),--iterations $(ITER)) $(if $(GAP),--gap $(GAP)) $(if $(CYCLES),--cycles $(CYCLES)) $(if $(filter 0,$(CHECK)),--no-check)
 
 .PHONY: setup verilog c split design test test-slow demo clean

@@ -29,6 +29,7 @@ EXAMPLES = REPO / "examples"
 TARGET_GAP = 1.0
 BUDGET = 20_000   # cycles per solve: 100 us at 200 MHz
 PART_DSPS = 156   # MULT18X18D of the LFE5U-85F
+PART_BRAMS = 208  # DP16KD of the LFE5U-85F
 
 
 def plants() -> list[Path]:
@@ -53,30 +54,39 @@ def run_pair(spec: str, kind_name: str, gap: float, samples: int | None, budget:
         p = dataclasses.replace(p, check=dataclasses.replace(p.check, samples=samples))
     row = {"plant": p.name, "kind": kind_name, "sections": _sections(p)}
     t = time.time()
-    try:
-        d, res = checked_design(kind, p, {}, target=gap, budget=budget)
-        f = res.facts
-        row["outcome"] = ("fails check" if f["cycles"] > budget else
-                          "does not fit" if f["dsp_ecp5"] is not None and f["dsp_ecp5"] > PART_DSPS else "usable")
-        if f["cycles"] > budget:
-            row["why"] = f"{f['cycles']} cycles per solve at the spec's iteration count, over the budget of {budget}"
-    except CheckFailed as e:
-        d, res = e.design, e.result
-        row["outcome"] = "fails check"
-        row["why"] = str(e).split(": ", 1)[-1]
-    except (DesignError, SpecError) as e:
-        row["outcome"] = "refused"
-        row["why"] = str(e)
-        res = None
-    except Exception as e:  # noqa: BLE001 - one pair's failure is a row of the report, not the end of the run
-        row["outcome"] = "error"
-        row["why"] = f"{type(e).__name__}: {e}"
-        res = None
+
+    def attempt(overrides: dict):
+        """(outcome, why, check result) of the flow with `overrides`"""
+        try:
+            d, res = checked_design(kind, p, overrides, target=gap, budget=budget)
+            f = res.facts
+            if f["cycles"] > budget:
+                return ("fails check", f"{f['cycles']} cycles per solve at the spec's iteration count, over the budget "
+                        f"of {budget}", res)
+            return ("does not fit" if not _fits_part(f) else "usable"), None, res
+        except CheckFailed as e:
+            return "fails check", str(e).split(": ", 1)[-1], e.result
+        except (DesignError, SpecError) as e:
+            return "refused", str(e), None
+        except Exception as e:  # noqa: BLE001 - one pair's failure is a row of the report, not the end of the run
+            return "error", f"{type(e).__name__}: {e}", None
+
+    row["outcome"], why, res = attempt({})
+    if row["outcome"] == "does not fit" and "lanes" in kind.overrides:
+        # the row unit time-multiplexed onto fewer multipliers (LANES=fit)
+        alt = attempt({"lanes": "fit"})
+        if alt[0] == "usable" or alt[0] == "does not fit":
+            row["outcome"], why, res = alt
+            row["options"] = "LANES=fit"
+        else:
+            why = f"with LANES=fit: {alt[0]}" + (f": {alt[1]}" if alt[1] else "")
+    if why:
+        row["why"] = why
     if res is not None:
         f = res.facts
         row.update(gap=res.gap, violations={c: v for c, v in res.violations.items()}, diverged=res.diverged,
                    subopt=(res.subopt_median, res.subopt_worst), iterations=f["iterations_text"], cycles=f["cycles"],
-                   multipliers=f["multipliers"], dsp_ecp5=f["dsp_ecp5"], words=f["words"],
+                   multipliers=f["multipliers"], dsp_ecp5=f["dsp_ecp5"], bram_ecp5=f["bram_ecp5"], words=f["words"],
                    flagged={k: v for k, v in res.flagged.items() if v}, outside=res.outside, steps=res.steps)
     row["seconds"] = time.time() - t
     return row
@@ -94,11 +104,17 @@ def _viol(row) -> str:
     return "<br>".join(out) or "—"
 
 
+def _fits_part(f: dict) -> bool:
+    """the products and memories within the LFE5U-85F's (floating-point cores: counted by make bench)"""
+    return ((f["dsp_ecp5"] is None or f["dsp_ecp5"] <= PART_DSPS)
+            and (f["bram_ecp5"] is None or f["bram_ecp5"] <= PART_BRAMS))
+
+
 def _fits(row) -> str:
     dsp = row.get("dsp_ecp5")
     if dsp is None:
         return "—"
-    return f"{'yes' if dsp <= PART_DSPS else 'no'} ({dsp} MULT18X18D)"
+    return (f"{'yes' if _fits_part(row) else 'no'} ({dsp} MULT18X18D, {row['bram_ecp5']} DP16KD)")
 
 
 def markdown(rows: list[dict], gap: float, budget: int, seconds: float) -> str:
@@ -109,13 +125,17 @@ def markdown(rows: list[dict], gap: float, budget: int, seconds: float) -> str:
            f"iteration count chosen by the flow within a budget of {budget:,} cycles per solve. Written by "
            f"`make gallery` ({seconds / 60:.1f} min); each plant's source is in the header of its spec.", "",
            "Outcome: **usable** (the check passes within the budget and the core fits the LFE5U-85F), **does not "
-           "fit** (it passes, but its products take more MULT18X18D than the part's 156), **fails check** (no "
+           "fit** (it passes, but its products take more MULT18X18D than the part's 156, or its memories more DP16KD "
+           "than its 208), **fails check** (no "
            "iteration count within the budget passes; the numbers are those of the last count tried) or "
            "**refused** (the rule). Violations: the worst along "
            "the closed loop, absolute and as a fraction of the constraint's range (soft states for information), and the "
            "steps whose state or reference left the box the core accepts (the core saturates them). "
            "Multipliers: the core's products; MULT18X18D: those products on the ECP5's 18 x 18 DSPs (the "
-           "LFE5U-85F has 156); interior-point cores are floating point, counted by `make bench`.", ""]
+           "LFE5U-85F has 156); DP16KD: the memories in the block's best aspect ratio (an estimate; the part has "
+           "208); interior-point cores are floating point, counted by `make bench`. An ADMM-family core that does "
+           "not fit at one row per cycle is tried with `LANES=fit` (the row unit's multipliers time-multiplexed "
+           "over chunks of each row, [admm.md](admm.md)); the options column says when.", ""]
     kinds = [k for k in registry.names()]
     by_plant: dict = {}
     for r in rows:
@@ -126,15 +146,16 @@ def markdown(rows: list[dict], gap: float, budget: int, seconds: float) -> str:
         cell = {r["kind"]: r for r in rs}
         secs = ", ".join(rs[0]["sections"]) or "input box"
         out.append(f"| {plant} | {secs} | " + " | ".join(_short(cell.get(k)) for k in kinds) + " |")
-    out += ["", "## Pairs", "", "| plant | kind | outcome | iterations | cycles per solve | loop cost gap | worst "
-            "violation | sampled suboptimality (median, worst) | multipliers | fits the LFE5U-85F | words |",
-            "|---|---|---|---|---|---|---|---|---|---|---|"]
+    out += ["", "## Pairs", "", "| plant | kind | outcome | options | iterations | cycles per solve | loop cost gap | "
+            "worst violation | sampled suboptimality (median, worst) | multipliers | fits the LFE5U-85F | words |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         outcome = r["outcome"] + (f": {r['why']}" if r.get("why") else "")
         if r.get("diverged"):
             outcome += " (diverges)"
         sub = r.get("subopt")
-        out.append(f"| {r['plant']} | {r['kind']} | {outcome} | {r.get('iterations', '—')} | {r.get('cycles', '—')} | "
+        out.append(f"| {r['plant']} | {r['kind']} | {outcome} | {r.get('options', '—')} | {r.get('iterations', '—')} | "
+                   f"{r.get('cycles', '—')} | "
                    f"{_num(r.get('gap'))} | {_viol(r)} | "
                    f"{'—' if sub is None else f'{sub[0]:+.3g} %, {sub[1]:+.3g} %'} | "
                    f"{r.get('multipliers') if r.get('multipliers') is not None else '—'} | {_fits(r)} | "

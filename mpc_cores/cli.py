@@ -26,7 +26,7 @@ from mpc_cores.flow import REPO
 from mpc_cores.schema import check_override, check_size
 
 OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format", "latency", "target",
-             "problems")
+             "problems", "lanes")
 
 
 def refuse(msg: str) -> None:
@@ -234,6 +234,9 @@ def main(argv=None) -> None:
         s.add_argument("--target", help="FPGA family: generic, ecp5 or xilinx7 (fgm, admm: the multipliers; minres, "
                        "ipm: ecp5 builds the memories from DP16KD with their output register)")
         s.add_argument("--problems", help="K_p, problems interleaved on the row units (fgm, admm): 1 to 16")
+        s.add_argument("--lanes", help="multipliers per row unit (admm family, P = 1): a row's dot product in "
+                                       "ceil(n_A / lanes) chunks, a power of two; 'fit': the fewest chunks whose "
+                                       "products fit the LFE5U-85F's 156 MULT18X18D")
         s.add_argument("--out")
         s.add_argument("--gap", help="design check target: closed-loop cost at most this many percent above the "
                                      "optimum; the flow chooses the iteration count (default: the spec's check.gap)")

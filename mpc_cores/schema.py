@@ -127,6 +127,18 @@ class IntBits:
 
 
 @dataclass(frozen=True)
+class Lanes:
+    """Multipliers per row unit: an integer >= 1, or "fit" (the fewest chunks per row that fit the part's DSPs)."""
+
+    def check(self, v, fld: str):
+        if v == "fit":
+            return v
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v) or v < 1:
+            raise SpecError(f"{fld}: expected an integer >= 1 (multipliers per row unit) or 'fit', got {v!r}")
+        return int(v)
+
+
+@dataclass(frozen=True)
 class StreamWidth:
     def check(self, v, fld: str):
         v = Int(8, 64).check(v, fld)
@@ -201,6 +213,7 @@ SOLVER = {
     "sizing_solves": Int(1, 100000),
     "method": Choice(("admm", "ama", "vucondat")),
     "precondition": Bool(),
+    "lanes": Lanes(),
     # minres
     "minres_P": Int(0, 64, " (0: eq. (15) of 001)"),
     "minres_iterations": Int(0, 65535, " (0: the default N)"),

@@ -105,3 +105,13 @@ def single_dsp_advice(target: str, b: int, redesign, counts: list[int], floor: i
             return (f"  Fit: b = {bb} keeps every product on one DSP ({dsp_count(target, prods, counts)} instead of "
                     f"{dsp_count(target, now, counts)}; B={bb}, or frac_bits: {bb} in the spec)")
     return None
+
+
+#: the ECP5's DP16KD aspect ratios (words, bits): 18 kbit with parity, 16 kbit in the narrow ones
+DP16KD_SHAPES = ((16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18), (512, 36))
+
+
+def dp16kd(memories: list[tuple[int, int]]) -> int:
+    """DP16KD blocks of memories (words, bits), each in the block's best aspect ratio (an estimate: synthesis may
+    put a small one in LUTs, never in fewer blocks)"""
+    return sum(min(-(-d // sd) * -(-w // sw) for sd, sw in DP16KD_SHAPES) for d, w in memories)

@@ -185,6 +185,14 @@ ADMM_CASES = {
                                       dict(P=3, frac_bits=16, method="vucondat", accelerated=True, iterations=30), 12),
     "rand_rate_n19_p2_ecp5_ama": (lambda: random_problem("rm19", 3, 1, 4, 1, 7, input_rate=RATE),
                                   dict(P=2, frac_bits=15, target="ecp5", method="ama"), 12),
+    # time-multiplexed lanes: 5 multipliers take each row of 19 columns in 4 chunks (accumulated, then saturated),
+    # soft pairs (the previous row's values held across the chunks' cycles), deeper pipeline, ECP5 target
+    "rand_soft_n19_c4_l24_ecp5": (lambda: random_problem("rc19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
+                                  dict(frac_bits=16, lanes=5, lat_add=2, lat_mul=4, target="ecp5"), 20),
+    # fast ADMM on 10 lanes (2 chunks) with a one-stage pipeline
+    "rand_soft_n19_c2_admm_acc": (lambda: random_problem("rca19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
+                                  dict(frac_bits=16, lanes=10, accelerated=True, iterations=30, lat_add=0,
+                                       lat_mul=0), 12),
 }
 
 

@@ -233,12 +233,23 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     G = np.array(cfg["G"], dtype=np.int64).reshape(n, nw + 1)
     model = AdmmFixed(cfg)
 
+    chunks = int(cfg.get("chunks", 1))
+    lanes = -(-max(n, nw + 1) // chunks)
+    tree_defs = ("#define TREE_MAX N               /* operands of the adder tree: n_A */" if chunks == 1 else
+                 f"#define LANES {lanes}               /* multipliers of the row unit: a row in CHUNKS chunks */\n"
+                 f"#define CHUNKS {chunks}\n#define TREE_MAX LANES")
+
+    def dot(row: str, v: str, cols: str) -> str:
+        if chunks == 1:
+            return f"mpc_dot({row}, {v}, {cols}, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum)"
+        return f"dot_chunks({row}, {v}, {cols}, &f_sum)"
+
     def sat(k: str, x: str) -> str:
         return f"mpc_sat({x}, W_{k.upper()}_LO, W_{k.upper()}_HI, &f_{k})"
 
     data = f"""\
 #define FRAC_BITS {cfg["frac_bits"]}
-#define TREE_MAX N               /* operands of the adder tree: n_A */
+{tree_defs}
 #define COEF_T {emit.int_type(np.concatenate([M.ravel(), G.ravel()]))}
 {emit.width_macros(cfg["widths"], OVF)}
 /* M11 and G~ words (G~'s last column multiplies the word 2^b), rho_j = 2^K[j], the box of parameter words */
@@ -246,7 +257,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 {emit.array("K", cfg["shift"], ctype="int8_t")}{emit.array("WLO", cfg["wlo"])}{emit.array("WHI", cfg["whi"])}\
 {_data(cfg, False)}{_momentum(cfg)}
 {emit.helpers(cfg["rounding"], "clip", "dot", "shift_by")}
-{_proj(False)}"""
+{CHUNKED_DOT if chunks > 1 else ""}{_proj(False)}"""
     acc = bool(cfg.get("accelerated"))
     w_form = "(x, u_prev, r)" if cfg.get("rate", True) else "(x, r)"   # the QP's form (mpc_cores.admm.problem)
     body = f"""\
@@ -258,7 +269,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     }}
     w[NW] = INT64_C(1) << FRAC_BITS;
     for (i = 0; i < N; i++)
-        gw[i] = mpc_dot(G[i], w, NW + 1, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum);
+        gw[i] = {dot("G[i]", "w", "NW + 1")};
 {start(cfg)}{acc_start(cfg) if acc else ""}\
     for (it = 0; it < ctrl->imax; it++) {{
 {acc_hat(cfg) if acc else ""}\
@@ -272,7 +283,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
                 f_sum = 1;
         }} else {{
             for (i = 0; i < N; i++)
-                s[i] = mpc_dot(M11[i], v, N, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum);
+                s[i] = {dot("M11[i]", "v", "N")};
         }}
         for (i = 0; i < N; i++) {{                       /* y = M11 v + G~ (w, 1);  q = y + nu / rho */
             y[i] = {sat("y", "s[i] + gw[i]")};
@@ -344,3 +355,19 @@ static mpc_real_t clip(mpc_real_t x, mpc_real_t lo, mpc_real_t hi)
     return capi.solver_files(api, cfg, f"the ADMM solver of the core {nm.module} in floating point (double, or float "
                              f"with -D{api.P}_SINGLE)", f"{TITLE}; Algorithm 2 on the unquantised data (not "
                              "bit-exact: the fixed-point solver is).", data, body)
+
+
+CHUNKED_DOT = """\
+/* A row in CHUNKS chunks of LANES columns (AdmmCore with chunks > 1): each chunk's tree, then the exact sum of the
+   chunks, saturated once */
+static int64_t dot_chunks(const COEF_T *row, const int64_t *v, int cols, uint8_t *flag)
+{
+    int64_t s = 0;
+    int c;
+    for (c = 0; c < CHUNKS && c * LANES < cols; c++) {
+        int k = cols - c * LANES;
+        s += mpc_dot(row + c * LANES, v + c * LANES, k < LANES ? k : LANES, LANES, W_SUM_LO, W_SUM_HI, flag);
+    }
+    return mpc_sat(s, W_SUM_LO, W_SUM_HI, flag);
+}
+"""

@@ -54,6 +54,8 @@ from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_opt
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError
 from mpc_cores.fixed import bits_for, quantize
 from mpc_cores.problem import MpcProblem
+from mpc_cores.schema import PART, PART_MULTS
+from mpc_cores.target import dsp_count
 
 # Defaults of the example (tuned on masses_rate_soft, closed loop, warm start, Imax = 40).
 RHO_DEFAULT = 2.0
@@ -94,6 +96,17 @@ class AdmmDesign(FixedPointDesign):
     mu: float | None = None    # ama: lambda_min of H_A on Ker F (the dual step bound 2 mu), of the scaled QP if any
     scaling: Pow2Scaling | None = None   # the power-of-two preconditioner folded into the steps (precondition)
     accelerated: bool = False  # ama: fast AMA with the gradient restart (mpc_cores.admm.model.AdmmFixed)
+    chunks: int = 1            # a row's dot product in `chunks` cycles on lanes = ceil(m / chunks) multipliers
+
+    @property
+    def m(self) -> int:
+        """columns of a row: the G~ (w, 1) pass shares the multipliers"""
+        return max(self.n, self.nw + 1)
+
+    @property
+    def lanes(self) -> int:
+        """multipliers of the row unit's dot product"""
+        return -(-self.m // self.chunks)
 
     def label(self) -> str:
         """the design in a table row (make demo)"""
@@ -124,7 +137,8 @@ class AdmmDesign(FixedPointDesign):
     def module_name(self) -> str:
         kp = f"_k{self.problems}" if self.problems > 1 else ""
         m = "" if self.method == "admm" else f"_{self.method}"
-        return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{kp}{m}{module_suffix(self.target)}"
+        c = f"_c{self.chunks}" if self.chunks > 1 else ""
+        return f"AdmmCore_{self.name}_n{self.n}_p{self.P}_b{self.b}{kp}{c}{m}{module_suffix(self.target)}"
 
     def products(self) -> list[tuple[int, int]]:
         """(a, b) bit widths of the multipliers (AdmmCore): the row dot products, coefficient x operand; accelerated:
@@ -141,17 +155,21 @@ class AdmmDesign(FixedPointDesign):
     # ---- cycle contract and resources of 002
     @property
     def cycles_per_iteration(self) -> int:
-        """L_A of eq. (24) (accelerated: plus the momentum lanes' 1 + l_M)."""
+        """L_A of eq. (24) (accelerated: plus the momentum lanes' 1 + l_M); chunks > 1: n_A rows of `chunks` cycles,
+        a tree of `lanes` inputs and the two cycles of the chunks' accumulation."""
+        mom = 1 + self.lat_mul if self.accelerated else 0
+        if self.chunks > 1:
+            d = math.ceil(math.log2(self.lanes)) if self.lanes > 1 else 0
+            return self.n * self.chunks + self.lat_add * d + self.lat_mul + 6 * self.lat_add + 4 + mom
         d = math.ceil(math.log2(self.n)) if self.n > 1 else 0
-        return (-(-self.n // self.P) + self.lat_add * d + self.lat_mul + 6 * self.lat_add + 2
-                + (1 + self.lat_mul if self.accelerated else 0))
+        return -(-self.n // self.P) + self.lat_add * d + self.lat_mul + 6 * self.lat_add + 2 + mom
 
     @property
     def multipliers(self) -> int:
-        """Table I of 002: P n_A (the rho shifts need none); accelerated: per momentum lane (one per unit, two with
-        soft pairs) two per extrapolated state (AMA: two)."""
+        """Table I of 002: P n_A (the rho shifts need none; chunks > 1: the lanes); accelerated: per momentum lane
+        (one per unit, two with soft pairs) two per extrapolated state (AMA: two)."""
         per_lane = 2 * len(ACC_STATES[self.method])
-        return self.P * self.n + (per_lane * self.P * (2 if self.qp.ns else 1) if self.accelerated else 0)
+        return (self.P * self.n if self.chunks == 1 else self.lanes) + (per_lane * self.P * (2 if self.qp.ns else 1) if self.accelerated else 0)
 
     def config(self) -> dict:
         """What an ADMM core generator needs, analogous to FgmDesign.config()."""
@@ -170,6 +188,7 @@ class AdmmDesign(FixedPointDesign):
             "safety": self.safety, "estimated": list(self.estimated), "method": self.method,
             **({"accelerated": True, "momentum": momentum_words(self.b).tolist()} if self.accelerated else {}),
             **({"problems": self.problems} if self.problems > 1 else {}),
+            **({"chunks": self.chunks} if self.chunks > 1 else {}),
             # absent: the rate-augmented form (so that its configurations, and the cores built from them, stay as
             # they were)
             **({} if self.rate else {"rate": False}),
@@ -316,8 +335,35 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
                    safety=safety, output_all=output_all, assumption2=a2, problems=problems_option(problem, overrides),
                    method=method, mu=mu, scaling=scaling, accelerated=accelerated)
     _size_words(d, int(opt("sizing_solves", 48)), int(opt("sizing_seed", 0)))
+    d.chunks = _chunks(d, opt("lanes", None))
     apply_target(d, lat_mul, d.products())
     return d
+
+
+def _chunks(d: AdmmDesign, lanes) -> int:
+    """Chunks per row for the `lanes` option: None, one row per cycle (the papers' P n_A multipliers); an integer,
+    the fewest chunks (a power of two) whose lanes are at most that; "fit", the fewest whose products fit the
+    LFE5U-85F's MULT18X18D (the ECP5 count of mpc_cores.target, whatever the target)."""
+    if lanes is None:
+        return 1
+    if d.P != 1 or d.problems != 1:
+        raise DesignError(f"lanes: a row unit with fewer multipliers than columns needs P = 1 and problems = 1 "
+                          f"(got P = {d.P}, problems = {d.problems})")
+    top = 1 << max(0, (d.m - 1).bit_length())          # the chunks at which a lane is one column
+    for c in (1 << i for i in range(top.bit_length())):
+        d.chunks = c
+        if (lanes == "fit" and dsp_count("ecp5", d.products(), product_counts(d)) <= PART_MULTS
+                or lanes != "fit" and d.lanes <= int(lanes)):
+            return c
+    d.chunks = 1
+    raise DesignError(f"lanes={lanes}: no chunking of the rows' {d.m} columns fits "
+                      + (f"the {PART}'s {PART_MULTS} MULT18X18D" if lanes == "fit" else "that many multipliers"))
+
+
+def product_counts(d: AdmmDesign) -> list[int]:
+    """how many multipliers of each width pair of d.products() the core has (mpc_cores.admm.report.facts)"""
+    n = len(d.products())
+    return [d.multipliers] if n == 1 else [d.multipliers - 2 * (n - 1)] + [2] * (n - 1)
 
 
 def sizing_parameters(d: AdmmDesign, rng: np.random.Generator, count: int) -> np.ndarray:

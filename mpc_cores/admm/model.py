@@ -168,6 +168,10 @@ class AdmmFixed:
         # fast AMA with the gradient restart of O'Donoghue and Candes (method ama only)
         self.accelerated = bool(cfg.get("accelerated", False))
         self.mom = np.array(cfg["momentum"], dtype=np.int64) if self.accelerated else None
+        # chunks per row: the row unit's lanes = ceil(max(n_A, nw + 1) / chunks) multipliers take a row in `chunks`
+        # cycles; the chunks' tree sums add exactly and the total saturates (AdmmCore)
+        self.chunks = int(cfg.get("chunks", 1))
+        self.lanes = -(-max(n, self.nw + 1) // self.chunks)
         self.prev: tuple | None = None       # (z, nu[, y]) of the last solve; None: no valid warm start
 
     def reset(self) -> None:
@@ -177,16 +181,22 @@ class AdmmFixed:
     def _dot(self, M: np.ndarray, V: np.ndarray, chunk: int = 16):
         """Rows of M times each V[s], padded to n_A operands, rounded products, pairwise tree."""
         W = self.widths["sum"]
-        Vp = np.zeros((V.shape[0], self.n), dtype=np.int64)
+        cols = max(self.n, self.lanes * self.chunks)
+        Vp = np.zeros((V.shape[0], cols), dtype=np.int64)
         Vp[:, : V.shape[1]] = V
-        Mp = np.zeros((M.shape[0], self.n), dtype=np.int64)
+        Mp = np.zeros((M.shape[0], cols), dtype=np.int64)
         Mp[:, : M.shape[1]] = M
         out = np.empty((V.shape[0], M.shape[0]), dtype=np.int64)
         flag, peak = False, 0
         for i in range(0, V.shape[0], chunk):
             p, f1 = saturate(shift_round(Mp[None] * Vp[i:i + chunk, None, :], self.b, self.rounding), W)
             peak = max(peak, int(np.abs(p).sum(axis=-1).max()))   # bounds every partial sum of the row
-            out[i:i + chunk], f2 = tree_sum(p, W)
+            if self.chunks == 1:
+                out[i:i + chunk], f2 = tree_sum(p, W)
+            else:   # per chunk of lanes a tree, then the exact sum of the chunks, saturated once
+                part, f2 = tree_sum(p.reshape(p.shape[:-1] + (self.chunks, self.lanes)), W)
+                out[i:i + chunk], f3 = saturate(part.sum(axis=-1), W)
+                f2 = f2 or f3
             flag |= f1 or f2
         return out, flag, peak
 

@@ -1,10 +1,10 @@
 """core.json and the design report of an ADMM core."""
 from __future__ import annotations
 
-from mpc_cores.admm.design import AdmmDesign
+from mpc_cores.admm.design import AdmmDesign, product_counts
 from mpc_cores.fixed import run_time_fields
 from mpc_cores.interleave import PASS_QUEUE, PASS_START, core_fields, report_lines
-from mpc_cores.target import dsp_count, report_line
+from mpc_cores.target import dp16kd, dsp_count, report_line
 
 _WHAT = {"coef": "matrix words M11, G~", "w": "parameter word (of w) after saturation, and the word 1",
          "v": "operand v = rho z - nu", "y": "y = M11 v + G~ (w, 1)", "q": "q = y + nu / rho", "z": "iterate z",
@@ -19,7 +19,7 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
         raise RuntimeError(f"L_A = {hw['cycles_per_iteration']} - {mom} exceeds eq. (24) of 002: {hw['cycles_eq24']}")
     if bool(hw.get("accelerated", False)) != d.accelerated:
         raise RuntimeError(f"generator and front end disagree on accelerated: {hw.get('accelerated')}")
-    if hw["multipliers"] != d.P * max(d.n, d.nw + 1) + d.multipliers - d.P * d.n:
+    if hw["multipliers"] != d.multipliers + (d.P * (d.m - d.n) if d.chunks == 1 else 0):
         raise RuntimeError(f"generator and front end disagree on multipliers: {hw['multipliers']}")
     b = d.b
     one = 1 << b
@@ -129,7 +129,9 @@ def design_report(d: AdmmDesign, core: dict | None = None) -> str:
                                  "u_0 = clip(u_prev + du_0, umin, umax))" if d.rate else
                                  "(no input_rate: decision inputs u_k; u_0 = clip(u_0, umin, umax))"),
         f"  P = {d.P}, l_A = {d.lat_add}, l_M = {d.lat_mul}, {d.rounding} products, b = {b} fraction bits",
-        report_line(d.target, d.lat_mul, d.products(), [d.multipliers]),
+        *([f"  Lanes: {d.lanes} multipliers take a row of {d.m} columns in {d.chunks} chunks (one a cycle), their "
+           f"tree sums added exactly and the total saturated"] if d.chunks > 1 else []),
+        report_line(d.target, d.lat_mul, d.products(), product_counts(d)),
         *_method_lines(d),
         "  Word widths (static words analytic; iterates: largest seen in the bit-exact model x safety, IV-C2 of 002):",
     ]
@@ -145,7 +147,10 @@ def design_report(d: AdmmDesign, core: dict | None = None) -> str:
                               d.n if d.output_all else d.nu, d.nw, PASS_START + 1 + PASS_QUEUE + (d.iterations + 1) * core["cycles_per_iteration"])[1:]
     else:
         lines.append(f"  Cycles: eq. (24) of 002 gives L_A <= {d.cycles_per_iteration} per iteration")
-    lines.append(f"  Multipliers: {d.P * max(d.n, d.nw + 1)} (P * max(n_A, nw + 1); Table I: P n_A = {d.P * d.n})")
+    if d.chunks > 1:
+        lines.append(f"  Multipliers: {d.multipliers} (ceil(max(n_A, nw + 1) / chunks) lanes; Table I: P n_A = {d.n})")
+    else:
+        lines.append(f"  Multipliers: {d.P * max(d.n, d.nw + 1)} (P * max(n_A, nw + 1); Table I: P n_A = {d.P * d.n})")
     return "\n".join(lines)
 
 
@@ -153,8 +158,18 @@ def facts(d: AdmmDesign) -> dict:
     """What the design check and the gallery print of a design (mpc_cores.check); the cycles per solve from the
     per-iteration bound of eq. (24) (the generated core's count is at most this)."""
     prods = d.products()
-    counts = [d.multipliers] if len(prods) == 1 else [d.multipliers - 2 * (len(prods) - 1)] + [2] * (len(prods) - 1)
+    counts = product_counts(d)
     return {"iterations": d.iterations, "iterations_text": f"Imax = {d.iterations}",
             "cycles": PASS_START + 1 + PASS_QUEUE + (d.iterations + 1) * d.cycles_per_iteration,
-            "multipliers": d.multipliers, "dsp_ecp5": dsp_count("ecp5", prods, counts),
-            "words": f"b = {d.b}, widest product {max(prods, key=lambda p: p[0] * p[1])}"}
+            "multipliers": d.multipliers, "dsp_ecp5": dsp_count("ecp5", prods, counts), "bram_ecp5": dp16kd(memories(d)),
+            "words": f"b = {d.b}, widest product {max(prods, key=lambda p: p[0] * p[1])}"
+                     + (f", {d.lanes} lanes x {d.chunks} chunks" if d.chunks > 1 else "")}
+
+
+def memories(d: AdmmDesign) -> list[tuple[int, int]]:
+    """(words, bits) of the core's memories per row unit (AdmmCore): the matrix (M11 and G~ blocks of
+    2^ceil(log2 slots) words of `lanes` coefficients), the bounds and G~ (w, 1)"""
+    K = -(-d.n // d.P)
+    block = 1 << max(1, (K * d.chunks - 1).bit_length())
+    w = d.widths
+    return d.P * [(2 * block, d.lanes * w["coef"]), (K, 2 * w["z"]), (K * d.problems, w["sum"])]

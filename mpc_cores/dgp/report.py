@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from mpc_cores.dgp.design import ALPHA, DgpDesign
 from mpc_cores.fixed import run_time_fields
-from mpc_cores.target import dsp_count, report_line
+from mpc_cores.target import dp16kd, dsp_count, report_line
 
 
 def _counts(d: DgpDesign) -> list[int]:
@@ -84,4 +84,6 @@ def facts(d: DgpDesign) -> dict:
     return {"iterations": d.iterations, "iterations_text": f"Imax = {d.iterations}",
             "cycles": d.cycles_to_output(d.iterations), "multipliers": d.multipliers,
             "dsp_ecp5": dsp_count("ecp5", d.products(), _counts(d)),
+            "bram_ecp5": dp16kd([(sum(r * d.chunks[k] for r, k in ((d.n + d.mc, "F"), (d.n, "K"), (d.mc, "G"))),
+                                  d.lanes * d.widths["coef"])]),
             "words": f"b = {d.b}, data {d.widths['data']} bits"}

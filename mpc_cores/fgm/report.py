@@ -6,7 +6,7 @@ import numpy as np
 from mpc_cores.fgm.design import FgmDesign, roundoff_bound
 from mpc_cores.fixed import run_time_fields
 from mpc_cores.interleave import core_fields, report_lines
-from mpc_cores.target import dsp_count, report_line, single_dsp_advice
+from mpc_cores.target import dp16kd, dsp_count, report_line, single_dsp_advice
 
 
 def _fmt(intb: int, b: int, width: int) -> dict:
@@ -122,4 +122,6 @@ def facts(d: FgmDesign) -> dict:
     counts = [d.P * d.m, 2 * d.P]
     return {"iterations": d.iterations, "iterations_text": f"Imax = {d.iterations}", "cycles": d.cycles_per_solve(),
             "multipliers": d.multipliers, "dsp_ecp5": dsp_count("ecp5", d.products(), counts),
+            "bram_ecp5": dp16kd(d.P * [(2 * (1 << max(1, (d.K - 1).bit_length())), d.m * d.widths["coef"]),
+                                       (d.K, 2 * d.widths["z"])]),
             "words": f"b = {d.b}, widest product {max(d.products(), key=lambda p: p[0] * p[1])}"}

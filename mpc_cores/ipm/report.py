@@ -60,5 +60,5 @@ def facts(d) -> dict:
 
     c = planned_core(d, d.i_mr)
     return {"iterations": d.i_mr, "iterations_text": f"I_NW = {d.i_nw}, I_MR = {d.i_mr}",
-            "cycles": simulate(c, [0], warm={0})[0]["latency"], "multipliers": None, "dsp_ecp5": None,
+            "cycles": simulate(c, [0], warm={0})[0]["latency"], "multipliers": None, "dsp_ecp5": None, "bram_ecp5": None,
             "words": d.format}

@@ -38,7 +38,9 @@ class AdmmCore(val p: AdmmParams) extends Module {
   val s_axil = IO(Flipped(new AxiLiteIO(p.axiAddrW)))
 
   import AdmmParams._
-  import p.{K, Kp, P, m, n, nu, nw}
+  import p.{K, Kp, P, lanes, n, nu, nw}
+  /** the operand vectors' length: every chunk of a row full */
+  val mPad = lanes * p.chunks
   val b = p.fracBits
   val L = p.cyclesPerIteration
 
@@ -51,13 +53,13 @@ class AdmmCore(val p: AdmmParams) extends Module {
   when(frameIn.io.tlastErr) { regs.stTlast := true.B }
   /** per problem: the warm start is valid (interleaving; one problem uses the shared WARM_VALID) */
   val warmOk = RegInit(VecInit(Seq.fill(Kp)(false.B)))
-  val ctl = SeqControl(K, L, L, copyAfterFirst = true, maxOut = n, Kp, frameIn, regs,
+  val ctl = SeqControl(p.slots, L, L, copyAfterFirst = true, maxOut = n, Kp, frameIn, regs,
     Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U), m_axis.fire, warmOk)
   import ctl.{mine, ofSlot}
   regs.busy := ctl.running || ctl.outPending || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
-  val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, m, p.coefW, p.matInit(u), outReg = true,
+  val matRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_mat$u", 2 * p.K2, lanes, p.coefW, p.matInit(u), outReg = true,
     ecp5 = p.target == dsp.Target.Ecp5, raddrAhead = ctl.tokNN.isDefined, broadcast = true)))
   val bndRam = (0 until P).map(u => Module(new InitRam(s"${p.moduleName}_bnd$u", K, 2, p.zW, p.boundInit(u), outReg = true,
     ecp5 = p.target == dsp.Target.Ecp5, broadcast = true)))
@@ -98,19 +100,36 @@ class AdmmCore(val p: AdmmParams) extends Module {
   }
 
   // Row tokens: tokN is the next cycle's, so the row memories are addressed a cycle ahead (outputs registered).
+  // With chunks > 1 the sequencer's tokens are slots (row k chunk c at k chunks + c); from the tree's output on a
+  // stage sees row tokens, valid with a row's last chunk.
   val tokN = ctl.tokN
   val tok0 = RegNext(tokN, 0.U.asTypeOf(tokN))
-  def tokAt(stage: Int): RowToken = if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(tokN), true.B)
-  val tok1   = tokAt(1)
+  val cB   = p.chunkBits
+  val kW   = math.max(1, log2Ceil(K))
+  /** the row of a slot token */
+  def rowK(t: RowToken): UInt = if (cB == 0) t.k else (t.k >> cB).asUInt.pad(kW)(kW - 1, 0)
+  def chunkOf(t: RowToken): UInt = t.k(math.max(cB, 1) - 1, 0)
+  def rowTok(t: RowToken): RowToken = if (cB == 0) t else {
+    val r = Wire(new RowToken(kW, sW))
+    r.valid := t.valid && chunkOf(t) === (p.chunks - 1).U
+    r.pass0 := t.pass0
+    r.first := t.first
+    r.k     := rowK(t)
+    r.slot  := t.slot
+    r
+  }
+  def slotAt(stage: Int): RowToken = if (stage < 0) tokN else ShiftRegister(tok0, stage, 0.U.asTypeOf(tokN), true.B)
+  def tokAt(stage: Int): RowToken = if (stage >= p.stageTree) rowTok(slotAt(stage)) else slotAt(stage)
+  val tok1   = slotAt(1)
   val tokSum = tokAt(p.stageSum)
   val tokQ   = tokAt(p.stageQ)
   val tokZ   = tokAt(p.stageZ)
   val tokNu  = tokAt(p.stageN)
 
-  val wPad = VecInit((0 until m).map { j =>
+  val wPad = VecInit((0 until mPad).map { j =>
     if (j < nw) wCur(j).pad(p.opW) else if (j == nw) (BigInt(1) << b).S(p.opW.W) else 0.S(p.opW.W)
   })
-  val vPad = VecInit((0 until m).map(j => if (j < n) vReg(j).pad(p.opW) else 0.S(p.opW.W)))
+  val vPad = VecInit((0 until mPad).map(j => if (j < n) vReg(j).pad(p.opW) else 0.S(p.opW.W)))
 
   // accelerated (fast AMA, fast ADMM, fast Vu-Condat): per extrapolated state x the last iteration's x and the
   // candidates x + mom (x - prev), the momentum index and word, the restart test's sum (MomentumLane; one problem)
@@ -138,7 +157,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
   }
   val laneA = Wire(Vec(P, new Lane)) // the row in the slot
   val laneB = Wire(Vec(P, new Lane)) // the soft state before a slack row
-  val dp = Module(new DotProductTree(DotProductParams(m, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding, p.target)))
+  val dp = Module(new DotProductTree(DotProductParams(lanes, p.coefW, p.opW, p.sumW, b, p.latMul, p.latAdd, p.rounding, p.target)))
 
   for (u <- 0 until P) {
     val tree = if (u == 0) dp else Module(new DotProductTree(dp.p))
@@ -146,11 +165,37 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val tokR = ctl.tokNN.getOrElse(tokN)
     matRam(u).io.raddr := Cat(tokR.pass0, tokR.k)
     tree.io.inValid := tok1.valid
-    tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(m, SInt(p.coefW.W)))
+    tree.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(lanes, SInt(p.coefW.W)))
     // the operand select per multiplier from a copy of tok1.pass0 of its own (an FPGA target): one register would
-    // drive every multiplier's operand bits across the device
-    val opSel = KeepReg.copies(tok0.pass0, m, p.target != dsp.Target.Generic)
-    tree.io.op      := VecInit((0 until m).map(j => Mux(opSel(j), wPad(j), vPad(j))))
+    // drive every multiplier's operand bits across the device; with chunks, the chunk's operands likewise
+    val keep  = p.target != dsp.Target.Generic
+    val opSel = KeepReg.copies(tok0.pass0, lanes, keep)
+    if (cB == 0) tree.io.op := VecInit((0 until lanes).map(j => Mux(opSel(j), wPad(j), vPad(j))))
+    else {
+      val chSel = KeepReg.copies(chunkOf(tok0), lanes, keep)
+      tree.io.op := VecInit((0 until lanes).map { j =>
+        val c = chSel(j)
+        Mux(opSel(j), VecInit((0 until p.chunks).map(q => wPad(q * lanes + j)))(c),
+          VecInit((0 until p.chunks).map(q => vPad(q * lanes + j)))(c))
+      })
+    }
+    // chunks > 1: the chunks' tree sums accumulate exactly (a word log2(chunks) + 1 bits wider), the row's total
+    // saturates to the sum width a cycle later (mpc_cores.admm.model: the same)
+    val (rowSum, rowOvf) = if (cB == 0) (tree.io.sum, tree.io.outValid && tree.io.overflow) else {
+      val tokT  = slotAt(p.stageTree)
+      val accW  = p.sumW + cB + 1
+      val accR  = Reg(SInt(accW.W))
+      val accOf = Reg(Bool())
+      val c0    = chunkOf(tokT) === 0.U
+      when(tokT.valid) {
+        accR  := Mux(c0, tree.io.sum.pad(accW), accR + tree.io.sum.pad(accW))
+        accOf := Mux(c0, tree.io.overflow, accOf || tree.io.overflow)
+      }
+      val (sat, satOf) = FixedOps.saturate(accR, p.sumW)
+      val sumR = Reg(SInt(p.sumW.W))
+      sumR := sat
+      (sumR, RegNext(accOf || satOf) && tokAt(p.stageSum).valid)
+    }
 
     // Per-row constants and nu, picked at the fetch and carried to the q step.
     val kindRom = VecInit((0 until K).map(k => p.kindAt(u, k).U(2.W)))
@@ -165,13 +210,13 @@ class AdmmCore(val p: AdmmParams) extends Module {
     // momentum's copy into nu comes in the cycle of the next iteration's row 0 at tok0, so with it one stage reads.
     val nuSel =
       if (acc) {
-        val hot1 = RegNext(VecInit(UIntToOH(tok0.k, K).asBools))
+        val hot1 = RegNext(VecInit(UIntToOH(rowK(tok0), K).asBools))
         WireInit(SInt(p.nuW.W), Mux1H(hot1, nuRow(tok1)))
       } else {
-        OneHotSelect.registered(RegNext(VecInit(UIntToOH(tokN.k, K).asBools)), nuRow(tok0), p.nuW)
+        OneHotSelect.registered(RegNext(VecInit(UIntToOH(rowK(tokN), K).asBools)), nuRow(tok0), p.nuW)
       }
-    val kindQ   = ShiftRegister(kindRom(tok1.k), toQ)
-    val codeQ   = ShiftRegister(codeRom(tok1.k), toQ)
+    val kindQ   = ShiftRegister(kindRom(rowK(tok1)), toQ)
+    val codeQ   = ShiftRegister(codeRom(rowK(tok1)), toQ)
     val nuQ     = ShiftRegister(nuSel, toQ)
     // nu / rho (a rounded shift: a carry chain with nearest rounding), formed a stage after the fetch so that the
     // q step below has one carry chain
@@ -180,7 +225,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
         val nu1   = Reg(SInt(p.nuW.W))
         val code1 = Reg(UInt(codeW.W))
         nu1   := nuSel
-        code1 := codeRom(tok1.k)
+        code1 := codeRom(rowK(tok1))
         ShiftRegister(shiftByCode(nu1, code1, neg = true), toQ - 1)
       }
       else shiftByCode(nuQ, codeQ, neg = true)
@@ -193,9 +238,9 @@ class AdmmCore(val p: AdmmParams) extends Module {
       gwRam(u).io.wen   := true.B
       gwRam(u).io.waddr := gwAddr(tokSum)
       gwRam(u).io.wmask := 1.U
-      gwRam(u).io.wdata := tree.io.sum.asUInt
+      gwRam(u).io.wdata := rowSum.asUInt
     }
-    val (yQ, ofY) = FixedOps.satAddPipelined(tree.io.sum, gw, p.yW, p.latAdd)
+    val (yQ, ofY) = FixedOps.satAddPipelined(rowSum, gw, p.yW, p.latAdd)
     // q = y + nu / rho (0 in the first pass: the cold start projects 0)
     val (qP, ofQ) = FixedOps.satAddPipelined(yQ, nuRhoQ, p.qW, p.latAdd, zero = tokQ.pass0)
     val yP    = ShiftRegister(yQ, p.latAdd)
@@ -216,9 +261,12 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val zBox   = ShiftRegister(box.io.out, p.projLat - p.latAdd)
     // the previous slot's row (a soft pair's state when this is its slack)
     def prev[T <: Data](x: T): T = { val r = Reg(chiselTypeOf(x)); r := x; r }
-    val prevQ  = prev(qP)
-    val prevY  = prev(yP)
-    val prevNu = prev(nuP)
+    // (chunks > 1: rows come every chunks cycles, so the previous row's values are held from its own cycle)
+    val tokPv = tokAt(p.stageP).valid
+    def prevRow[T <: Data](x: T): T = if (cB == 0) prev(x) else RegEnable(x, tokPv)
+    val prevQ  = prevRow(qP)
+    val prevY  = prevRow(yP)
+    val prevNu = prevRow(nuP)
     val kindZ  = ShiftRegister(kindP, p.projLat)
     val codeZ  = ShiftRegister(codeP, p.projLat)
     val (zA, zB, ofZ) = if (p.hasSoft) {
@@ -318,7 +366,7 @@ class AdmmCore(val p: AdmmParams) extends Module {
     // Saturation in a live row of an iteration sets the sticky overflow flag (the first pass: the tree only).
     val kindZs = kindZ
     val liveA  = kindZs =/= SoftX.U // a state row of a soft pair finishes in its slack's slot
-    val ofTree = tree.io.outValid && tree.io.overflow
+    val ofTree = rowOvf
     val tokP   = tokAt(p.stageP)
     val ofYQ   = tokQ.valid && !tokQ.pass0 && ofY || tokP.valid && ofQ
     val liveZ  = tokZ.valid && !tokZ.pass0
@@ -481,7 +529,14 @@ class AdmmCore(val p: AdmmParams) extends Module {
     val off = regs.earlyOffset("MAT_M")
     val j   = rowOfMat(off)
     val ok  = regs.earlyIn("MAT_M") && matOk(n)(off) || isG && matOk(nw + 1)(off)
-    regs.unitWrites(matRam, p.coefW, u => ok && unitRom(j) === u.U, Mux(isG, slotRom(j) +& p.K2.U, slotRom(j)),
-      colOf(off))
+    // a column's chunk and lane (chunks > 1: the chunk in the slot's low bits)
+    val col = colOf(off)
+    val (slot, lane) = if (cB == 0) (slotRom(j), col) else {
+      val cols = 1 << p.cBits
+      val chunkRom = VecInit((0 until cols).map(c => math.min(c / lanes, p.chunks - 1).U(cB.W)))
+      val laneRom  = VecInit((0 until cols).map(c => (c % lanes).U(math.max(1, log2Ceil(lanes)).W)))
+      (Cat(slotRom(j), chunkRom(col)), laneRom(col))
+    }
+    regs.unitWrites(matRam, p.coefW, u => ok && unitRom(j) === u.U, Mux(isG, slot +& p.K2.U, slot), lane)
   }
 }

@@ -48,7 +48,10 @@ case class AdmmParams(
     /** fast AMA with the gradient restart (method ama, one problem): AdmmCore's momentum lanes */
     accelerated: Boolean = false,
     /** accelerated: the momentum words (a_i - 1) / a_(i+1), i = iterations since the (re)start (the last repeats) */
-    momentum: Seq[BigInt] = Seq()) {
+    momentum: Seq[BigInt] = Seq(),
+    /** chunks per row (a power of two): the row unit has lanes = ceil(m / chunks) multipliers and takes a row's dot
+      * product in `chunks` cycles, accumulating the chunks' tree sums (one row unit, one problem) */
+    chunks: Int = 1) {
   import AdmmParams._
   require(!accelerated || Kp == 1, s"accelerated needs problems = 1")
 
@@ -94,9 +97,16 @@ case class AdmmParams(
   require((wlo ++ whi).forall(fits(_, wW)), s"a parameter bound does not fit the w width $wW")
   require(fits(BigInt(1) << fracBits, wW), s"the constant word 2^frac_bits must fit the w width $wW")
 
-  /** Multipliers per dot product: the G~ (w, 1) pass shares them, so max(n_A, nw + 1). */
+  /** Columns of a row: the G~ (w, 1) pass shares the multipliers, so max(n_A, nw + 1). */
   val m: Int     = math.max(n, nw + 1)
-  val depth: Int = log2Ceil(m)
+  require(chunks >= 1 && (chunks & (chunks - 1)) == 0 && chunks <= m,
+    s"chunks must be a power of two in [1, max(n_A, nw + 1) = $m]: got $chunks")
+  require(chunks == 1 || (P == 1 && Kp == 1), s"chunks > 1 needs one row unit and one problem: got P=$P, problems=$Kp")
+  /** multipliers per row unit: chunk c of a row holds its columns c lanes .. (c + 1) lanes - 1 */
+  val lanes: Int = (m + chunks - 1) / chunks
+  /** bits of the chunk index, the low bits of a slot */
+  val chunkBits: Int = log2Ceil(chunks)
+  val depth: Int = log2Ceil(lanes)
   val opW: Int   = math.max(vW, wW)
   val hasSoft: Boolean = softX.nonEmpty
 
@@ -107,6 +117,8 @@ case class AdmmParams(
   /** Row placement: rows(u)(k) = component in slot k of unit u (None: an idle slot). */
   val rows: Seq[Seq[Option[Int]]] = place(n, P, softX.zip(softD))
   val K: Int = rows.head.length
+  /** Slots per unit and pass: a row's chunks take consecutive slots (slot = k chunks + c). */
+  val slots: Int = K * chunks
   val unitOf: Map[Int, Int] = (for (u <- 0 until P; (Some(j), _) <- rows(u).zipWithIndex) yield j -> u).toMap
   val slotOf: Map[Int, Int] = (for (u <- 0 until P; (Some(j), k) <- rows(u).zipWithIndex) yield j -> k).toMap
   /** soft state placed in the slot before each slack */
@@ -114,7 +126,10 @@ case class AdmmParams(
 
   // ---- pipeline stages from the row fetch (see AdmmCore) and the cycle contract
   val projLat: Int  = if (hasSoft) 2 * latAdd else latAdd
-  val stageSum: Int = 1 + latMul + latAdd * depth
+  /** chunks > 1: the chunk sums accumulate in a register (one cycle) and the row's total saturates (one more) */
+  val accLat: Int   = if (chunks > 1) 2 else 0
+  val stageTree: Int = 1 + latMul + latAdd * depth
+  val stageSum: Int = stageTree + accLat
   val stageQ: Int   = stageSum + latAdd
   val stageP: Int   = stageQ + latAdd
   val stageZ: Int   = stageP + projLat
@@ -124,7 +139,7 @@ case class AdmmParams(
   val momLat: Int = if (accelerated) 1 + latMul else 0
   /** Cycles per iteration: the last row's write (accelerated: its momentum lane), then the operand update
     * v = rho z - nu in the next cycle. */
-  val cyclesPerIteration: Int = K + stageW + momLat
+  val cyclesPerIteration: Int = slots + stageW + momLat
   require(!accelerated || momentum.nonEmpty, "accelerated needs the momentum words")
   require(momentum.forall(w => w >= 0 && w <= (BigInt(1) << fracBits)), "momentum words must be in [0, 2^frac_bits]")
   val momW: Int = fracBits + 2
@@ -139,7 +154,9 @@ case class AdmmParams(
     else 2 * (accStates.map(accCurW).max + 1) - fracBits + shift.map(math.abs).max + 3
   val accW: Int  = termW + log2Ceil(n + 1) + 1
   /** L_A of eq. (24) of 002. */
-  val cyclesEq24: Int = (n + P - 1) / P + latAdd * log2Ceil(n) + latMul + 6 * latAdd + 2
+  val cyclesEq24: Int =
+    if (chunks == 1) (n + P - 1) / P + latAdd * log2Ceil(n) + latMul + 6 * latAdd + 2
+    else n * chunks + latAdd * depth + latMul + 6 * latAdd + 2 + accLat
   /** From the handshake of the last input word to the first output word: 4 + (Imax + 1) L (the start two cycles
     * after the frame's last word, shell.PassSequencer; the first pass, G~ (w, 1) and the start iterate, takes one
     * iteration's time; the answer's output queue, shell.AnswerQueue). */
@@ -150,11 +167,11 @@ case class AdmmParams(
   val solveOverhead: Int = if (Kp == 1) 4 + cyclesPerIteration else 3 + cyclesPerIteration + 2
   def cyclesPerSolve(imax: Int): Int = solveOverhead + imax * periodCycles
   /** P m for the row products; accelerated: two per extrapolated state and momentum lane (two lanes with soft pairs) */
-  val multipliers: Int = P * m + (if (accelerated) 2 * accStates.length * P * (if (hasSoft) 2 else 1) else 0)
+  val multipliers: Int = P * lanes + (if (accelerated) 2 * accStates.length * P * (if (hasSoft) 2 else 1) else 0)
 
   require(Seq("admm", "ama", "vucondat").contains(method), s"method must be admm, ama or vucondat: got $method")
   val moduleName: String =
-    s"AdmmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (Kp > 1) s"_k$Kp" else "") +
+    s"AdmmCore_${name}_n${n}_p${P}_b${fracBits}" + (if (Kp > 1) s"_k$Kp" else "") + (if (chunks > 1) s"_c$chunks" else "") +
       (if (method == "admm") "" else s"_$method") + (if (target == Target.Generic) "" else s"_${target.name}")
 
   // ---- register map: data regions addressed by component index
@@ -163,14 +180,15 @@ case class AdmmParams(
     shell.SolverRegs.layout(Seq("WBOX" -> 2 * nw, "BND" -> 2 * n, "MAT_M" -> (n << cBits), "MAT_G" -> (n << cBits)))
   val axiAddrW: Int = log2Ceil(addrWords) + 2
 
-  private def pad(r: Seq[BigInt]) = r ++ Seq.fill(m - r.length)(BigInt(0))
-  /** Rows per block of a unit's matrix memory (the second block starts there): 2^ceil(log2 K), at least 2. */
-  lazy val K2: Int = 1 << math.max(1, log2Ceil(K))
+  private def pad(r: Seq[BigInt]) = r ++ Seq.fill(lanes * chunks - r.length)(BigInt(0))
+  /** Words per block of a unit's matrix memory (the second block starts there): 2^ceil(log2 slots), at least 2. */
+  lazy val K2: Int = 1 << math.max(1, log2Ceil(slots))
   def matInit(u: Int): Seq[Seq[BigInt]] = {
-    val zero = Seq.fill(m)(BigInt(0))
-    // slots 0..K-1: the M11 rows; K2..K2+K-1: the G~ rows
-    rows(u).map(_.map(j => pad(m11(j))).getOrElse(zero)) ++ Seq.fill(K2 - K)(zero) ++
-      rows(u).map(_.map(j => pad(g(j))).getOrElse(zero))
+    val zero = Seq.fill(lanes * chunks)(BigInt(0))
+    def block(of: Int => Seq[BigInt]) =
+      rows(u).flatMap(r => r.map(j => pad(of(j))).getOrElse(zero).grouped(lanes).toSeq)
+    // slots 0..slots-1: the M11 rows' chunks; K2..K2+slots-1: the G~ rows'
+    block(m11) ++ Seq.fill(K2 - slots)(Seq.fill(lanes)(BigInt(0))) ++ block(g)
   }
   /** Per row unit: (lo, hi) of a box row, (c, r) of a slack row, the z word range for a free row. */
   def boundInit(u: Int): Seq[Seq[BigInt]] = rows(u).map {
@@ -236,6 +254,7 @@ object AdmmParams {
       method = j.obj.get("method").map(_.str).getOrElse("admm"),
       accelerated = j.obj.get("accelerated").exists(_.bool),
       momentum = j.obj.get("momentum").map(ints).getOrElse(Seq()),
+      chunks = j.obj.get("chunks").map(_.num.toInt).getOrElse(1),
       fracBits = j("frac_bits").num.toInt,
       latAdd = j("lat_add").num.toInt,
       latMul = j("lat_mul").num.toInt,
