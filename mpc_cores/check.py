@@ -309,7 +309,21 @@ def _checked_count(kind, problem: MpcProblem, overrides: dict, target: float | N
     while hi - lo > max(1, hi // 16):
         mid = (lo + hi) // 2
         lo, hi = (lo, mid) if at(mid)[1].ok else (mid, hi)
-    return tried[hi]
+    d, res = tried[hi]
+    if res.facts["cycles"] > budget:
+        # the loop need not improve with every iteration (a warm-started dual method can meet the target at one
+        # iteration per sample and miss it at a few): the counts 1, 2, 4, ... within the budget, the smallest that
+        # passes
+        fits = [i for i in _powers(hi) if kind.facts(kind.design(problem, **overrides, iterations=i))["cycles"] <= budget]
+        for i in fits:
+            if at(i)[1].ok:
+                return tried[i]
+    return d, res
+
+
+def _powers(top: int) -> list[int]:
+    """1, 2, 4, ... below top"""
+    return [1 << k for k in range(max(0, top - 1).bit_length()) if 1 << k < top]
 
 
 __all__ = ["CheckFailed", "CheckResult", "OptimalController", "check_design", "checked_design", "scenario"]

@@ -19,6 +19,7 @@ from mpc_cores.dgp.model import DgpFixed, dgp_float
 from mpc_cores.dgp.problem import solve_osqp
 from mpc_cores.dgp.study import accuracy, dual_box_check, guarantee, random_parameters, solve_cold
 from mpc_cores.errors import DesignError
+from mpc_cores import registry
 from mpc_cores.problem import load_spec, problem_from_dict
 
 SPEC = Path(__file__).resolve().parent.parent / "examples" / "masses_state.yaml"
@@ -259,10 +260,14 @@ def test_refuses_int_bits_below_37():
         design_dgp(problem(), int_bits=d.bits37 - 1)
     assert "\n" not in str(e.value)
     assert design_dgp(problem(), int_bits=d.bits37).widths["data"] == d.bits37 + d.b
-    # wider words than the exact products of the model and the C solver allow (40 bits) are refused too
+    # wider words than the exact products of the model and the C solver allow (40 bits) are refused too; without
+    # frac_bits the flow narrows p to fit, and the (eps_g, eps_V) guarantee is then not certified
     with pytest.raises(DesignError, match="at most 40") as e:
-        design_dgp(problem(), int_bits=41 - d.b)
+        design_dgp(problem(), int_bits=41 - d.b, frac_bits=d.b)
     assert "\n" not in str(e.value)
+    narrow = design_dgp(problem(), int_bits=41 - d.b)
+    assert narrow.widths["data"] == 40 and narrow.b == d.b - 1 < narrow.bits36
+    assert "NOT CERTIFIED" in registry.get("dgp").design_report(narrow)
 
 
 def test_refuses_a_box_with_infeasible_states():

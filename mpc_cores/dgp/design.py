@@ -205,6 +205,10 @@ def sample_duals(qp: DgpQP, p: MpcProblem, samples: int = 256, seed: int = 0) ->
     return ymax.copy()
 
 
+#: data words: the golden model's and the C solver's products are exact in 64 bits
+DATA_MAX = 40
+
+
 def bits_36(n: int, m: int, D: float, LV: float, eps: float) -> float:
     a = math.sqrt(n / m) * 2 * D / LV
     return math.log2(m * math.sqrt(n) / (math.sqrt(eps / LV + a * a) - a)) - 1
@@ -254,9 +258,6 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     m = 2 * mc
     eps = min(eps_g * qp.sigma, eps_V)
     p36 = math.ceil(bits_36(n, m, D, LV, eps))
-    b = int(opt("frac_bits", p36))
-    if b < 1:
-        raise DesignError(f"frac_bits must be >= 1: got {b}")
 
     wlo = np.concatenate([problem.xmin, problem.rmin])
     whi = np.concatenate([problem.xmax, problem.rmax])
@@ -277,6 +278,12 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     if r < r37:
         raise DesignError(f"int_bits={r} is below the {r37} integer bits (37) of 003 requires "
                           f"(max(y^, z^, g^) = {max(yhat, zhat, ghat):.4g}): the words could overflow")
+    # p from (36), unless the data word would then exceed DATA_MAX bits: (36) is a worst case over the dual box
+    # (log2 of 4 n sqrt(m) D / eps), the default then takes the widest word that fits and says that the (eps_g, eps_V)
+    # guarantee is not certified; the design check measures the loop
+    b = int(opt("frac_bits", p36 if r + p36 <= DATA_MAX else DATA_MAX - r))
+    if b < 1:
+        raise DesignError(f"frac_bits must be >= 1: got {b}")
 
     one = 1 << b
     xlo = quantize(wlo, b, "floor")
@@ -308,8 +315,8 @@ def _size_words(d: DgpDesign, r: int) -> None:
     xmax = int(max(np.abs(d.xlo).max(), np.abs(d.xhi).max()))
     # a row's products: |rnd(c v)| <= |c| |v| / 2^p + 1, v a data word (or a w word in the first pass)
     acc = max(int(np.abs(c).sum(axis=1).max()) * max(dmax, xmax) // one + c.shape[1] + 1 for c in coefs if c.size)
-    if W + 1 > 41 or bits_for(cb) > 32:
-        raise DesignError(f"data words of {W} bits (at most 40) or coefficients of {bits_for(cb)} bits (at most 32) "
+    if W > DATA_MAX or bits_for(cb) > 32:
+        raise DesignError(f"data words of {W} bits (at most {DATA_MAX}) or coefficients of {bits_for(cb)} bits (at most 32) "
                           f"exceed the exact products of the golden model and the C solver: raise eps_g / eps_V or "
                           f"shrink the state box")
     if max(bits_for(xmax), W) > 64:

@@ -24,6 +24,7 @@ def core_json(d: DgpDesign, hw: dict) -> dict:
         "n": d.n, "nu": d.nu, "nw": d.nw, "nx": d.problem.nx, "ny": d.problem.ny, "N": d.problem.N,
         "mc": d.mc, "m": d.m, "lanes": d.lanes, "accelerated": d.accelerated,
         "frac_bits": b, "int_bits": d.widths["data"] - b, "bits_eq36": d.bits36, "bits_eq37": d.bits37,
+        "eps_certified": d.b >= d.bits36,
         "data_format": {"int_bits": d.widths["data"] - b, "frac_bits": b, "width": d.widths["data"]},
         **run_time_fields(d, sw),
         "eps_g": d.eps_g, "eps_V": d.eps_V, "alpha": ALPHA, "dual_margin": d.margin,
@@ -57,7 +58,9 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
         f"  Dual box (14)-(15): d_i = max({d.margin:g} x largest sampled y*_i, 1), alpha = {ALPHA:g}; ||d||_2 = D = "
         f"{a['D']:.4g}, ||d||_inf = {a['d_max']:.4g}",
         f"  Fraction bits p = {d.b}: (36) of 003 gives p >= {d.bits36} for eps = min(eps_g sigma, eps_V) = "
-        f"{a['eps']:.3g} (eps_g = {d.eps_g:g}, eps_V = {d.eps_V:g}, L_V = {a['L_V']:.4g})",
+        f"{a['eps']:.3g} (eps_g = {d.eps_g:g}, eps_V = {d.eps_V:g}, L_V = {a['L_V']:.4g})"
+        + ("" if d.b >= d.bits36 else f"; NOT CERTIFIED: p = {d.b} < {d.bits36}, the (eps_g, eps_V) guarantee of 003 "
+           f"does not hold (the design check measures the loop)"),
         f"  Integer bits r = {W - d.b}: (37) of 003 gives r >= {d.bits37} (y^ = {a['y_hat']:.4g}"
         f", z^ = {a['z_hat']:.4g}, "
         f"g^ = {a['g_hat']:.4g})",
