@@ -289,6 +289,9 @@ def _checked_count(kind, problem: MpcProblem, overrides: dict, target: float | N
             tried[i] = (di, check_design(kind, di, target))
         return tried[i]
 
+    def cycles(i: int) -> int:
+        return kind.facts(kind.design(problem, **overrides, iterations=i))["cycles"]
+
     i0 = res.facts["iterations"]
     if res.ok:                       # halve while the target holds
         lo, hi = 0, i0
@@ -299,9 +302,13 @@ def _checked_count(kind, problem: MpcProblem, overrides: dict, target: float | N
         lo, hi = i0, None
         while hi is None:
             i = 2 * lo
-            if i > 65535 or kind.facts(kind.design(problem, **overrides, iterations=i))["cycles"] > budget:
-                raise CheckFailed(refusal(kind, d, res) + f"; no iteration count up to {lo} meets the target within "
-                                  f"the budget of {budget} cycles per solve (CYCLES=, check.cycles)", d, res)
+            if i > 65535 or cycles(i) > budget:
+                i = _largest(lo, min(i, 65536), lambda j: cycles(j) <= budget)   # the last count within it
+                if i == lo or not at(i)[1].ok:
+                    if i > lo:
+                        d, res = at(i)
+                    raise CheckFailed(refusal(kind, d, res) + f"; no iteration count up to {i} meets the target "
+                                      f"within the budget of {budget} cycles per solve (CYCLES=, check.cycles)", d, res)
             if at(i)[1].ok:
                 hi = i
             else:
@@ -314,11 +321,19 @@ def _checked_count(kind, problem: MpcProblem, overrides: dict, target: float | N
         # the loop need not improve with every iteration (a warm-started dual method can meet the target at one
         # iteration per sample and miss it at a few): the counts 1, 2, 4, ... within the budget, the smallest that
         # passes
-        fits = [i for i in _powers(hi) if kind.facts(kind.design(problem, **overrides, iterations=i))["cycles"] <= budget]
+        fits = [i for i in _powers(hi) if cycles(i) <= budget]
         for i in fits:
             if at(i)[1].ok:
                 return tried[i]
     return d, res
+
+
+def _largest(lo: int, hi: int, ok) -> int:
+    """the largest i in [lo, hi) with ok(i), ok(lo) holding and ok monotone (bisection)"""
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo
 
 
 def _powers(top: int) -> list[int]:
