@@ -72,14 +72,15 @@ def run_pair(spec: str, kind_name: str, gap: float, samples: int | None, budget:
             return "error", f"{type(e).__name__}: {e}", None
 
     row["outcome"], why, res = attempt({})
-    if row["outcome"] == "does not fit" and "lanes" in kind.overrides:
-        # the row unit time-multiplexed onto fewer multipliers (LANES=fit)
+    if row["outcome"] in ("does not fit", "fails check") and "lanes" in kind.overrides:
+        # the row unit's multipliers sized for the part (LANES=fit): fewer, time-multiplexed (ADMM family), or as
+        # many as fit (DGP)
         alt = attempt({"lanes": "fit"})
-        if alt[0] == "usable" or alt[0] == "does not fit":
+        if alt[0] == "usable":
             row["outcome"], why, res = alt
             row["options"] = "LANES=fit"
         else:
-            why = f"with LANES=fit: {alt[0]}" + (f": {alt[1]}" if alt[1] else "")
+            why = (f"{why}; " if why else "") + f"with LANES=fit: {alt[0]}" + (f": {alt[1]}" if alt[1] else "")
     if why:
         row["why"] = why
     if res is not None:

@@ -106,7 +106,7 @@ def test_cartpole_near_the_limit_is_accepted():
 
 def test_cartpole_symmetric_box_is_not_called_infeasible():
     """The LP shows every vertex feasible; the duals there reach ~1e6 (the limit held against the unstable pole), so
-    the words that (36) and (37) of 003 ask exceed 40 bits: the default format is the widest that fits, not
+    the words that (36) and (37) of 003 ask exceed 40 bits: the default format has 16 fraction bits, not
     certified, and the certified one is refused for its word widths, not called infeasible."""
     p = problem_from_dict(cartpole(SYMMETRIC))
     qp = dgp_qp(p)
@@ -115,7 +115,7 @@ def test_cartpole_symmetric_box_is_not_called_infeasible():
     y = sample_duals(qp, p)
     assert np.all(np.isfinite(y)) and y.max() > 1e5
     d = design_dgp(p)
-    assert d.widths["data"] == 40 and d.b < d.bits36
+    assert d.b == 16 < d.bits36
     with pytest.raises(DesignError) as e:
         design_dgp(p, frac_bits=d.bits36)
     msg = str(e.value)

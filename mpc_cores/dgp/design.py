@@ -34,6 +34,8 @@ from mpc_cores.dgp.problem import DgpQP, dgp_qp, solve_qp
 from mpc_cores.errors import DesignError
 from mpc_cores.fixed import bits_for, quantize
 from mpc_cores.problem import MpcProblem
+from mpc_cores.schema import PART, PART_BLOCKS, PART_MULTS
+from mpc_cores.target import dp16kd, dsp_count
 
 ALPHA = 2.0
 BETA_TABLE = 256          # accelerated form: beta_k = k / (k + 3) for k < 256, then beta_255
@@ -130,6 +132,15 @@ class DgpDesign(FixedPointDesign):
     def multipliers(self) -> int:
         return self.lanes + (6 if self.accelerated else 0)
 
+    def product_counts(self) -> list[int]:
+        """how many multipliers of each width pair of products() the core has"""
+        return [self.lanes] + ([4, 2] if self.accelerated else [])
+
+    def memories(self) -> list[tuple[int, int]]:
+        """(words, bits): the matrix memory, Fe, Lw, K and G rows chunk by chunk (DgpCore)"""
+        ch = self.chunks
+        return [((self.n + self.mc) * ch["F"] + self.n * ch["K"] + self.mc * ch["G"], self.lanes * self.widths["coef"])]
+
     def products(self) -> list[tuple[int, int]]:
         """(a, b) bit widths of the multipliers: the row unit (coefficient x operand word), and the accelerated
         form's beta_k x (y - y_prev)."""
@@ -207,6 +218,19 @@ def sample_duals(qp: DgpQP, p: MpcProblem, samples: int = 256, seed: int = 0) ->
 
 #: data words: the golden model's and the C solver's products are exact in 64 bits
 DATA_MAX = 40
+#: fraction bits where (36) and (37) together ask more than DATA_MAX (the design check may add more)
+UNCERTIFIED_BITS = 16
+
+
+def _fit_lanes(d: DgpDesign) -> int:
+    """`lanes: fit`: the most multipliers (up to the longest row) whose products and matrix memory fit the
+    LFE5U-85F (ECP5 counts of mpc_cores.target)"""
+    for lanes in range(max(d.n, d.mc, d.nw), 0, -1):
+        d.lanes = lanes
+        if dsp_count("ecp5", d.products(), d.product_counts()) <= PART_MULTS and dp16kd(d.memories()) <= PART_BLOCKS:
+            return lanes
+    raise DesignError(f"lanes=fit: not even one multiplier's row unit fits the {PART} ({PART_MULTS} MULT18X18D, "
+                      f"{PART_BLOCKS} DP16KD)")
 
 
 def bits_36(n: int, m: int, D: float, LV: float, eps: float) -> float:
@@ -238,7 +262,8 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     accelerated = bool(opt("accelerated", True))
     if solver_opt(problem, overrides, "warm_start", None) is None:
         warm_start = accelerated           # the plain form's V guarantee needs a cold start (Corollary 1 of 003)
-    lanes = int(opt("lanes", 8))
+    lanes_opt = opt("lanes", 8)
+    lanes = 8 if lanes_opt == "fit" else int(lanes_opt)
     margin = float(opt("dual_margin", 2.0))
     if margin < 1:
         raise DesignError(f"dual_margin must be >= 1 (d_i >= max(y*_i, 1), (14) of 003): got {margin}")
@@ -279,9 +304,10 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
         raise DesignError(f"int_bits={r} is below the {r37} integer bits (37) of 003 requires "
                           f"(max(y^, z^, g^) = {max(yhat, zhat, ghat):.4g}): the words could overflow")
     # p from (36), unless the data word would then exceed DATA_MAX bits: (36) is a worst case over the dual box
-    # (log2 of 4 n sqrt(m) D / eps), the default then takes the widest word that fits and says that the (eps_g, eps_V)
-    # guarantee is not certified; the design check measures the loop
-    b = int(opt("frac_bits", p36 if r + p36 <= DATA_MAX else DATA_MAX - r))
+    # (log2 of 4 n sqrt(m) D / eps); the default then takes UNCERTIFIED_BITS fraction bits (the other fixed-point
+    # kinds' default; the design check adds more where the loop needs them) and says that the (eps_g, eps_V)
+    # guarantee is not certified
+    b = int(opt("frac_bits", p36 if r + p36 <= DATA_MAX else min(UNCERTIFIED_BITS, DATA_MAX - r)))
     if b < 1:
         raise DesignError(f"frac_bits must be >= 1: got {b}")
 
@@ -300,6 +326,8 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
                     analysis={"D": D, "L_V": LV, "eps": eps, "sigma": qp.sigma, "y_hat": yhat, "z_hat": zhat,
                               "g_hat": ghat, "e_hat": ehat, "d_max": float(d.max()), "m": m})
     _size_words(dsn, r)
+    if lanes_opt == "fit":
+        dsn.lanes = _fit_lanes(dsn)
     dsn.out_lo, dsn.out_hi = output_box(problem, b, dsn.widths["data"])
     apply_target(dsn, lat_mul, dsn.products())
     return dsn

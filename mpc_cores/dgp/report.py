@@ -7,7 +7,7 @@ from mpc_cores.target import dp16kd, dsp_count, report_line
 
 
 def _counts(d: DgpDesign) -> list[int]:
-    return [d.lanes] + ([4, 2] if d.accelerated else [])
+    return d.product_counts()
 
 
 def core_json(d: DgpDesign, hw: dict) -> dict:
@@ -87,6 +87,5 @@ def facts(d: DgpDesign) -> dict:
     return {"iterations": d.iterations, "iterations_text": f"Imax = {d.iterations}",
             "cycles": d.cycles_to_output(d.iterations), "multipliers": d.multipliers,
             "dsp_ecp5": dsp_count("ecp5", d.products(), _counts(d)),
-            "bram_ecp5": dp16kd([(sum(r * d.chunks[k] for r, k in ((d.n + d.mc, "F"), (d.n, "K"), (d.mc, "G"))),
-                                  d.lanes * d.widths["coef"])]),
+            "bram_ecp5": dp16kd(d.memories()),
             "words": f"b = {d.b}, data {d.widths['data']} bits"}
