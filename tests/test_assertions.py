@@ -8,28 +8,28 @@ import re
 
 import pytest
 
+from conftest import suite_kinds
 from mpc_cores.sim import run_cocotb
+from verif.fuzz import kinds
 from verif.fuzz.violations import MESSAGES
 
-# (kind, the violation forced into its small core)
-VIOLATIONS = [("fgm", "stream_valid_dropped"), ("fgm", "stream_data_changed"), ("admm", "axil_response_dropped"),
-              ("minres", "queue_overflow")]
+KINDS = suite_kinds("assertions")
+# (kind, a violation forced into its small core): those its family declares (verif/fuzz/kinds.py FAMILIES)
+VIOLATIONS = [(k, v) for k in KINDS for v in kinds.violations(k)]
 GUARDED = re.compile(r"`ifndef SYNTHESIS\n.*?`endif // not def SYNTHESIS\n", re.S)
 
 
-@pytest.mark.parametrize("kind", ["fgm", "admm", "minres", "ipm"])
+@pytest.mark.parametrize("kind", KINDS)
 def test_assertions_outside_synthesis(small_cores, kind):
-    """Each core carries the checks of its ports and queues, every one inside an `ifndef SYNTHESIS block."""
+    """Each core carries the checks of its ports and of its queues (the kind's adapter names them), every one
+    inside an `ifndef SYNTHESIS block."""
     out, core = small_cores[kind]
     sv = (out / core["sv"]).read_text()
     guarded = "".join(GUARDED.findall(sv))
     msgs = set(re.findall(r'Assertion failed: ([^\\"]+)', guarded))
     want = {f"{port}: {what}" for port in ("s_axil B", "s_axil R", "m_axis")
             for what in ("valid dropped before ready", "payload changed while valid and not ready")}
-    want |= {"fgm": {"input frame: enqueue while full"}, "admm": {"input frame: enqueue while full"},
-             "minres": {"output queue: enqueue while full", "load bank: enqueue while full"},
-             "ipm": {"output buffer: enqueue while full", "batch order: enqueue while full",
-                     "group: enqueue while full"}}[kind]
+    want |= {f"{q}: enqueue while full" for q in kinds.family(kind).adapter.queue_checks(core)}
     assert want <= msgs, f"missing: {want - msgs}"
     rest = GUARDED.sub("", sv)
     for task in ("$error", "$fatal", "assert("):

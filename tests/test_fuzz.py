@@ -2,16 +2,18 @@
 solves too, AXI4-Stream tlast errors with gaps and backpressure, reset swept across a solve; every answer
 bit-exact with the golden model, with the RTL's protocol assertions on.
 
-The cores are conftest's `small_cores` (their Verilator models are shared with the other suites). The long
-variant (every address, more rounds, reset at every cycle) is marked slow.
+The cores are conftest's `small_cores` (their Verilator models are shared with the other suites), one for every
+kind of the registry (conftest.suite_kinds; tests/test_suites.py checks that none is left out). The long variant
+(every address, more rounds, reset at every cycle) is marked slow.
 """
 from __future__ import annotations
 
 import pytest
 
+from conftest import suite_kinds
 from mpc_cores.sim import run_cocotb
 
-KINDS = ("fgm", "admm", "minres", "ipm")
+KINDS = suite_kinds("fuzz")
 SCENARIOS = 3  # cocotb tests in verif/fuzz/tb.py
 
 

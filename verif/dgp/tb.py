@@ -22,8 +22,8 @@ TIMEOUT_MS = float(os.environ.get("CORE_TIMEOUT_MS") or 400)
 
 
 class DgpTB(TB):
-    def __init__(self, dut, seed: int = 7):
-        super().__init__(dut, seed)
+    def __init__(self, dut, seed: int = 7, **kw):
+        super().__init__(dut, seed, **kw)
         self.L = self.core["cycles_per_iteration"]
         self.over = self.core["solve_overhead_cycles"]
 

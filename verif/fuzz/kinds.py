@@ -1,6 +1,12 @@
-"""One interface over the core kinds for the protocol fuzz: random input frames with the answers the golden model
-expects (through each kind's testbench class: mpc_cores.driver.TB for FGM and ADMM, verif/minres/tb.py,
-verif/ipm/tb.py), how an answer is matched to its frame, and the model's view of the registers it reads.
+"""One interface over the core kinds for the protocol fuzz and the forced protocol violations: random input frames
+with the answers the golden model expects (through each kind's testbench class: mpc_cores.driver.TB for FGM and the
+ADMM family, verif/minres/tb.py, verif/ipm/tb.py, verif/dgp/tb.py), how an answer is matched to its frame, the
+model's view of the registers it reads, and the kind's facts the suites need (short solves, solves completed while
+the output is held, its queues' assertions, where a violation can be forced into it).
+
+The adapter of a registry kind is found from its testbench (CoreKind.testbench, FAMILIES): the ADMM method kinds
+share the ADMM one, and a new kind with a testbench of its own has none until FAMILIES names it (tests/test_suites.py
+fails until then).
 
 `Job.expect` is the whole output frame as stream words; `care` the indices compared (None: all; a flagged
 MINRES or interior-point answer compares its id and status only, as the kinds' testbenches do).
@@ -9,9 +15,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
 from cocotbext.axi import AxiResp
 
-from mpc_cores.driver import TB
+from mpc_cores import registry
+from mpc_cores.kind import load
 
 
 @dataclass
@@ -37,6 +45,8 @@ class Kind:
     ordered = True
     #: frames the core takes while its output is held (its input buffer and the solves it holds)
     hold_frames = 1
+    #: register values for short solves in the stream and reset scenarios (the solve time sets their length)
+    short: dict[str, int] = {}
 
     def __init__(self, tb):
         self.tb = tb
@@ -60,16 +70,40 @@ class Kind:
         assert await self.tb.write(self.tb.rm[name], value) == AxiResp.OKAY, name
         self.applied(name, {f.name: (value & f.mask) >> f.lsb for f in self.tb.rm.regs[name].fields.values()})
 
+    def held_solves(self, dut, jobs: list[Job]) -> int:
+        """Of `jobs` sent with the output held, the solves SOLVES may count before any answer leaves."""
+        return 0
+
+    @staticmethod
+    def queue_checks(core: dict) -> set[str]:
+        """The queues and buffers of the core whose overflow assertion (`<name>: enqueue while full`) it carries."""
+        raise NotImplementedError
+
+    # ---- forced violations (verif/fuzz/violations.py); a kind supports those its Family lists
+    def force_valid_drop(self, dut):
+        """With an answer waiting on m_axis (tready low): make tvalid fall on the next edge."""
+        raise NotImplementedError
+
+    def force_payload_change(self, dut):
+        """With an answer of all of z waiting on m_axis (tready low): change tdata and raise tlast on the next
+        edge."""
+        raise NotImplementedError
+
+
+# words of answers that a one-problem FGM or ADMM core's output queue (shell.AnswerQueue) takes while m_axis is
+# held: a solve counts as done when its answer's last word is queued
+QUEUE_HELD_WORDS = 3
+
 
 class FixedKind(Kind):
-    """FGM and ADMM: frames w = (x, r); answers in order."""
+    """FGM and the ADMM family: frames w = (x, r); answers in order."""
     hold_frames = 2
 
     def job(self) -> Job:
         tb = self.tb
         w = tb.random_w(outside=0.05)
         exp, r = tb.expect(w)
-        flags = {f for f, on in (("SAT", r.sat), ("OVERFLOW", r.overflow)) if on}
+        flags = {f for f, on in (("SAT", r.sat), ("OVERFLOW", r.overflow)) if np.any(on)}
         return Job([tb.to_word(v) for v in w], [tb.to_word(v) for v in exp], flags=flags)
 
     def applied(self, reg, fields):
@@ -77,10 +111,66 @@ class FixedKind(Kind):
         if reg == "CTRL":
             self.tb.warm, self.tb.out_all = bool(fields["WARM_START"]), bool(fields["OUT_ALL"])
 
+    def held_solves(self, dut, jobs):
+        """The answers that fit the output queue whole (none without one)."""
+        if not hasattr(dut, "ansQ"):
+            return 0
+        done = words = 0
+        for j in jobs:
+            words += len(j.expect)
+            if words > QUEUE_HELD_WORDS:
+                break
+            done += 1
+        return done
+
+    @staticmethod
+    def queue_checks(core):
+        return {"input frame"} | ({"answer queue"} if int(core.get("problems", 1)) > 1 else set())
+
+    def force_valid_drop(self, dut):
+        """One problem: the output queue emptied; several: the sequencer sent back to idle."""
+        if hasattr(dut, "ansQ"):  # one problem: the answer leaves through shell.AnswerQueue
+            dut.ansQ.nonEmpty.value = 0
+        else:
+            dut.seq.state.value = 0
+
+    def force_payload_change(self, dut):
+        """One problem: the head of the output queue; several: the output index moved to the last word."""
+        if hasattr(dut, "ansQ"):  # one problem: shell.AnswerQueue's head entry
+            rd = int(dut.ansQ.rd.value)
+            head = getattr(dut.ansQ, f"d_{rd}_data")
+            head.value = int(head.value) ^ 1
+            getattr(dut.ansQ, f"d_{rd}_last").value = 1
+        else:
+            dut.seq.outCnt.value = self.tb.core["n"] - 1
+            dut.seq.outAtEnd.value = 1   # the last-word flag (tlast) is a register of its own
+
+
+class DgpKind(FixedKind):
+    """DGP (src/main/scala/dgp/DgpCore.scala): frames w (nw words); the answer u0 (or z with CTRL.OUT_ALL) then a
+    status word with tlast (iterations, test met, saturated, overflow: verif/dgp/tb.py's expect), in order. The
+    output is held in the core's own `out` state, not a queue; its solve counts in SOLVES at its decision cycle,
+    before the answer leaves, while the next frame waits in the input buffer."""
+    short = {"IMAX": 2}
+
+    def held_solves(self, dut, jobs):
+        return min(1, len(jobs))
+
+    @staticmethod
+    def queue_checks(core):
+        return {"input frame"}
+
+    def force_valid_drop(self, dut):
+        dut.st.value = 0          # St.idle: m_axis.tvalid is st === St.out && ...
+
+    def force_payload_change(self, dut):
+        dut.outIdx.value = self.tb.n   # the status word now: tdata changes, tlast rises
+
 
 class MinresKind(Kind):
     """MINRES: frames (id, diag, b), answers matched by id."""
     ordered = False
+    short = {"IMAX": 2}
 
     def __init__(self, tb):
         super().__init__(tb)
@@ -98,10 +188,15 @@ class MinresKind(Kind):
     def key_of(self, answer):
         return answer[0] & 0x7FFFFFFF
 
+    @staticmethod
+    def queue_checks(core):
+        return {"output queue", "load bank"}
+
 
 class IpmKind(Kind):
     """Interior point: frames (channel, tag, x, r), answers matched by tag; each channel keeps its warm start."""
     ordered = False
+    short = {"IMAX": 1, "INW": 1}
 
     def __init__(self, tb):
         super().__init__(tb)
@@ -143,12 +238,47 @@ class IpmKind(Kind):
         elif reg == "CTRL":
             self.tb.warm, self.tb.out_all = bool(fields["WARM_START"]), bool(fields["OUT_ALL"])
 
+    @staticmethod
+    def queue_checks(core):
+        return {"output buffer", "batch order", "group"}
+
+
+@dataclass(frozen=True)
+class Family:
+    """The cores of one testbench: the adapter, the testbench class ("module:class", constructed as cls(dut, seed,
+    axil=...)), and the scenarios of verif/fuzz/violations.py forced into its small core in tests/test_assertions.py
+    (at least one; axil_response_dropped works on any core)."""
+    adapter: type[Kind]
+    tb: str
+    violations: tuple[str, ...] = ("axil_response_dropped",)
+
+
+# CoreKind.testbench -> its family
+FAMILIES = {
+    "verif.fgm.tb": Family(FixedKind, "mpc_cores.driver:TB", ("stream_valid_dropped", "stream_data_changed")),
+    "verif.admm.tb": Family(FixedKind, "mpc_cores.driver:TB"),
+    "verif.minres.tb": Family(MinresKind, "verif.minres.tb:MinresTB", ("queue_overflow",)),
+    "verif.ipm.tb": Family(IpmKind, "verif.ipm.tb:IpmTB"),
+    "verif.dgp.tb": Family(DgpKind, "verif.dgp.tb:DgpTB", ("stream_valid_dropped", "stream_data_changed")),
+}
+
+
+def family(kind: str) -> Family:
+    """The family of the registry kind `kind` (by its testbench)."""
+    tb = registry.get(kind).testbench
+    if tb not in FAMILIES:
+        raise KeyError(f"CORE={kind}: its testbench {tb} has no protocol-fuzz adapter (verif/fuzz/kinds.py FAMILIES)")
+    return FAMILIES[tb]
+
+
+def violations(kind: str) -> tuple[str, ...]:
+    """The violation scenarios of the kind's family; none without a family (so that collecting the suites does not
+    fail: tests/test_suites.py does)."""
+    f = FAMILIES.get(registry.get(kind).testbench)
+    return f.violations if f else ()
+
 
 def make(dut, kind: str, seed: int, **kw) -> Kind:
     """The kind's testbench on `dut` (reset not yet applied) and its adapter."""
-    from verif.ipm.tb import IpmTB
-    from verif.minres.tb import MinresTB
-
-    adapter, tb = {"fgm": (FixedKind, TB), "admm": (FixedKind, TB), "minres": (MinresKind, MinresTB),
-                   "ipm": (IpmKind, IpmTB)}[kind]
-    return adapter(tb(dut, seed, **kw))
+    f = family(kind)
+    return f.adapter(load(f.tb)(dut, seed, **kw))

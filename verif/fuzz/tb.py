@@ -27,8 +27,6 @@ from verif.fuzz.regs import RegFuzz
 TIMEOUT_MS = 5000
 LONG = os.environ.get("FUZZ_LONG") == "1"
 FIRST_LIMIT = 200_000   # cycles for the first answer, before the solve time is measured
-# short solves for the stream and reset scenarios of the floating-point kinds: (IMAX, INW)
-SHORT = {"minres": (2, None), "ipm": (1, 1)}
 
 
 def _kind_name() -> str:
@@ -43,11 +41,9 @@ async def _start(dut, seed: int, **kw):
 
 
 async def _short(k):
-    imax, inw = SHORT.get(k.tb.core["core"], (None, None))
-    if imax:
-        await k.set_reg("IMAX", imax)
-    if inw:
-        await k.set_reg("INW", inw)
+    """The kind's short solves (kinds.Kind.short) for the stream and reset scenarios."""
+    for reg, v in k.short.items():
+        await k.set_reg(reg, v)
 
 
 async def _solve_time(k, ex):
@@ -85,24 +81,6 @@ def _dynamic(ex, busy: bool | None, before: int, inflight: int) -> dict:
     counts = set(range(before, before + inflight + 1))
     return {"STATUS.BUSY": None if busy is None else {int(busy)}, "SOLVES.COUNT": counts,
             "STATUS.WARM_VALID": {int(c > 0) for c in counts}, "LAST_CYCLES.CYCLES": None}
-
-
-# words of answers that a one-problem FGM or ADMM core's output queue (shell.AnswerQueue) takes while m_axis is
-# held: a solve counts as done when its answer's last word is queued
-QUEUE_HELD_WORDS = 3
-
-
-def _queued(dut, jobs) -> int:
-    """The solves that can complete while the output is held: the answers that fit the output queue whole."""
-    if not hasattr(dut, "ansQ"):
-        return 0
-    done = words = 0
-    for j in jobs:
-        words += len(j.expect)
-        if words > QUEUE_HELD_WORDS:
-            break
-        done += 1
-    return done
 
 
 async def _configure(fz: RegFuzz):
@@ -147,7 +125,7 @@ async def axil_fuzz(dut):
         ex.send(jobs)
         await tb.src.wait()
         await ClockCycles(dut.clock, 2)      # BUSY is registered
-        await fz.phase(addrs, True, _dynamic(ex, True, before, _queued(dut, jobs)), racy)
+        await fz.phase(addrs, True, _dynamic(ex, True, before, k.held_solves(dut, jobs)), racy)
         tb.sink.set_pause_generator(iter(lambda: tb.rng.random() < 0.4, None))
         reads = cocotb.start_soon(fz.phase(regs, None, _dynamic(ex, None, before, len(jobs)), racy, writes=False))
         await ex.collect(len(jobs), FIRST_LIMIT)

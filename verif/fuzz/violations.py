@@ -2,6 +2,8 @@
 the Verilator models of the suite and stop the simulation. Each test overwrites one register inside the core
 (cocotb deposit) so that an output breaks its protocol on the next clock edge; the assertion must end the
 simulation there: a test that gets past the edge fails. Run one test per simulation (tests/test_assertions.py).
+Where a register is overwritten is the kind's (verif/fuzz/kinds.py: Kind.force_*); the scenarios each kind takes
+are its Family's `violations`.
 
 Environment: CORE_OUT = the generator's output folder.
 """
@@ -44,29 +46,19 @@ async def _survived(dut, what: str):
 
 @cocotb.test()
 async def stream_valid_dropped(dut):
-    """FGM or ADMM core: the answer's valid falls while it waits, without tready (one problem: the output queue
-    emptied; several: the sequencer sent back to idle)."""
-    await _held_answer(dut)
-    if hasattr(dut, "ansQ"):  # one problem: the answer leaves through shell.AnswerQueue
-        dut.ansQ.nonEmpty.value = 0
-    else:
-        dut.seq.state.value = 0
+    """The answer's valid falls while it waits, without tready (FGM, ADMM: the output queue emptied or the
+    sequencer sent back to idle; DGP: its state sent back to idle)."""
+    k = await _held_answer(dut)
+    k.force_valid_drop(dut)
     await _survived(dut, "tvalid dropped")
 
 
 @cocotb.test()
 async def stream_data_changed(dut):
-    """FGM or ADMM core: the answer's word changes while the first waits (one problem: the head of the output
-    queue; several: the output index moved to the last word), and tlast rises without tready."""
+    """The answer's word changes while the first waits and tlast rises without tready (FGM, ADMM: the head of the
+    output queue, or the output index moved to the last word; DGP: its output index moved to the status word)."""
     k = await _held_answer(dut, out_all=True)
-    if hasattr(dut, "ansQ"):  # one problem: shell.AnswerQueue's head entry
-        rd = int(dut.ansQ.rd.value)
-        head = getattr(dut.ansQ, f"d_{rd}_data")
-        head.value = int(head.value) ^ 1
-        getattr(dut.ansQ, f"d_{rd}_last").value = 1
-    else:
-        dut.seq.outCnt.value = k.tb.core["n"] - 1
-        dut.seq.outAtEnd.value = 1   # the last-word flag (tlast) is a register of its own
+    k.force_payload_change(dut)
     await _survived(dut, "tdata changed")
 
 
