@@ -74,13 +74,20 @@ def run_pair(spec: str, kind_name: str, gap: float, samples: int | None, budget:
     row["outcome"], why, res = attempt({})
     if row["outcome"] in ("does not fit", "fails check") and "lanes" in kind.overrides:
         # the row unit's multipliers sized for the part (LANES=fit): fewer, time-multiplexed (ADMM family), or as
-        # many as fit (DGP)
-        alt = attempt({"lanes": "fit"})
-        if alt[0] == "usable":
-            row["outcome"], why, res = alt
-            row["options"] = "LANES=fit"
-        else:
-            why = (f"{why}; " if why else "") + f"with LANES=fit: {alt[0]}" + (f": {alt[1]}" if alt[1] else "")
+        # many as fit (DGP); then also with two fraction bits fewer than the flow's (narrower products take fewer
+        # DSPs, so fewer chunks and more iterations within the budget)
+        tries = [{"lanes": "fit"}]
+        b = _default_bits(kind, p)
+        if b is not None and b > 2:
+            tries.append({"lanes": "fit", "frac_bits": b - 2})
+        for ov in tries:
+            opts = " ".join(f"{'B' if k == 'frac_bits' else k.upper()}={v}" for k, v in ov.items())
+            alt = attempt(ov)
+            if alt[0] == "usable":
+                row["outcome"], why, res = alt
+                row["options"] = opts
+                break
+            why = (f"{why}; " if why else "") + f"with {opts}: {alt[0]}" + (f": {alt[1]}" if alt[1] else "")
     if why:
         row["why"] = why
     if res is not None:
@@ -103,6 +110,14 @@ def _viol(row) -> str:
     if row.get("outside"):
         out.append(f"outside the accepted box in {row['outside']} of {row['steps']} steps")
     return "<br>".join(out) or "—"
+
+
+def _default_bits(kind, p) -> int | None:
+    """the fraction bits of the kind's default design for the plant (None: floating point, or refused)"""
+    try:
+        return getattr(kind.design(p), "b", None)
+    except Exception:  # noqa: BLE001 - a refusal leaves nothing to narrow
+        return None
 
 
 def _fits_part(f: dict) -> bool:

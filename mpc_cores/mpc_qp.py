@@ -69,6 +69,11 @@ def _soft_penalty(p: MpcProblem, x) -> float:
     return float(S.sigma1 * v.sum() + S.sigma2 * v @ v)
 
 
+#: OSQP settings tried in turn when the defaults leave a feasible QP unsolved
+RETRIES = ({"eps_abs": 1e-7, "eps_rel": 1e-7, "rho": 1e-3, "adaptive_rho_interval": 25},
+           {"eps_abs": 1e-6, "eps_rel": 1e-6, "rho": 10.0, "scaling": 0})
+
+
 class MpcQP:
     """The sparse QP of a problem, set up once; `solve(x, r, u_prev, u0)` per state."""
 
@@ -167,6 +172,16 @@ class MpcQP:
         self.solver.update(q=q, l=lo, u=hi)
         with c_output_silenced():
             res = self.solver.solve(raise_error=False)
+        for opts in RETRIES:
+            if res.info.status_val == osqp.SolverStatus.OSQP_SOLVED:
+                break
+            # a QP on the edge of feasibility (a u_0 given that barely keeps a state limit) can stall OSQP's
+            # defaults: a fresh solver with another step and scaling
+            s = osqp.OSQP()
+            s.setup(P=sp.triu(self.P, format="csc"), q=q, A=self.A, l=lo, u=hi, max_iter=1_000_000, polishing=True,
+                    verbose=False, **opts)
+            with c_output_silenced():
+                res = s.solve(raise_error=False)
         if res.info.status_val != osqp.SolverStatus.OSQP_SOLVED:
             if not self.feasible(x, r, u_prev, u0):
                 raise Infeasible(f"no plan meets the hard constraints from x = {np.round(x, 6).tolist()}")

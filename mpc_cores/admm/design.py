@@ -48,7 +48,8 @@ import scipy.linalg
 
 from mpc_cores.admm.model import ACC_STATES, ESTIMATED, AdmmFixed, momentum_words, wide_widths
 from mpc_cores.admm.precondition import Pow2Scaling, ruiz_pow2, scale_qp
-from mpc_cores.admm.problem import BOX, AdmmQP, build_admm_qp
+from mpc_cores.admm.problem import BOX, FREE, AdmmQP, build_admm_qp
+from mpc_cores.admm.scaling import FREE_DROP, cost_scale, scaled
 from mpc_cores.design_base import (FixedPointDesign, apply_target, check_run_options, module_suffix,
                                    problems_option, run_options, solver_opt, target_option)
 from mpc_cores.errors import MODEL_PRODUCT_BITS, DesignError
@@ -97,6 +98,7 @@ class AdmmDesign(FixedPointDesign):
     scaling: Pow2Scaling | None = None   # the power-of-two preconditioner folded into the steps (precondition)
     accelerated: bool = False  # ama: fast AMA with the gradient restart (mpc_cores.admm.model.AdmmFixed)
     chunks: int = 1            # a row's dot product in `chunks` cycles on lanes = ceil(m / chunks) multipliers
+    cost_log2: int = 0         # the cost scaled by 2^-cost_log2 in the data (mpc_cores.admm.scaling)
 
     @property
     def m(self) -> int:
@@ -288,6 +290,12 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
     shift[qp.soft_x] += s_soft
     shift[qp.soft_d] += s_soft
     shift[: qp.N * qp.nu] += s_du
+    # plants whose multipliers dwarf rho: the cost scaled by 2^-s in the data, the free components' penalty lowered
+    # (mpc_cores.admm.scaling)
+    cost_log2 = cost_scale(qp, 2.0 ** k) if method != "ama" and scaling is None else 0
+    if cost_log2:
+        qp = scaled(qp, cost_log2)
+        shift[qp.kind == FREE] -= FREE_DROP
     rho_vec = np.ldexp(1.0, shift)
     if method == "ama" and not rho_vec.max() < bound:
         what = "mu" if accelerated else "2 mu"
@@ -333,7 +341,7 @@ def design_admm(problem: MpcProblem, **overrides) -> AdmmDesign:
                    iterations=iterations, warm_start=warm_start, target=target, rho_log2=k, shift=shift, M11f=M11f, Gf=Gf,
                    M11=M11, G=G, kind=qp.kind.copy(), lo=lo, hi=hi, soft_c=soft_c, soft_r=soft_r, wlo=wlo, whi=whi,
                    safety=safety, output_all=output_all, assumption2=a2, problems=problems_option(problem, overrides),
-                   method=method, mu=mu, scaling=scaling, accelerated=accelerated)
+                   method=method, mu=mu, scaling=scaling, accelerated=accelerated, cost_log2=cost_log2)
     _size_words(d, int(opt("sizing_solves", 48)), int(opt("sizing_seed", 0)))
     d.chunks = _chunks(d, opt("lanes", None))
     apply_target(d, lat_mul, d.products())

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from mpc_cores.admm.design import AdmmDesign, product_counts
+from mpc_cores.admm.scaling import FREE_DROP, GATE
 from mpc_cores.fixed import run_time_fields
 from mpc_cores.interleave import PASS_QUEUE, PASS_START, core_fields, report_lines
 from mpc_cores.target import dp16kd, dsp_count, report_line
@@ -44,6 +45,7 @@ def core_json(d: AdmmDesign, hw: dict) -> dict:
         "frac_bits": b,
         **run_time_fields(d, sw),
         "rho_log2": d.rho_log2,
+        "cost_log2": d.cost_log2,   # the cost scaled by 2^-cost_log2 in the data (mpc_cores.admm.scaling)
         "shifts": hw["shifts"],
         "cycles_per_iteration": L,
         "cycles_eq24": hw["cycles_eq24"],
@@ -112,7 +114,9 @@ def _method_core_lines(d: AdmmDesign) -> list[str]:
     a2 = d.assumption2
     scaled = ("soft pairs, du scaled" if d.rate else "soft pairs scaled") + (
         ", preconditioned" if d.scaling is not None else "")
-    return [f"  rho = 2^{d.rho_log2}, shifts k_j in {ks} ({scaled})",
+    cost = ([f"  Cost scaled by 2^-{d.cost_log2} in the data (median |nu*|_inf of the accepted box over {GATE:g} rho), "
+             f"free components' rho 2^-{FREE_DROP} times the rest's (mpc_cores.admm.scaling)"] if d.cost_log2 else [])
+    return cost + [f"  rho = 2^{d.rho_log2}, shifts k_j in {ks} ({scaled})",
             f"  Assumption 2 (002) on the quantised M11: eig on Ker F in [{a2['kernel_min']:.4g}, {a2['kernel_max']:.6f}] "
             f"(inside (0, 1)), spectral radius {a2['spectral_radius']:.6f} (< 1)"]
 
