@@ -133,8 +133,9 @@ class Lanes:
     def check(self, v, fld: str):
         if v == "fit":
             return v
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v) or v < 1:
-            raise SpecError(f"{fld}: expected an integer >= 1 (multipliers per row unit) or 'fit', got {v!r}")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v) or not 1 <= v <= 1024:
+            raise SpecError(f"{fld}: expected an integer in [1, 1024] (multipliers of the row unit) or 'fit', "
+                            f"got {v!r}")
         return int(v)
 
 
@@ -231,7 +232,6 @@ SOLVER = {
     "eps_g": Num(0),
     "eps_V": Num(0),
     "accelerated": Bool(),
-    "lanes": Int(1, 1024, " (multipliers of the row unit)"),
     "dual_margin": Num(1, strict=False, why=" (d_i >= max(y*_i, 1), (14) of 003)"),
 }
 

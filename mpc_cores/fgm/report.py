@@ -99,6 +99,7 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
         *([a] if (a := _dsp_advice(d)) else []),
         f"  Assumption 1 (002): c = {d.c:.6g}, lambda_max(H^_F) = {d.lam_max:.6g}, eig(H^_n) in [{d.mu:.4g}, "
         f"{np.linalg.eigvalsh(d.Hn_hat)[-1]:.6f}], beta^ = {d.beta / one:.6f} (>= bound, < 1)",
+        _conditioning_line(d),
         "  Word widths (Prop. 1 of 002 on the quantised words; no overflow for any w in the box):",
     ]
     for k, w in d.widths.items():
@@ -115,6 +116,20 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
         f"  Multipliers: {d.multipliers} (P * max(n, nw) + 2P)",
     ]
     return "\n".join(lines)
+
+
+def _conditioning_line(d: FgmDesign) -> str:
+    """kappa of the condensed Hessian, and what the diagonal (Jacobi) scaling that keeps the input box a box would
+    make of it: the iterations of eq. (7) grow with sqrt(kappa), and the quantisation floor with kappa"""
+    H = d.qp.H
+    e = np.linalg.eigvalsh(H)
+    s = 1.0 / np.sqrt(np.diag(H))
+    ej = np.linalg.eigvalsh(s[:, None] * H * s[None, :])
+    k, kj = e[-1] / e[0], ej[-1] / ej[0]
+    verdict = ("it would lower kappa: the inputs' units are unbalanced, rescale them in the spec"
+               if kj < k / 2 else "no help here, the conditioning is the dynamics'")
+    return (f"  Conditioning: kappa(H_F) = {k:.3g}; a diagonal scaling of the inputs (Jacobi, the input box stays a "
+            f"box) gives {kj:.3g}: {verdict}")
 
 
 def facts(d: FgmDesign) -> dict:
