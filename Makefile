@@ -71,7 +71,8 @@ split: setup
 design: setup
 	$(MPC) design $(GEN_ARGS) $(if $(TOL),--tol $(TOL))
 
-## test: the verification suite (golden models, RTL against them in Verilator, refusals)
+## test: the verification suite (golden models, RTL against them in Verilator, refusals); WAVES=1 traces every
+## cocotb run to a waveform beside its log (<log>.fst, e.g. sim.fst; VCD without the lz4 headers), its path in the log
 test: setup
 	$(PY) -m pytest tests -q -n $(JOBS) --dist loadfile --durations=15 $(PYTEST_ARGS)
 
@@ -116,6 +117,12 @@ CONFIG_SEED ?=
 .PHONY: soak
 soak: setup
 	$(MPC) soak --core $(CORE) --solves $(N) --seed $(SEED) $(if $(CONFIG_SEED),--config-seed $(CONFIG_SEED))
+
+## soak-all: `make soak` for every kind of the registry with a soak space, one after another, N solves each (default
+## 10^4; SEED), a progress bar over the kinds and one line per kind as it ends; reports in docs/soak/
+.PHONY: soak-all
+soak-all: setup
+	$(MPC) soak --all --solves $(N) --seed $(SEED)
 
 ## gallery: every kind on every plant of examples/ through its design flow and check, into docs/gallery.md
 ## (GALLERY_ARGS, e.g. --plants quadrotor,cartpole --kinds fgm,admm)

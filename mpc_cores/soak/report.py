@@ -9,7 +9,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from mpc_cores import registry
-from mpc_cores.flow import REPO
+from mpc_cores.flow import REPO, generator_digest
 from mpc_cores.kind import load
 
 STATUSES = ("passed", "mismatch", "hang", "error", "refused", "refused_generator")
@@ -22,9 +22,34 @@ def _git(*args: str) -> str:
 
 
 def revision() -> dict:
-    """The commit and the sources changed since (the soak ran what is in the tree)."""
+    """What a soak runs: the commit, the sources changed since (the soak ran what is in the tree), whether there are
+    any (dirty) and the digest of the generator's sources (mpc_cores.flow.generator_digest: Scala and build.sbt),
+    which `staleness` compares with today's."""
     changed = [ln[3:] for ln in _git("status", "--porcelain", "--", *SOURCES).splitlines() if ln.strip()]
-    return {"commit": _git("rev-parse", "--short=12", "HEAD").strip(), "uncommitted": changed}
+    return {"commit": _git("rev-parse", "--short=12", "HEAD").strip(), "uncommitted": changed,
+            "dirty": bool(changed), "generator_digest": generator_digest()}
+
+
+def staleness(folder: Path, kinds: list[str] | None = None) -> dict[str, str]:
+    """kind -> why its report in `folder` does not describe today's generator sources: no report, no digest recorded
+    (a report from before the field) or another digest. Current reports are left out. `kinds`: default every kind
+    of the registry with a soak space."""
+    folder, now = Path(folder), generator_digest()
+    kinds = kinds if kinds is not None else [n for n, k in registry.kinds().items() if k.soak]
+    out = {}
+    for name in kinds:
+        try:
+            rec = json.loads((folder / f"{name}.json").read_text())
+        except (OSError, ValueError):
+            out[name] = "no report"
+            continue
+        at = f"commit {rec.get('commit') or 'unknown'}" + (" with uncommitted changes"
+                                                           if rec.get("uncommitted") else "")
+        if not rec.get("generator_digest"):
+            out[name] = f"no digest recorded ({at})"
+        elif rec["generator_digest"] != now:
+            out[name] = f"generator sources changed since the soak ({at}, digest {rec['generator_digest'][:12]})"
+    return out
 
 
 def _duration(sec: float) -> str:
@@ -55,10 +80,13 @@ def _command(s) -> str:
 
 def markdown(s, finished: bool) -> str:
     kind = registry.get(s.kind)
-    t, rev = totals(s), revision()
+    t, rev = totals(s), _source(s)
     when = datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
     tree = f"commit {rev['commit']}" + (f" with uncommitted changes in {', '.join(rev['uncommitted'])}"
                                          if rev["uncommitted"] else "")
+    tree += f", generator digest {rev['generator_digest'][:12]}"
+    if rev.get("generator_digest_at_end"):
+        tree += f" (the generator sources changed during the soak: {rev['generator_digest_at_end'][:12]} now)"
     lines = [f"# Soak: {s.kind}", "",
              f"{kind.title}. `{_command(s)}`, seed {s.seed}, {s.per_config} solves per configuration; "
              f"{'finished' if finished else 'running, last written'} {when}; {tree}.", "",
@@ -101,13 +129,22 @@ def markdown(s, finished: bool) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _source(s) -> dict:
+    """The soak's revision (taken when it started), with the generator digest of now where it differs."""
+    rev = dict(getattr(s, "source", None) or revision())
+    now = generator_digest()
+    if now != rev["generator_digest"]:
+        rev["generator_digest_at_end"] = now
+    return rev
+
+
 def write(s, out: Path, finished: bool) -> None:
     """<kind>.md and <kind>.json in `out` (written again after each configuration)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     record = {"kind": s.kind, "command": _command(s), "seed": s.seed, "requested_solves": s.requested,
               "solves_per_config": s.per_config, "finished": finished,
-              "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"), **revision(),
+              "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"), **_source(s),
               "totals": totals(s), "space": list(load(registry.get(s.kind).soak).space),
               "configurations": [asdict(o) for o in s.outcomes]}
     for name, text in ((f"{s.kind}.json", json.dumps(record, indent=1) + "\n"),

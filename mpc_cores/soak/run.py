@@ -70,6 +70,7 @@ class Soak:
     build: Path = BUILD              # generated cores and Verilator builds: <build>/<kind>/c<seed>
     outcomes: list[Outcome] = field(default_factory=list)
     started: float = field(default_factory=time.time)
+    source: dict = field(default_factory=dict)   # what it runs (mpc_cores.soak.report.revision, at the start)
 
 
 def config_seed(seed: int, i: int) -> int:
@@ -162,7 +163,8 @@ def simulate(kind, o: Outcome, core: dict, solves: int, build: Path, keep: bool,
     rec = [json.loads(ln) for ln in measure.read_text().splitlines()] if measure.exists() else []
     o.solves = sum(r.get(space.measured, 0) for r in rec if r.get("test") == space.test)
     if o.status == "passed" and not keep:
-        shutil.rmtree(out / "sim", ignore_errors=True)   # the Verilator build (a failure keeps it and its log)
+        for d in ("sim", "sim-waves"):   # the Verilator builds (a failure keeps them, its log and WAVES=1 trace)
+            shutil.rmtree(out / d, ignore_errors=True)
     o.log = "" if o.status == "passed" else str((out / "sim" / "sim.log").relative_to(REPO))
 
 
@@ -171,11 +173,12 @@ def run(kind_name: str, solves: int, seed: int = 1, per_config: int | None = Non
     """Soak `kind_name` for at least `solves` solves (or configuration seed `only`); writes the report into `out`
     after each configuration (None: no report). Stops early after `max_failures` failing configurations."""
     from mpc_cores.progress import bar
-    from mpc_cores.soak.report import write
+    from mpc_cores.soak.report import revision, write
 
     kind = registry.get(kind_name)
     space = load(kind.soak)
-    s = Soak(kind.name, seed, solves, solves if only is not None else per_config or space.solves_per_config, build)
+    s = Soak(kind.name, seed, solves, solves if only is not None else per_config or space.solves_per_config, build,
+             source=revision())
     pb = bar(total=solves, desc=f"soak {kind.name}", unit="solve")
     i, done = 0, 0
     try:
@@ -218,11 +221,55 @@ def run(kind_name: str, solves: int, seed: int = 1, per_config: int | None = Non
     return s
 
 
-def main(argv=None) -> None:
+def soaked_kinds() -> list[str]:
+    """The kinds of the registry that declare a soak space, in registry order."""
+    return [n for n, k in registry.kinds().items() if k.soak]
+
+
+def summary(s, out: Path) -> str:
     from mpc_cores.soak.report import totals
 
+    t = totals(s)
+    return (f"soak {s.kind}: {t['configurations']} configurations ({t['refused']} refused), {t['solves']} solves, "
+            f"{t['mismatch']} mismatches, {t['hang']} hangs, {t['error']} errors, {t['wall_time']}: "
+            f"{Path(out) / (s.kind + '.md')}")
+
+
+def failed(s) -> bool:
+    return any(o.failed for o in s.outcomes)
+
+
+def run_all(solves: int, seed: int = 1, per_config: int | None = None, out: Path = DOCS, keep_builds: bool = False,
+            max_failures: int = 10, kinds: list[str] | None = None) -> bool:
+    """`make soak-all`: soak every kind with a soak space (or `kinds`) one after another, each for `solves` solves
+    into its report in `out`; one line per kind as it ends. A kind the design flow or the generator stops is
+    reported and the next one runs. True when every kind passed."""
+    from mpc_cores.progress import bar
+    from tqdm import tqdm
+
+    ok = True
+    kinds = kinds or soaked_kinds()
+    pb = bar(total=len(kinds), desc="soak-all", unit="kind")
+    try:
+        for name in kinds:
+            pb.set_postfix_str(name)
+            try:
+                s = run(name, solves, seed, per_config, out, keep_builds, max_failures)
+                line, ok = summary(s, out), ok and not failed(s)
+            except (DesignError, GeneratorError) as e:
+                line, ok = f"soak {name}: stopped: {str(e).splitlines()[0]}", False
+            tqdm.write(line)
+            pb.update(1)
+    finally:
+        pb.close()
+    return ok
+
+
+def main(argv=None) -> None:
     ap = argparse.ArgumentParser(prog="mpc-cores soak", description=__doc__.split("\n\n")[0])
     ap.add_argument("--core", default="fgm", help=f"core kind: {', '.join(registry.names())}")
+    ap.add_argument("--all", action="store_true", help="every kind with a soak space, one after another "
+                    "(`make soak-all`; --solves each)")
     ap.add_argument("--solves", type=int, default=10**4, help="random solves in all (default 10^4)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--per-config", type=int, help="solves per configuration (default: the kind's)")
@@ -235,14 +282,16 @@ def main(argv=None) -> None:
     a.out = a.out or (DOCS if a.config_seed is None else BUILD / "reproduce")
     from mpc_cores.cli import refuse
 
+    if a.all:
+        if a.config_seed is not None:
+            refuse("--config-seed reruns one configuration of one kind (--core), not --all")
+        raise SystemExit(0 if run_all(a.solves, a.seed, a.per_config, Path(a.out), a.keep_builds,
+                                      a.max_failures) else 1)
     try:
         s = run(a.core, a.solves, a.seed, a.per_config, Path(a.out), a.keep_builds, a.max_failures, a.config_seed)
     except KeyError as e:
         refuse(e.args[0])
     except (DesignError, GeneratorError) as e:
         refuse(str(e))
-    t = totals(s)
-    print(f"soak {a.core}: {t['configurations']} configurations ({t['refused']} refused), {t['solves']} solves, "
-          f"{t['mismatch']} mismatches, {t['hang']} hangs, {t['error']} errors, {t['wall_time']}: "
-          f"{Path(a.out) / (a.core + '.md')}")
-    raise SystemExit(1 if t["mismatch"] or t["hang"] or t["error"] else 0)
+    print(summary(s, a.out))
+    raise SystemExit(1 if failed(s) else 0)
