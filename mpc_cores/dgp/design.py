@@ -132,10 +132,6 @@ class DgpDesign(FixedPointDesign):
     def multipliers(self) -> int:
         return self.lanes + (6 if self.accelerated else 0)
 
-    def product_counts(self) -> list[int]:
-        """how many multipliers of each width pair of products() the core has"""
-        return [self.lanes] + ([4, 2] if self.accelerated else [])
-
     def memories(self) -> list[tuple[int, int]]:
         """(words, bits): the matrix memory, Fe, Lw, K and G rows chunk by chunk (DgpCore)"""
         ch = self.chunks
@@ -222,12 +218,17 @@ DATA_MAX = 40
 UNCERTIFIED_BITS = 16
 
 
+def product_counts(d) -> list[int]:
+    """how many multipliers of each width pair of DgpDesign.products() the core has"""
+    return [d.lanes] + ([4, 2] if d.accelerated else [])
+
+
 def _fit_lanes(d: DgpDesign) -> int:
     """`lanes: fit`: the most multipliers (up to the longest row) whose products and matrix memory fit the
     LFE5U-85F (ECP5 counts of mpc_cores.target)"""
     for lanes in range(max(d.n, d.mc, d.nw), 0, -1):
         d.lanes = lanes
-        if dsp_count("ecp5", d.products(), d.product_counts()) <= PART_MULTS and dp16kd(d.memories()) <= PART_BLOCKS:
+        if dsp_count("ecp5", d.products(), product_counts(d)) <= PART_MULTS and dp16kd(d.memories()) <= PART_BLOCKS:
             return lanes
     raise DesignError(f"lanes=fit: not even one multiplier's row unit fits the {PART} ({PART_MULTS} MULT18X18D, "
                       f"{PART_BLOCKS} DP16KD)")

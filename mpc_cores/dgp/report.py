@@ -1,13 +1,13 @@
 """core.json and the design report of a DGP core."""
 from __future__ import annotations
 
-from mpc_cores.dgp.design import ALPHA, DgpDesign
+from mpc_cores.dgp.design import ALPHA, DgpDesign, product_counts
 from mpc_cores.fixed import run_time_fields
 from mpc_cores.target import dp16kd, dsp_count, report_line
 
 
 def _counts(d: DgpDesign) -> list[int]:
-    return d.product_counts()
+    return product_counts(d)
 
 
 def core_json(d: DgpDesign, hw: dict) -> dict:
