@@ -6,6 +6,22 @@ MPC         := $(VENV)/bin/mpc-cores
 SBT_VERSION := 1.11.7
 SBT_JAR     := $(HOME)/.m2/repository/org/scala-sbt/sbt-launch/$(SBT_VERSION)/sbt-launch-$(SBT_VERSION).jar
 
+.DEFAULT_GOAL := help
+
+##v CORE: core kind: fgm, admm, ama, vucondat, minres, ipm, dgp (default fgm)
+##v PROBLEM: the MPC spec (default examples/masses.yaml; the format: docs/spec.md)
+##v P, B: row units, fraction bits (override the spec's solver: section, as the variables below)
+##v OUT: output folder
+##v TOL: make design: a tolerance the design is certified for (fgm, dgp)
+##v TARGET, LAT_ADD, LAT_MUL: FPGA family of the multipliers (generic, ecp5, xilinx7), pipeline registers
+##v PROBLEMS: K_p problems interleaved on the row units (fgm, admm)
+##v LANES: multipliers per row unit (admm family, dgp), or fit (sized for the LFE5U-85F)
+##v FORMAT, LATENCY: float cores (minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact, fast)
+##v ITER: iteration count (Imax; I_MR for ipm); without it the spec's, or the design check's choice for GAP
+##v GAP, CYCLES, CHECK: design check: target closed-loop cost gap in percent, cycle budget per solve; CHECK=0 skips it
+##v JOBS, PYTEST_ARGS, WAVES: make test: workers (default auto), more pytest arguments, WAVES=1 traces every simulation
+##v SOLVES, SEED, CONFIG_SEED: make soak: solves (default 10^4; N is the old name), seeds
+##v QUICK, BENCH, BENCH_ARGS: make bench: the short sweep, the output folder, more arguments
 CORE    ?= fgm
 PROBLEM ?= examples/masses.yaml
 P       ?=
@@ -39,7 +55,15 @@ GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--f
            $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(LANES),--lanes $(LANES)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY)) \
            $(if $(ITER),--iterations $(ITER)) $(if $(GAP),--gap $(GAP)) $(if $(CYCLES),--cycles $(CYCLES)) $(if $(filter 0,$(CHECK)),--no-check)
 
-.PHONY: setup verilog c split design test test-slow demo clean
+.PHONY: help setup verilog c split design test test-slow demo table2 methods bench soak soak-all gallery clean test-float
+
+## help: the targets and the variables (the default goal)
+help:
+	@echo "Targets (make <target> [VAR=value ...]):"
+	@awk '/^## [a-z0-9-]+:/ { sub(/^## /, ""); n = index($$0, ":"); printf "  %-10s %s\n", substr($$0, 1, n - 1), substr($$0, n + 2); next } \
+	      /^## / { sub(/^## /, ""); printf "  %-10s %s\n", "", $$0 }' $(firstword $(MAKEFILE_LIST))
+	@echo "Variables:"
+	@awk '/^##v / { sub(/^##v /, ""); n = index($$0, ":"); printf "  %-26s %s\n", substr($$0, 1, n - 1), substr($$0, n + 2) }' $(firstword $(MAKEFILE_LIST))
 
 $(VENV)/.installed: requirements.txt pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -91,7 +115,6 @@ table2: setup
 
 ## methods: comparison of the splitting family (ADMM, AMA, Vu-Condat; plain/accelerated, with/without the power-of-two
 ## preconditioner) and the DGP in float64 into build/reports/methods.md and methods.json (METHODS_ARGS, e.g. --quick)
-.PHONY: methods
 methods: $(VENV)/.installed
 	$(PY) -m mpc_cores.methods_table --out build/reports $(METHODS_ARGS)
 
@@ -100,7 +123,6 @@ methods: $(VENV)/.installed
 ## also pipelined; ADMM masses P = 1 in Verilator, small problem pipelined P = 1; MINRES P = 1 in Verilator; no
 ## Xilinx synthesis); BENCH_ARGS for more (e.g. --jobs 1, --cores admm)
 BENCH ?= build/bench
-.PHONY: bench
 $(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed
 	$(PY) -m pip install -q -r requirements-bench.txt
 	touch $@
@@ -108,25 +130,23 @@ $(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed
 bench: setup $(VENV)/.bench-installed
 	$(MPC) bench --out $(BENCH) $(if $(QUICK),--quick) $(BENCH_ARGS)
 
-## soak: N random solves of CORE (default 10^4) over random configurations (sizes, constraint sets, P, b, latencies,
+## soak: SOLVES random solves of CORE (default 10^4) over random configurations (sizes, constraint sets, P, b, latencies,
 ## roundings, formats), each generated and run in Verilator against its golden model word for word under random idle
-## and backpressure; report docs/soak/CORE.md and CORE.json (SEED; CONFIG_SEED=<seed> N=<solves> reruns one)
+## and backpressure; report docs/soak/CORE.md and CORE.json (SEED; CONFIG_SEED=<seed> SOLVES=<solves> reruns one)
 N           ?= 10000
+SOLVES      ?= $(N)
 SEED        ?= 1
 CONFIG_SEED ?=
-.PHONY: soak
 soak: setup
-	$(MPC) soak --core $(CORE) --solves $(N) --seed $(SEED) $(if $(CONFIG_SEED),--config-seed $(CONFIG_SEED))
+	$(MPC) soak --core $(CORE) --solves $(SOLVES) --seed $(SEED) $(if $(CONFIG_SEED),--config-seed $(CONFIG_SEED))
 
-## soak-all: `make soak` for every kind of the registry with a soak space, one after another, N solves each (default
+## soak-all: `make soak` for every kind of the registry with a soak space, one after another, SOLVES each (default
 ## 10^4; SEED), a progress bar over the kinds and one line per kind as it ends; reports in docs/soak/
-.PHONY: soak-all
 soak-all: setup
-	$(MPC) soak --all --solves $(N) --seed $(SEED)
+	$(MPC) soak --all --solves $(SOLVES) --seed $(SEED)
 
 ## gallery: every kind on every plant of examples/ through its design flow and check, into docs/gallery.md
 ## (GALLERY_ARGS, e.g. --plants quadrotor,cartpole --kinds fgm,admm)
-.PHONY: gallery
 gallery: $(VENV)/.installed
 	$(MPC) gallery $(GALLERY_ARGS)
 
@@ -135,6 +155,5 @@ clean:
 	rm -rf build target project/target project/project
 
 ## test-float: the floating-point library alone (model against numpy, RTL against the model; about 1.5 minutes)
-.PHONY: test-float
 test-float: setup
 	$(PY) -m pytest tests/test_float_model.py tests/test_float_rtl.py -q $(PYTEST_ARGS)
