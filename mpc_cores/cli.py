@@ -136,8 +136,8 @@ def cmd_verilog(a) -> None:
         refuse(str(e))
     print(kind.design_report(d, core))
     print(line)
-    files = [core["sv"], "core.json"] + [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact", "fusesoc_core")
-                                         if core.get(k)]
+    files = [core["sv"], "core.json"] + [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact",
+                                                           "ipxact_component", "fusesoc_core") if core.get(k)]
     print("wrote " + ", ".join(str(out / f) for f in files))
 
 

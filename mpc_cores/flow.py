@@ -1,5 +1,6 @@
 """Generation flow: design -> config.json -> Chisel generator (sbt) -> SystemVerilog, core.json, SystemRDL register
-description and its PeakRDL exports (C header, register reference, IP-XACT), FuseSoC core file.
+description and its PeakRDL exports (C header, register reference, IP-XACT memory map), IP-XACT component,
+FuseSoC core file.
 
 One sbt invocation elaborates a batch of cores (sbt start-up dominates the cost of a small design).
 """
@@ -142,9 +143,9 @@ def run_stale(main: str, jobs: list, current) -> None:
 def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
     """Elaborate cores of one kind (a CoreKind or its name) in one sbt run: jobs are (design, out_dir). Writes per
     out_dir: config.json, <module>.sv, hw.json, core.json, the SystemRDL register description <module>.rdl and
-    what PeakRDL makes of it (C header, register reference, IP-XACT), and the FuseSoC core file. Returns the
-    core.json dicts."""
-    from mpc_cores import fusesoc, registry, regmap
+    what PeakRDL makes of it (C header, register reference, IP-XACT memory map), the IP-XACT component
+    <module>.component.xml and the FuseSoC core file. Returns the core.json dicts."""
+    from mpc_cores import fusesoc, ipxact, registry, regmap
 
     kind = registry.get(kind) if isinstance(kind, str) else kind
     with locked(GENERATE_LOCK):
@@ -157,6 +158,7 @@ def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
             core = kind.core_json(d, hw)
             core["axil_response_cycles"] = hw["axil_response_cycles"]
             core.update(regmap.export(out, core))
+            core.update(ipxact.write_component(out, core))
             core.update(fusesoc.write_core(out, core))
             tmp = out / "core.json.tmp"
             tmp.write_text(json.dumps(core, indent=2))

@@ -71,7 +71,7 @@ def core_text(core: dict, regmap_files: list[str]) -> str:
 def write_core(out, core: dict) -> dict:
     """Write <out>/<module>.core; returns the core.json entries naming it."""
     out = Path(out)
-    regmap_files = [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact") if core.get(k)]
+    regmap_files = [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact", "ipxact_component") if core.get(k)]
     name = f"{core['module']}.core"
     (out / name).write_text(core_text(core, regmap_files))
     return {"fusesoc_core": name, "fusesoc_vlnv": vlnv(core)}

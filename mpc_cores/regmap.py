@@ -210,7 +210,9 @@ def _markdown_exporter():
 
 def export(out, core: dict) -> dict:
     """Compile <out>/<module>.rdl and write what PeakRDL makes of it: the C header <module>.h, the register
-    reference <module>_regs.md and IP-XACT <module>.xml. Returns the core.json entries naming the four files."""
+    reference <module>_regs.md and the IP-XACT memory map <module>.xml (IEEE 1685-2014, a component with the
+    memory map only; the core's full component is mpc_cores.ipxact's). Returns the core.json entries naming the
+    four files."""
     from peakrdl_cheader.exporter import CHeaderExporter
     from peakrdl_ipxact import IPXACTExporter
 
@@ -222,5 +224,7 @@ def export(out, core: dict) -> dict:
     top = compile_rdl(out / files["rdl"])
     CHeaderExporter().export(top, str(out / files["header"]))
     _markdown_exporter().export(top, str(out / files["regmap_doc"]), input_files=[files["rdl"]])
-    IPXACTExporter(vendor=VENDOR, library=core["core"], version=VERSION).export(top, str(out / files["ipxact"]))
+    # library <kind>-regmap: the VLNV of the core's own IP-XACT component (mpc_cores.ipxact) is not repeated
+    IPXACTExporter(vendor=VENDOR, library=f"{core['core']}-regmap", version=VERSION).export(
+        top, str(out / files["ipxact"]))
     return files

@@ -109,9 +109,18 @@ def single_dsp_advice(target: str, b: int, redesign, counts: list[int], floor: i
 
 #: the ECP5's DP16KD aspect ratios (words, bits): 18 kbit with parity, 16 kbit in the narrow ones
 DP16KD_SHAPES = ((16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18), (512, 36))
+#: mem.Ecp5BlockRam: a memory of at most this many words, built from primitives, 1024 x 18 per slice of a lane
+PRIMITIVE_DEPTH = 1024
 
 
-def dp16kd(memories: list[tuple[int, int]]) -> int:
-    """DP16KD blocks of memories (words, bits), each in the block's best aspect ratio (an estimate: synthesis may
-    put a small one in LUTs, never in fewer blocks)"""
-    return sum(min(-(-d // sd) * -(-w // sw) for sd, sw in DP16KD_SHAPES) for d, w in memories)
+def dp16kd(memories: list[tuple]) -> int:
+    """DP16KD blocks of memories (words, lanes, bits per lane, built from primitives): a primitive-built memory of
+    at most 1024 words takes ceil(bits / 18) blocks per lane (mem.Ecp5BlockRam); any other, the best aspect ratio
+    of its whole width (what synthesis may infer; an estimate: it may put a small one in LUTs, never in fewer)"""
+    out = 0
+    for d, lanes, w, primitive in memories:
+        if primitive and d <= PRIMITIVE_DEPTH:
+            out += lanes * -(-w // 18)
+        else:
+            out += min(-(-d // sd) * -(-(lanes * w) // sw) for sd, sw in DP16KD_SHAPES)
+    return out

@@ -170,10 +170,10 @@ def facts(d: AdmmDesign) -> dict:
                      + (f", {d.lanes} lanes x {d.chunks} chunks" if d.chunks > 1 else "")}
 
 
-def memories(d: AdmmDesign) -> list[tuple[int, int]]:
-    """(words, bits) of the core's memories per row unit (AdmmCore): the matrix (M11 and G~ blocks of
-    2^ceil(log2 slots) words of `lanes` coefficients), the bounds and G~ (w, 1)"""
+def memories(d: AdmmDesign) -> list[tuple]:
+    """(words, lanes, bits per lane, built from primitives) of the core's memories per row unit (AdmmCore): the
+    matrix (M11 and G~ blocks of 2^ceil(log2 slots) words of `lanes` coefficients), the bounds and G~ (w, 1)"""
     K = -(-d.n // d.P)
     block = 1 << max(1, (K * d.chunks - 1).bit_length())
     w = d.widths
-    return d.P * [(2 * block, d.lanes * w["coef"]), (K, 2 * w["z"]), (K * d.problems, w["sum"])]
+    return d.P * [(2 * block, d.lanes, w["coef"], True), (K, 2, w["z"], True), (K * d.problems, 1, w["sum"], False)]

@@ -132,10 +132,12 @@ class DgpDesign(FixedPointDesign):
     def multipliers(self) -> int:
         return self.lanes + (6 if self.accelerated else 0)
 
-    def memories(self) -> list[tuple[int, int]]:
-        """(words, bits): the matrix memory, Fe, Lw, K and G rows chunk by chunk (DgpCore)"""
+    def memories(self) -> list[tuple]:
+        """(words, lanes, bits per lane, built from primitives): the matrix memory, Fe, Lw, K and G rows chunk by
+        chunk (DgpCore; inferred by synthesis)"""
         ch = self.chunks
-        return [((self.n + self.mc) * ch["F"] + self.n * ch["K"] + self.mc * ch["G"], self.lanes * self.widths["coef"])]
+        return [((self.n + self.mc) * ch["F"] + self.n * ch["K"] + self.mc * ch["G"], self.lanes, self.widths["coef"],
+                 False)]
 
     def products(self) -> list[tuple[int, int]]:
         """(a, b) bit widths of the multipliers: the row unit (coefficient x operand word), and the accelerated

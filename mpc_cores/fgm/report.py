@@ -137,6 +137,6 @@ def facts(d: FgmDesign) -> dict:
     counts = [d.P * d.m, 2 * d.P]
     return {"iterations": d.iterations, "iterations_text": f"Imax = {d.iterations}", "cycles": d.cycles_per_solve(),
             "multipliers": d.multipliers, "dsp_ecp5": dsp_count("ecp5", d.products(), counts),
-            "bram_ecp5": dp16kd(d.P * [(2 * (1 << max(1, (d.K - 1).bit_length())), d.m * d.widths["coef"]),
-                                       (d.K, 2 * d.widths["z"])]),
+            "bram_ecp5": dp16kd(d.P * [(2 * (1 << max(1, (d.K - 1).bit_length())), d.m, d.widths["coef"], True),
+                                       (d.K, 2, d.widths["z"], True)]),
             "words": f"b = {d.b}, widest product {max(d.products(), key=lambda p: p[0] * p[1])}"}
