@@ -20,11 +20,14 @@ def _draw(rng) -> Config:
 
 
 def draw(rng) -> Config:
-    """_draw, with the accelerated method (momentum lanes, restart) in half the one-problem designs"""
+    """_draw, with the accelerated method (momentum lanes, restart) in half the one-problem designs, and the row unit
+    time-multiplexed (lanes in [2, 12]: a row in chunks) in 40 % of the one-unit, one-problem designs"""
     c = _draw(rng)
-    if c.design.get("problems", 1) == 1 and rng.random() < 0.5:
-        return Config(c.spec, dict(c.design, accelerated=True))
-    return c
+    one = c.design.get("problems", 1) == 1
+    d = dict(c.design, accelerated=True) if one and rng.random() < 0.5 else dict(c.design)
+    if one and d["P"] == 1 and rng.random() < 0.4:
+        d["lanes"] = int(rng.integers(2, 13))
+    return Config(c.spec, d)
 
 
 SOAK = SoakSpace(
@@ -37,7 +40,8 @@ SOAK = SoakSpace(
            "to the remaining states (40 %); box of accepted states; 0 to min(nx, nu) tracked states",
            "design: P in [1, 6], frac_bits in [14, 20], lat_add in [0, 3], target generic (50 %, lat_mul in "
            "[0, 3]), ecp5 or xilinx7 (lat_mul the target's minimum or in [4, 6]), rounding truncate or nearest, Imax in [10, 40], rho in {1, 2, 4}, warm start (80 %), full output (30 %), K_p = 1 (60 %) or in [2, 4] problems "
-           "interleaved; accelerated (momentum lanes, restart) in half the one-problem designs",
+           "interleaved; accelerated (momentum lanes, restart) in half the one-problem designs; lanes in [2, 12] (a row "
+           "in chunks) in 40 % of the one-unit, one-problem designs",
            "solves (verif/tb.py bitexact_random): random parameters, 5 % of words outside the box, random warm or "
            "cold start and Imax, random idle and backpressure on both streams; interleaving cores: batches of up "
            "to 2 K_p frames for random problem ids, all in flight"),
