@@ -4,8 +4,9 @@ import chisel3._
 import chisel3.util._
 
 /** floor(x / d) of a signed x by a positive d, one quotient bit per cycle (restoring division on |x|, the
-  * negative case as -ceil(|x| / d)). `start` samples x and d; `done` is high for one cycle, xW + 1 cycles after
-  * `start`, and `q` holds the quotient from then until the next start.
+  * negative case as -ceil(|x| / d) = -(floor((|x| - 1) / d) + 1), the complement of floor((|x| - 1) / d), so that
+  * no intermediate leaves xW bits whatever dW). `start` samples x and d; `done` is high for one cycle, xW + 1 cycles
+  * after `start`, and `q` holds the quotient from then until the next start.
   */
 class SerialDivider(xW: Int, dW: Int) extends Module {
   val io = IO(new Bundle {
@@ -27,8 +28,8 @@ class SerialDivider(xW: Int, dW: Int) extends Module {
   done := false.B
   when(io.start) {
     val isNeg = io.x < 0.S
-    // |x| for x >= 0; |x| + d - 1 for x < 0 (then floor(x / d) = -floor((|x| + d - 1) / d))
-    a    := Mux(isNeg, ((-io.x).asUInt +& io.d - 1.U)(xW - 1, 0), io.x.asUInt)
+    // |x| for x >= 0; |x| - 1 = -x - 1 = ~x for x < 0 (then floor(x / d) = ~floor((|x| - 1) / d))
+    a    := Mux(isNeg, (~io.x).asUInt, io.x.asUInt)
     d    := io.d
     rem  := 0.U
     quo  := 0.U
@@ -46,5 +47,5 @@ class SerialDivider(xW: Int, dW: Int) extends Module {
   }
   io.busy := busy
   io.done := done
-  io.q    := Mux(neg, -(quo.asSInt), quo.asSInt)
+  io.q    := Mux(neg, (~quo).asSInt, quo.asSInt)
 }
