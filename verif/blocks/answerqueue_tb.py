@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import cocotb
 
-from verif.blocks.bench import Block, each, next_cycle, reset_cycles, rng, settle
+from verif.blocks.bench import Block, densities, each, next_cycle, reset_cycle, reset_cycles, rng, settle
 
 CYCLES = 1500
 SEGMENT = 100
@@ -23,18 +23,10 @@ async def run_answer_queue(dut, p: dict):
     resets = reset_cycles(r, CYCLES)
     pw = pr = 1.0
     for t in range(CYCLES + 10):
-        if t % SEGMENT == 0:
-            pw, pr = r.choice(DENSITIES), r.choice(DENSITIES[1:])
-            if t % (3 * SEGMENT) == 0:
-                pw = pr = 1.0
-        if t >= CYCLES:
-            pw, pr = 0.0, 1.0
+        pw, pr = densities(r, t, (pw, pr), CYCLES, SEGMENT, DENSITIES, DENSITIES[1:])
         if t in resets:
-            b.reset_h.value = 1
-            b.set(push=0, deq_ready=0)
-            q.clear()
+            await reset_cycle(b, dut, q, push=0, deq_ready=0)
             push_next = False
-            await next_cycle(dut)
             continue
         b.reset_h.value = 0
         before = b.regs(("deq_valid", "deq_bits_data", "deq_bits_last"))

@@ -135,3 +135,24 @@ def reset_cycles(r, cycles: int, n: int = 3) -> set[int]:
     cycles with reset high."""
     starts = sorted(r.sample(range(50, cycles - 50, 5), n))
     return {s + i for s in starts for i in range(2)}
+
+
+def densities(r, t: int, now: tuple[float, float], cycles: int, segment: int, choices: tuple, ready: tuple | None = None,
+              bursts: bool = True) -> tuple[float, float]:
+    """The (valid, ready) densities of cycle t of a stream bench: a new random pair every `segment` cycles (ready
+    from `ready`, default `choices`), every third segment at full rate when `bursts`; valid off and ready on from
+    `cycles` on (the drain)."""
+    pv, pr = now
+    if t % segment == 0:
+        pv, pr = r.choice(choices), r.choice(choices if ready is None else ready)
+        if bursts and t % (3 * segment) == 0:
+            pv = pr = 1.0
+    return (0.0, 1.0) if t >= cycles else (pv, pr)
+
+
+async def reset_cycle(b, dut, model: list, **idle) -> None:
+    """A cycle with the block's reset high: its inputs `idle`, the reference model emptied."""
+    b.reset_h.value = 1
+    b.set(**idle)
+    model.clear()
+    await next_cycle(dut)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import cocotb
 
-from verif.blocks.bench import Block, each, next_cycle, reset_cycles, rng, settle
+from verif.blocks.bench import Block, densities, each, next_cycle, reset_cycle, reset_cycles, rng, settle
 
 CYCLES = 1500
 SEGMENT = 100
@@ -23,16 +23,10 @@ async def run_queue(dut, p: dict):
     resets = reset_cycles(r, CYCLES)
     pv = pr = 1.0
     for t in range(CYCLES + depth + 5):
-        if t % SEGMENT == 0:
-            pv, pr = r.choice(DENSITIES), r.choice(DENSITIES)
-        if t >= CYCLES:
-            pv, pr = 0.0, 1.0
+        pv, pr = densities(r, t, (pv, pr), CYCLES, SEGMENT, DENSITIES, bursts=False)
         if t in resets:
-            b.reset_h.value = 1
-            b.set(enq_valid=0, deq_ready=0)
-            q.clear()
+            await reset_cycle(b, dut, q, enq_valid=0, deq_ready=0)
             offer = None
-            await next_cycle(dut)
             continue
         b.reset_h.value = 0
         ready_before = b.get("enq_ready")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import cocotb
 
-from verif.blocks.bench import Block, each, next_cycle, reset_cycles, rng, settle
+from verif.blocks.bench import Block, densities, each, next_cycle, reset_cycle, reset_cycles, rng, settle
 
 CYCLES = 1500
 SEGMENT = 100
@@ -23,18 +23,10 @@ async def run_slice(dut, p: dict):
     steady = []           # pops per cycle in the segments with valid and ready always high
     resets = reset_cycles(r, CYCLES)
     for t in range(CYCLES + 20):
-        if t % SEGMENT == 0:
-            pv, pr = r.choice(DENSITIES), r.choice(DENSITIES[1:])
-            if t % (3 * SEGMENT) == 0:
-                pv = pr = 1.0
-        if t >= CYCLES:
-            pv, pr = 0.0, 1.0  # drain
+        pv, pr = densities(r, t, (pv, pr), CYCLES, SEGMENT, DENSITIES, DENSITIES[1:])
         if t in resets:
-            b.reset_h.value = 1
-            b.set(enq_valid=0, deq_ready=0)
-            q.clear()
+            await reset_cycle(b, dut, q, enq_valid=0, deq_ready=0)
             offer = None
-            await next_cycle(dut)
             continue
         b.reset_h.value = 0
         before = b.regs(("enq_ready", "deq_valid"))
