@@ -7,8 +7,7 @@ from __future__ import annotations
 import json
 import warnings
 
-from mpc_cores.flow import generator_digest
-from mpc_cores.soak.report import revision, staleness, write
+from mpc_cores.soak.report import kind_digest, kind_sources, revision, staleness, write
 from mpc_cores.soak.run import DOCS, Soak, soaked_kinds
 
 
@@ -26,10 +25,10 @@ def test_stale_soak_reports_are_named():
 def test_report_records_what_it_ran(tmp_path):
     """A report (of a soak with no configurations) records the commit, the generator digest and whether the tree was
     dirty; `staleness` finds it current, and stale once its digest is another or missing."""
-    s = Soak("fgm", 1, 0, 1, source=revision())
+    s = Soak("fgm", 1, 0, 1, source=revision("fgm"))
     write(s, tmp_path, finished=True)
     rec = json.loads((tmp_path / "fgm.json").read_text())
-    assert rec["generator_digest"] == generator_digest() and isinstance(rec["dirty"], bool)
+    assert rec["generator_digest"] == kind_digest("fgm") and isinstance(rec["dirty"], bool)
     assert rec["commit"] and rec["dirty"] == bool(rec["uncommitted"])
     assert f"generator digest {rec['generator_digest'][:12]}" in (tmp_path / "fgm.md").read_text()
     stale = staleness(tmp_path, ["fgm", "admm"])
@@ -40,6 +39,18 @@ def test_report_records_what_it_ran(tmp_path):
     del rec["generator_digest"]
     (tmp_path / "fgm.json").write_text(json.dumps(rec))
     assert staleness(tmp_path, ["fgm"])["fgm"].startswith("no digest recorded")
+
+
+def test_kind_sources_are_its_package_its_imports_and_the_shared_blocks():
+    """A kind's digest covers its Scala package, the kinds' packages it imports and every shared package, and no
+    other kind's package: ama and vucondat share admm's sources, ipm includes minres (its linear solver)."""
+    def pkgs(kind):
+        return {f.parent.name for f in kind_sources(kind) if f.suffix == ".scala"}
+    shared = pkgs("fgm") - {"fgm"}
+    assert {"bus", "shell", "mem", "fixed"} <= shared and not shared & {"admm", "dgp", "minres", "ipm"}
+    assert pkgs("admm") == shared | {"admm"} and kind_sources("ama") == kind_sources("admm")
+    assert pkgs("ipm") == shared | {"ipm", "minres"} and pkgs("dgp") == shared | {"dgp"}
+    assert kind_digest("ama") == kind_digest("vucondat") != kind_digest("fgm")
 
 
 def test_soak_all_runs_every_kind_in_turn(monkeypatch, tmp_path, capsys):

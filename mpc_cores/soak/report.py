@@ -2,14 +2,16 @@
 from __future__ import annotations
 
 import datetime
+import hashlib
 import json
+import re
 import subprocess
 import time
 from dataclasses import asdict
 from pathlib import Path
 
 from mpc_cores import registry
-from mpc_cores.flow import REPO, generator_digest
+from mpc_cores.flow import REPO
 from mpc_cores.kind import load
 
 STATUSES = ("passed", "mismatch", "hang", "error", "refused", "refused_generator")
@@ -21,23 +23,52 @@ def _git(*args: str) -> str:
     return p.stdout if p.returncode == 0 else ""
 
 
-def revision() -> dict:
-    """What a soak runs: the commit, the sources changed since (the soak ran what is in the tree), whether there are
-    any (dirty) and the digest of the generator's sources (mpc_cores.flow.generator_digest: Scala and build.sbt),
-    which `staleness` compares with today's."""
+SCALA = REPO / "src" / "main" / "scala"
+
+
+def kind_sources(kind: str) -> list[Path]:
+    """The generator sources a kind's RTL comes from: its Scala package, the packages of other kinds it imports
+    (transitively) and every shared package (those that are no kind's), with build.sbt. A change to another
+    kind's package leaves the kind's soak current."""
+    owner = {n: k.generator_main.split(".")[0] for n, k in registry.kinds().items()}
+    kind_pkgs = set(owner.values())
+    todo, used = [owner[kind]], set()
+    while todo:
+        pkg = todo.pop()
+        if pkg in used:
+            continue
+        used.add(pkg)
+        for f in (SCALA / pkg).glob("*.scala"):
+            todo += [m for m in re.findall(r"^import\s+(\w+)\.", f.read_text(), re.M) if m in kind_pkgs]
+    pkgs = [d for d in sorted(SCALA.iterdir()) if d.is_dir() and (d.name not in kind_pkgs or d.name in used)]
+    return sorted(f for d in pkgs for f in d.rglob("*.scala")) + [REPO / "build.sbt"]
+
+
+def kind_digest(kind: str) -> str:
+    """A digest of `kind_sources(kind)`, which `staleness` compares with today's."""
+    h = hashlib.sha256()
+    for f in kind_sources(kind):
+        h.update(f.relative_to(REPO).as_posix().encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()
+
+
+def revision(kind: str) -> dict:
+    """What a soak of `kind` runs: the commit, the sources changed since (the soak ran what is in the tree),
+    whether there are any (dirty) and the digest of the kind's generator sources (`kind_digest`)."""
     changed = [ln[3:] for ln in _git("status", "--porcelain", "--", *SOURCES).splitlines() if ln.strip()]
     return {"commit": _git("rev-parse", "--short=12", "HEAD").strip(), "uncommitted": changed,
-            "dirty": bool(changed), "generator_digest": generator_digest()}
+            "dirty": bool(changed), "generator_digest": kind_digest(kind)}
 
 
 def staleness(folder: Path, kinds: list[str] | None = None) -> dict[str, str]:
     """kind -> why its report in `folder` does not describe today's generator sources: no report, no digest recorded
     (a report from before the field) or another digest. Current reports are left out. `kinds`: default every kind
     of the registry with a soak space."""
-    folder, now = Path(folder), generator_digest()
+    folder = Path(folder)
     kinds = kinds if kinds is not None else [n for n, k in registry.kinds().items() if k.soak]
     out = {}
     for name in kinds:
+        now = kind_digest(name)
         try:
             rec = json.loads((folder / f"{name}.json").read_text())
         except (OSError, ValueError):
@@ -75,7 +106,7 @@ def _options(design: dict) -> str:
 
 
 def _command(s) -> str:
-    return f"make soak CORE={s.kind} N={s.requested} SEED={s.seed}"
+    return f"make soak CORE={s.kind} SOLVES={s.requested} SEED={s.seed}"
 
 
 def markdown(s, finished: bool) -> str:
@@ -119,7 +150,7 @@ def markdown(s, finished: bool) -> str:
     for o in failed:
         lines += [f"- configuration {o.index} (seed {o.seed}, {o.module}): **{o.status}** after "
                   f"{o.sim_ms:.1f} ms simulated (limit {o.timeout_ms} ms): {o.reason[:600]}",
-                  f"  - reproduce: `make soak CORE={s.kind} N={o.requested} CONFIG_SEED={o.seed}` "
+                  f"  - reproduce: `make soak CORE={s.kind} SOLVES={o.requested} CONFIG_SEED={o.seed}` "
                   f"(spec and design keywords in {s.kind}.json; log {o.log})"]
     refused = [o for o in s.outcomes if o.status.startswith("refused")]
     if refused:
@@ -131,8 +162,8 @@ def markdown(s, finished: bool) -> str:
 
 def _source(s) -> dict:
     """The soak's revision (taken when it started), with the generator digest of now where it differs."""
-    rev = dict(getattr(s, "source", None) or revision())
-    now = generator_digest()
+    rev = dict(getattr(s, "source", None) or revision(s.kind))
+    now = kind_digest(s.kind)
     if now != rev["generator_digest"]:
         rev["generator_digest_at_end"] = now
     return rev

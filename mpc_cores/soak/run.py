@@ -1,4 +1,4 @@
-"""`make soak CORE=<kind> N=<solves>`: random configurations of a core kind, each designed, generated and run in
+"""`make soak CORE=<kind> SOLVES=<solves>`: random configurations of a core kind, each designed, generated and run in
 Verilator against its bit-exact golden model, word for word, over many random solves with random idle and
 backpressure; a report under docs/soak/ (mpc_cores.soak.report).
 
@@ -178,7 +178,7 @@ def run(kind_name: str, solves: int, seed: int = 1, per_config: int | None = Non
     kind = registry.get(kind_name)
     space = load(kind.soak)
     s = Soak(kind.name, seed, solves, solves if only is not None else per_config or space.solves_per_config, build,
-             source=revision())
+             source=revision(kind.name))
     pb = bar(total=solves, desc=f"soak {kind.name}", unit="solve")
     i, done = 0, 0
     try:
