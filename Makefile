@@ -16,6 +16,8 @@ SBT_JAR     := $(HOME)/.m2/repository/org/scala-sbt/sbt-launch/$(SBT_VERSION)/sb
 ##v TARGET, LAT_ADD, LAT_MUL: FPGA family of the multipliers (generic, ecp5, xilinx7), pipeline registers
 ##v PROBLEMS: K_p problems interleaved on the row units (fgm, admm)
 ##v LANES: multipliers per row unit (admm family, dgp), or fit (sized for the LFE5U-85F)
+##v EARLY_EXIT: fgm: true builds the exit test (a solve ends once z stops moving, else at IMAX)
+##v EXIT_TOL: fgm: the exit test's tolerance in the units of u (builds the test; default 2 LSB)
 ##v FORMAT, LATENCY: float cores (minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact, fast)
 ##v ITER: iteration count (Imax; I_MR for ipm); without it the spec's, or the design check's choice for GAP
 ##v GAP, CYCLES, CHECK: design check: target closed-loop cost gap in percent, cycle budget per solve; CHECK=0 skips it
@@ -36,6 +38,9 @@ LAT_MUL ?=
 PROBLEMS ?=
 # ADMM family: multipliers per row unit (a row in chunks), or fit (the fewest chunks that fit the LFE5U-85F)
 LANES   ?=
+# FGM: the exit test (EARLY_EXIT=true) and its tolerance in the units of u
+EARLY_EXIT ?=
+EXIT_TOL   ?=
 # float cores (minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact or fast)
 FORMAT  ?=
 LATENCY ?=
@@ -52,7 +57,8 @@ JOBS        ?= auto
 
 GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--frac-bits $(B)) $(if $(OUT),--out $(OUT)) \
            $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL)) \
-           $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(LANES),--lanes $(LANES)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY)) \
+           $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(LANES),--lanes $(LANES)) \
+           $(if $(EARLY_EXIT),--early-exit $(EARLY_EXIT)) $(if $(EXIT_TOL),--exit-tol $(EXIT_TOL)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY)) \
            $(if $(ITER),--iterations $(ITER)) $(if $(GAP),--gap $(GAP)) $(if $(CYCLES),--cycles $(CYCLES)) $(if $(filter 0,$(CHECK)),--no-check)
 
 .PHONY: help setup verilog c split design test test-slow demo table2 methods bench soak soak-all gallery clean test-float

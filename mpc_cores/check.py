@@ -70,6 +70,7 @@ class CheckResult:
     target: float | None = None
     tol: float = 1e-3
     scenario_error: str = ""
+    loop_iterations: list = field(default_factory=list)  # iterations per loop step, when they vary (an exit test)
 
     @property
     def subopt_median(self) -> float:
@@ -118,8 +119,14 @@ class CheckResult:
                 f"{', DIVERGES' if self.diverged else ''}; worst violation {viol or 'none (input box only)'}{flags}")
         target = f"; target {self.target:g} %" if self.target is not None else ""
         verdict = "passes" if self.ok else "FAILS"
+        its = ""
+        if self.loop_iterations:
+            v = np.asarray(self.loop_iterations)
+            its = (f"; the exit test (EXIT_TOL {f['exit_tol']}): iterations per loop step median {np.median(v):g}, "
+                   f"max {v.max()} ({f['cycles_of'](float(np.median(v))):g} and {f['cycles_of'](int(v.max()))} "
+                   f"cycles)")
         return (f"Check ({verdict}{target}): {loop}; {samples}; {f['iterations_text']}, {f['cycles']} cycles per "
-                f"solve")
+                f"solve{' at most' if its else ''}{its}")
 
 
 def _pct(v: float) -> str:
@@ -226,6 +233,7 @@ def check_design(kind, d, target: float | None = None) -> CheckResult:
     with np.errstate(all="ignore"):
         traj = asyncio.run(closed_loop(p, g, x0, refs))
     res.diverged = _diverged(p, traj.x)
+    res.loop_iterations = list(getattr(g, "iterations", None) or []) if "cycles_of" in res.facts else []
     res.outside = int(np.sum(np.any((traj.x[:-1] < p.xmin) | (traj.x[:-1] > p.xmax), axis=1)
                              | np.any((traj.r < p.rmin) | (traj.r > p.rmax), axis=1)))
     res.violations = _violations(p, traj.x, traj.u)
@@ -251,6 +259,14 @@ def checked_design(kind, problem: MpcProblem, overrides: dict, target: float | N
     the design's count, then bisecting to within 1/16 of it."""
     target = problem.check.gap if target is None else target
     budget = problem.check.cycles if budget is None else budget
+    if target is not None and "exit_tol" in kind.overrides and "exit_tol" not in overrides:
+        d = kind.design(problem, **overrides)
+        if getattr(d, "early_exit", False):
+            # the exit test's tolerance left to the flow: the iteration count for the worst case with the test off,
+            # then the largest tolerance that keeps the target
+            d, res = checked_design(kind, problem, {**overrides, "exit_tol": 0}, target, budget)
+            return _exit_search(kind, problem, {**overrides, "frac_bits": d.b, "iterations": d.iterations}, target,
+                                (d, res))
     try:
         return _checked_count(kind, problem, overrides, target, budget)
     except CheckFailed as first:
@@ -326,6 +342,24 @@ def _checked_count(kind, problem: MpcProblem, overrides: dict, target: float | N
             if at(i)[1].ok:
                 return tried[i]
     return d, res
+
+
+def _exit_search(kind, problem: MpcProblem, overrides: dict, target: float, off):
+    """The design with the largest exit tolerance 2^k LSB (k from 1 to b - 1, bisected) whose check meets the
+    target, given the checked design `off` with the test off; with none, the test at its default tolerance if that
+    passes, else off."""
+    one = 2.0 ** -off[0].b
+    tried = {}
+
+    def at(k: int):
+        if k not in tried:
+            d = kind.design(problem, **overrides, exit_tol=(1 << k) * one)
+            tried[k] = (d, check_design(kind, d, target))
+        return tried[k]
+    if not at(1)[1].ok:
+        return off
+    k = _largest(1, off[0].b, lambda j: at(j)[1].ok)
+    return tried[k]
 
 
 def _largest(lo: int, hi: int, ok) -> int:

@@ -26,7 +26,7 @@ from mpc_cores.flow import REPO
 from mpc_cores.schema import check_override, check_size
 
 OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format", "latency", "target",
-             "problems", "lanes")
+             "problems", "lanes", "early_exit", "exit_tol")
 
 
 def refuse(msg: str) -> None:
@@ -237,6 +237,10 @@ def main(argv=None) -> None:
         s.add_argument("--lanes", help="multipliers per row unit (admm family, P = 1): a row's dot product in "
                                        "ceil(n_A / lanes) chunks, a power of two; 'fit': the fewest chunks whose "
                                        "products fit the LFE5U-85F's 156 MULT18X18D")
+        s.add_argument("--early-exit", dest="early_exit", help="fgm: build the exit test (true or false): a solve "
+                       "ends when two iterations in a row move no word of z by EXIT_TOL or more, else at IMAX")
+        s.add_argument("--exit-tol", dest="exit_tol", help="fgm: the exit test's tolerance in the units of u "
+                       "(EXIT_TOL's reset value; builds the test)")
         s.add_argument("--out")
         s.add_argument("--gap", help="design check target: closed-loop cost at most this many percent above the "
                                      "optimum; the flow chooses the iteration count (default: the spec's check.gap)")

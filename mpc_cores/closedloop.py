@@ -54,6 +54,7 @@ class FixedController(Controller):
         self.imax = imax
         self.warm = warm
         self.words: list[list[int]] = []
+        self.iterations: list[int] = []     # per step, the iterations run (fewer than Imax after the exit test)
 
     def w_words(self, x, r) -> np.ndarray:
         return quantize(np.concatenate([x, r]), self.d.b)
@@ -62,6 +63,7 @@ class FixedController(Controller):
         res = self.model.solve(self.w_words(x, r), imax=self.imax, warm=self.warm)
         u = res.z[: self.d.nu]
         self.words.append([int(v) for v in u])
+        self.iterations.append(res.iterations)
         return u / (1 << self.d.b)
 
 

@@ -113,6 +113,7 @@ class TB(AxiDriver):
         self.box = (self.model.xlo, self.model.xhi) if hasattr(self.model, "xlo") else (self.model.wlo, self.model.whi)
         self.warm = self.core["warm_start"]
         self.out_all = self.core["output_all"]
+        self.exit_tol: int | None = None   # EXIT_TOL as written (None: its reset value), for a core with the test
         self.cycle = 0
         self.reset_cycle = 0             # the monitor's cycle of the last clock edge with reset high
         self.in_done: list[int] = []     # cycles of the input tlast handshakes
@@ -151,6 +152,18 @@ class TB(AxiDriver):
             m.reset()
         self.warm = self.core["warm_start"]
         self.out_all = self.core["output_all"]
+        self.exit_tol = None
+
+    async def set_exit_tol(self, tol: int):
+        """EXIT_TOL (a core with the exit test), and the models' tolerance with it"""
+        assert await self.write(self.rm["EXIT_TOL"], tol) == AxiResp.OKAY
+        self.exit_tol = tol
+
+    async def iterations(self) -> tuple[int, bool]:
+        """ITERATIONS of the last solve: (COUNT, MET)"""
+        v, resp = await self.read(self.rm["ITERATIONS"])
+        assert resp == AxiResp.OKAY
+        return v & 0xFFFF, bool(v >> 16 & 1)
 
     # ---- words
     def to_word(self, v: int) -> int:
@@ -196,7 +209,8 @@ class TB(AxiDriver):
 
     def expect(self, w, problem: int = 0):
         """Model result for the next solve (of problem `problem`), as the words the core sends."""
-        r = self.models[problem].solve(w, imax=self.imax, warm=self.warm)
+        kw = {} if self.exit_tol is None else {"exit_tol": self.exit_tol}
+        r = self.models[problem].solve(w, imax=self.imax, warm=self.warm, **kw)
         words = r.z if self.out_all else r.z[: self.nu]
         return [int(x) for x in words], r
 

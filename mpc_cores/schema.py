@@ -205,6 +205,8 @@ SOLVER = {
     "int_bits": IntBits(),
     "stream_width": StreamWidth(),
     "tol": Num(0),
+    "early_exit": Bool(),
+    "exit_tol": Num(0, why=" (in the units of u)"),
     # admm (powers of two are checked by its design)
     "rho": Num(0),
     "soft_scale": Num(0),
@@ -304,6 +306,8 @@ def override_rule(kind, name: str):
 def _from_text(s):
     if not isinstance(s, str):
         return s
+    if s.lower() in ("true", "false"):
+        return s.lower() == "true"
     for conv in (int, float):
         try:
             return conv(s)

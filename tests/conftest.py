@@ -103,6 +103,13 @@ CASES = {
     # problem's rows were still in flight took the bounds memory from them (the rows of a unit have different
     # input bounds here)
     "soak_11000017_n6_p5_k4": (lambda: _soak_config(11000017)[0], _soak_config(11000017)[1], 30),
+    # the exit test (early_exit): no pipeline registers (its decision adds 5 cycles to L) and one row per unit
+    # (K = 1: every row is a pass's first); the ECP5 target at P = 2 (the row units' kept copies of EXIT_TOL), its
+    # decision inside the y update's latencies
+    "rand_n6_p6_b12_l00_exit": (lambda: random_problem("r6x", 3, 2, 3, 1, 21),
+                                dict(P=6, frac_bits=12, lat_add=0, lat_mul=0, early_exit=True), 30),
+    "afm_p2_b16_ecp5_exit": (lambda: load_spec(REPO / "examples/afm_like.yaml"),
+                             dict(P=2, frac_bits=16, target="ecp5", lat_mul=4, exit_tol=2.0 ** -12), 25),
     # the masses core at P = 3 on the ECP5 target, K_p = 3: every turn busy (K_p K = 42 >= L = 34)
     "masses_p3_b14_k3_ecp5": (lambda: load_spec(REPO / "examples/masses.yaml"),
                               dict(P=3, frac_bits=14, target="ecp5", lat_mul=5, problems=3), 15),

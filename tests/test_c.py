@@ -77,8 +77,13 @@ def replay(kind: str, cfg: dict, lib, solves: int, seed: int) -> dict:
             seen["reset_values"] += 1
         else:
             imax, warm, out_all = int(rng.integers(1, 2 * imax0 + 1)), rng.random() < 0.8, rng.random() < 0.3
-        got, flags, _ = lib.solve(state, w, imax, warm, out_all)
-        r = model.solve(w, imax=imax0 if imax is None else imax, warm=warm)
+        tol = None              # the exit test's EXIT_TOL: its reset value, or now and then another
+        if cfg.get("early_exit") and rng.random() < 0.5:
+            tol = int(rng.choice([0, 1, 2] + [1 << max(0, int(cfg["frac_bits"]) - s) for s in (5, 3, 2)]))
+            seen["exit_tol"] = seen.get("exit_tol", 0) + 1
+        got, flags, _ = lib.solve(state, w, imax, warm, out_all, exit_tol=tol)
+        r = model.solve(w, imax=imax0 if imax is None else imax, warm=warm,
+                        **({} if tol is None else {"exit_tol": tol}))
         exp = r.z if out_all else r.z[: int(cfg["nu"])]
         tag = f"solve {s} (imax={imax}, warm={warm}, out_all={out_all}, w={w.tolist()})"
         assert got.tolist() == exp.tolist(), f"{tag}: C {got.tolist()} != model {exp.tolist()}"
@@ -87,6 +92,11 @@ def replay(kind: str, cfg: dict, lib, solves: int, seed: int) -> dict:
             assert flags[3] == sum(1 << i for i, k in enumerate(OVF["admm"]) if r.flags[k]), f"{tag}: {flags}"
         else:
             assert (flags[3] != 0) == r.overflow, f"{tag}: {flags}"
+        assert lib.iterations == getattr(r, "iterations", imax0 if imax is None else imax), \
+            f"{tag}: {lib.iterations} iterations"
+        if cfg.get("early_exit"):
+            assert lib.met == r.met, f"{tag}: MET {lib.met}"
+            seen["met"] = seen.get("met", 0) + r.met
         held = True
         for k, v in (("sat", r.sat), ("overflow", r.overflow), ("warm", warm and flags[0]), ("out_all", out_all)):
             seen[k] += bool(v)
@@ -120,6 +130,8 @@ def test_bit_exact(did, designs, tmp_path):
     d = designs(did)
     seen = replay(kind, d.config(), build(kind, d, tmp_path), SOLVES[kind], seed=len(did))
     assert seen["sat"] and seen["warm"] and seen["out_all"] and seen["reset_values"], seen
+    if d.config().get("early_exit"):
+        assert seen["exit_tol"] and seen["met"], seen
 
 
 # bits cut from the design's word widths, so that the datapath saturates: FGM everywhere; ADMM the iterate words

@@ -467,3 +467,82 @@ def test_design_report_names_the_b_of_one_dsp_per_product():
     assert all(parts("ecp5", *p) == 1 for p in d15.products())
     assert "Fit:" not in design_report(d15)
     assert "Fit:" not in design_report(design_fgm(masses, P=3))
+
+
+# ----------------------------------------------------------------------------------------- the exit test
+
+def _exit_design(name="masses", b=16, **ov):
+    return design_fgm(problem(name), frac_bits=b, early_exit=True, **ov)
+
+
+def test_exit_test_stops_where_the_steps_fall_below_the_tolerance():
+    """With the exit test the model runs the plain iteration and stops after the first iteration whose step and the
+    previous one are below EXIT_TOL (the first iteration's previous step is 0): its answer is the plain model's at
+    that many iterations; EXIT_TOL 0 never stops before IMAX; MET says whether the test ended the solve."""
+    d = _exit_design()
+    rng = np.random.default_rng(3)
+    plain, ex = FgmFixed(d.config() | {"early_exit": False}), FgmFixed(d)
+    counts = []
+    for k in range(30):
+        w = rng.integers(d.xlo, d.xhi + 1)
+        tol = int(rng.choice([0, 2, 64, 1024, 8192]))
+        r = ex.solve(w, imax=60, warm=False, record=True, exit_tol=tol)
+        steps = [int(np.abs(b - a).max()) for a, b in zip(r.iterates, r.iterates[1:])]
+        ok = [s < tol for s in steps]
+        first = next((i + 1 for i in range(len(ok)) if ok[i] and (i == 0 or ok[i - 1])), None)
+        assert r.iterations == (first or 60) and r.met == (first is not None), (tol, steps)
+        assert np.array_equal(r.z, plain.solve(w, imax=r.iterations, warm=False).z)
+        counts.append(r.iterations)
+        if tol == 0:
+            assert r.iterations == 60 and not r.met
+    assert min(counts) < 60 and max(counts) == 60, counts
+
+
+def test_exit_bound_holds_for_the_exact_iteration():
+    """The suboptimality the design report states for the exit test, n (1 + beta)^2 eps^2 (1/mu - 1) / 2 on the
+    normalised cost (times c lambda_max on V), holds for Algorithm 1 in float64 on the quantised data stopped by the
+    same test, at random states of the box and several tolerances; and it is not loose by more than it must be
+    (the worst case comes within 10^4 of it)."""
+    d = _exit_design("afm_like")
+    one = float(1 << d.b)
+    G, Phi, lb, ub = d.A / one, d.F / one, d.lo / one, d.hi / one
+    Hn = np.eye(d.n) - G
+    beta = d.beta / one
+    rng = np.random.default_rng(5)
+    worst = 0.0
+    for tol_word in (4, 64, 1024):
+        eps = tol_word / one
+        bound = d.exit_bound(tol_word) / (d.c * d.lam_max)
+        for _ in range(20):
+            w = rng.integers(d.xlo, d.xhi + 1) / one
+            h = Phi @ w
+            f = lambda z: 0.5 * z @ Hn @ z + h @ z  # noqa: E731
+            z = np.clip(np.zeros(d.n), lb, ub)
+            y, prev_ok = z.copy(), True
+            for _ in range(5000):
+                zn = np.clip(G @ y - h, lb, ub)
+                ok = np.abs(zn - z).max() < eps
+                y, z, met, prev_ok = (1 + beta) * zn - beta * z, zn, ok and prev_ok, ok
+                if met:
+                    break
+            zs = fgm_float(G, Phi, beta, lb, ub, w, 20000)[-1]
+            gap = f(z) - f(zs)
+            assert gap <= bound * (1 + 1e-9) + 1e-12, (tol_word, gap, bound)
+            worst = max(worst, gap / bound)
+    assert worst > 1e-4, worst
+
+
+def test_exit_options_are_checked():
+    """early_exit builds the test (EXIT_TOL 2 LSB by default), exit_tol alone builds it too; the cycle count grows
+    by max(0, 5 - l_M - l_A); refusals name the rule."""
+    d = _exit_design(b=12, lat_add=0, lat_mul=0)
+    assert d.exit_tol == 2 and d.exit_extra == 5
+    assert d.cycles_per_iteration == design_fgm(problem("masses"), frac_bits=12, lat_add=0, lat_mul=0).cycles_per_iteration + 5
+    assert design_fgm(problem("masses"), frac_bits=12, exit_tol=2.0 ** -6).exit_tol == 64
+    assert _exit_design(b=12, lat_add=1, lat_mul=4).exit_extra == 0
+    with pytest.raises(DesignError, match="early_exit needs one problem"):
+        _exit_design(b=12, problems=2)
+    with pytest.raises(DesignError, match="exit_tol needs early_exit"):
+        design_fgm(problem("masses"), frac_bits=12, early_exit=False, exit_tol=0.01)
+    with pytest.raises(DesignError, match="exit_tol must be in"):
+        design_fgm(problem("masses"), frac_bits=12, exit_tol=2.0 ** -14)

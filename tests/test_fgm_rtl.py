@@ -39,6 +39,8 @@ def test_rtl_matches_golden_model(cid, cores, request):
     assert il["problems"] == core["problems"] and il["mac_utilisation"] == pytest.approx(core["mac_utilisation"])
     if core["problems"] > 1:
         assert cyc["period_cycles"] == core["period_cycles"]
+    if core["early_exit"]:      # the exit test ended some solves and IMAX others, each at its exact cycle count
+        assert {met for _, met in cyc["exit_runs"]} == {True, False}, cyc["exit_runs"]
 
 
 def test_generator_refuses_invalid_configs(tmp_path, cores):

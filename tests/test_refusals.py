@@ -187,7 +187,7 @@ def test_missing_spec_file(tmp_path):
     (("--tol", "-1"), "--tol: expected a positive number, got -1"),
     (("--tol", "nan"), "--tol: expected a positive number, got nan"),
     (("--format", "e8m17"), "CORE=fgm takes the overrides P, frac_bits, lat_add, lat_mul, rounding, iterations, "
-                            "target, problems: got format"),
+                            "target, problems, early_exit, exit_tol: got format"),
     (("--target", "stratix"), "--target: expected one of generic, ecp5, xilinx7, got 'stratix'"),
     (("--target", "ecp5"), "target ecp5 needs lat_mul >= 4 (the DSP's registers, and a stage summing partial "
                            "products; widest product 17 x 19 bits): got lat_mul=1 (set lat_mul: 4 in the spec's "

@@ -39,6 +39,8 @@ async def bitexact_random(dut):
             await tb.set_ctrl(warm=tb.rng.random() < 0.7)
         if i % 7 == 3:
             await tb.set_imax(tb.rng.randint(1, 2 * tb.core["iterations"]))
+        if i % 11 == 5 and tb.core.get("early_exit"):
+            await tb.set_exit_tol(tb.rng.choice([0, 1, 2, 5, 1 << tb.rng.randint(2, max(2, tb.core["frac_bits"] - 4))]))
         # one problem: a solve at a time; interleaving: a batch of frames for random problems, all in flight
         ids = [0] if tb.problems == 1 else \
             [tb.rng.randrange(tb.problems) for _ in range(min(count - i, tb.rng.randint(1, 2 * tb.problems)))]
@@ -64,6 +66,9 @@ async def cycle_contract(dut):
     await tb.reset()
     if tb.problems > 1:
         return await cycle_contract_interleaved(tb)
+    early = tb.core.get("early_exit", False)
+    if early:                    # IMAX iterations exactly: the exit test off
+        await tb.set_exit_tol(0)
     lat = {}
     for imax in (1, 3, tb.core["iterations"]):
         await tb.set_imax(imax)
@@ -81,13 +86,39 @@ async def cycle_contract(dut):
     assert per_iter == tb.core["cycles_per_iteration"]
     paper = tb.core.get("cycles_eq23", tb.core.get("cycles_eq24"))
     if tb.nw <= tb.n:   # (fast AMA's momentum lanes add their cycles to the paper's iteration)
-        mom = tb.core.get("momentum_cycles", 0)
+        mom = tb.core.get("momentum_cycles", 0) + tb.core.get("exit_extra_cycles", 0)
         assert per_iter - mom <= paper, f"L {per_iter} - {mom} exceeds the paper's {paper}"
     reg, _ = await tb.read(tb.rm["CYCLES_PER_ITER"])
     assert reg == per_iter
+    runs = await exit_contract(tb) if early else []
     measure({"test": "cycle_contract", "module": tb.core["module"], "n": tb.n, "P": tb.core["P"],
               "cycles_per_iteration": per_iter, "paper": paper,
-              "cycles_per_solve": lat[tb.core["iterations"]], "iterations": tb.core["iterations"]})
+              "cycles_per_solve": lat[tb.core["iterations"]], "iterations": tb.core["iterations"], "exit_runs": runs})
+
+
+async def exit_contract(tb, solves: int = 12):
+    """A core with the exit test, at EXIT_TOL's reset value and then at a few other tolerances, warm and cold:
+    each solve's latency is the overhead + I L with I = ITERATIONS.COUNT, the model's iterations, and MET says
+    whether the test ended it. Returns the (COUNT, MET) of the solves."""
+    L, over = tb.core["cycles_per_iteration"], tb.core["solve_overhead_cycles"]
+    b = tb.core["frac_bits"]
+    await tb.set_imax(3 * tb.core["iterations"])
+    runs = []
+    for k in range(solves):
+        if k >= solves // 2:     # coarse tolerances: some solves end early on any problem
+            await tb.set_exit_tol(tb.rng.choice([1 << max(0, b - s) for s in (2, 4, 6)] + [1]))
+        await tb.set_ctrl(warm=k % 3 != 0)
+        tb.in_done.clear()
+        tb.out_start.clear()
+        r = await tb.solve_and_check(tb.random_w(), f"exit test {k}")
+        count, met = await tb.iterations()
+        assert (count, met) == (r.iterations, r.met), f"ITERATIONS ({count}, {met}) != model ({r.iterations}, {r.met})"
+        lat = tb.out_start[0] - tb.in_done[0]
+        assert lat == over + count * L, f"exit test {k}: {lat} cycles for {count} iterations, core.json: {over} + I * {L}"
+        runs.append((count, met))
+    assert await tb.write(tb.rm["EXIT_TOL"], -1) == AxiResp.SLVERR
+    assert await tb.write(tb.rm["EXIT_TOL"], 1 << tb.core["signals"]["z"]["width"]) == AxiResp.SLVERR
+    return runs
 
 
 def _interleave(tb):

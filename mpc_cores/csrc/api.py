@@ -23,6 +23,8 @@ class Api:
     state_len: str = "N"           # the size macro (after the prefix) of the state's arrays
     warm_from: str | None = None   # what a warm start starts from (None: the previous solution shifted by one stage)
     split: str | None = None       # the linear-system step a `_solve_split` takes from its caller (e.g. "s = M11 v")
+    ctrl_extra: tuple = ()         # (type, name, comment, reset macro after the prefix) of more run-time settings
+    iters: str = "ctrl->imax"      # the iterations run, as the solve function knows them at its end
 
     @property
     def p(self) -> str:
@@ -66,6 +68,8 @@ def header(api: Api, cfg: dict, title: str, what: str) -> str:
                               if api.warm_from is None else (api.warm_from, api.warm_from))
     pad = " " * (len(p) + 16)
     status = "".join(f"    {s}\n" for s in api.status)
+    extra = "".join(f"    {t} {nm};{' ' * max(1, 19 - len(t) - len(nm))}/* {c} */\n" for t, nm, c, _ in api.ctrl_extra)
+    extra_reset = "".join(f", {P}_{r}" for *_, r in api.ctrl_extra)
     return f"""\
 /* {api.file}.h: {title}
    {what}
@@ -84,8 +88,8 @@ typedef struct {{
     uint16_t imax;          /* iterations (the register takes 1..65535; 0 runs none) */
     uint8_t warm_start;     /* start from {warm_ctrl}, when there is one */
     uint8_t out_all;        /* write all of z, else its first NU words */
-}} {p}_ctrl_t;
-#define {P}_CTRL_RESET {{{P}_IMAX, {P}_WARM_START, {P}_OUTPUT_ALL}}
+{extra}}} {p}_ctrl_t;
+#define {P}_CTRL_RESET {{{P}_IMAX, {P}_WARM_START, {P}_OUTPUT_ALL{extra_reset}}}
 
 /* What a solve carries to the next (the core's warm start). All zero (static storage, or memset) is the state
    after reset: the next solve starts cold. Clear warm_valid to drop the warm start. */
@@ -219,7 +223,7 @@ def solve_epilogue(api: Api) -> str:
     for (i = 0; i < nout; i++)
         out[i] = ({api.value_t})z[i];
     if (status) {{
-        status->iterations = ctrl->imax;
+        status->iterations = (uint16_t)({api.iters});
         status->warm = (uint8_t)warm;
 {sets_c}    }}
     return (unsigned)nout;
@@ -263,9 +267,10 @@ def write_c(d, out_dir, cfg: dict | None, fixed_files, float_files) -> list:
 
 # ----------------------------------------------------------------------------------------- self test
 
-def selftest_vectors(model, lo, hi, stream_width: int, cfg: dict, seed: int = 0) -> list[dict]:
+def selftest_vectors(model, lo, hi, stream_width: int, cfg: dict, seed: int = 0, extra=None) -> list[dict]:
     """A short sequence through the golden model: cold and warm starts, words outside the box (SAT), OUT_ALL,
-    Imax 1 and the reset value; each entry ctrl, w, the expected words and flags."""
+    Imax 1 and the reset value; each entry ctrl, w, the expected words, flags and iterations. `extra(k)`, if given:
+    the k-th solve's values of the API's ctrl_extra, passed to the model's solve by name."""
     rng = np.random.default_rng(seed)
     lo, hi = np.asarray(lo, dtype=np.int64), np.asarray(hi, dtype=np.int64)
     lim = (1 << (stream_width - 1)) - 1
@@ -273,15 +278,16 @@ def selftest_vectors(model, lo, hi, stream_width: int, cfg: dict, seed: int = 0)
     plan = [(imax0, 0, 0, 0.0), (imax0, 1, 0, 0.0), (imax0, 1, 1, 0.3), (1, 1, 0, 0.0), (max(1, imax0 // 2), 0, 1, 0.5),
             (imax0, 1, 1, 0.0)]
     out, held = [], False
-    for imax, warm, out_all, outside in plan:
+    for k, (imax, warm, out_all, outside) in enumerate(plan):
+        more = extra(k) if extra else {}
         w = rng.integers(lo, hi + 1)
         far = rng.random(len(w)) < outside
         w = np.where(far & (rng.random(len(w)) < 0.5), rng.integers(np.minimum(hi + 1, lim), lim + 1), w)
         w = np.where(far & (w <= hi), rng.integers(-lim - 1, np.maximum(lo, -lim)), w)
-        r = model.solve(w, imax=imax, warm=bool(warm))
+        r = model.solve(w, imax=imax, warm=bool(warm), **more)
         z = np.asarray(r.z if out_all else r.z[: int(cfg["nu"])], dtype=np.int64)
-        out.append(dict(ctrl=(imax, warm, out_all), w=w, z=z, warm=int(bool(warm) and held), sat=int(r.sat),
-                        overflow=int(r.overflow)))
+        out.append(dict(ctrl=(imax, warm, out_all, *more.values()), w=w, z=z, warm=int(bool(warm) and held),
+                        sat=int(r.sat), overflow=int(r.overflow), iterations=int(getattr(r, "iterations", imax))))
         held = True
     return out
 
@@ -291,8 +297,8 @@ def selftest(api: Api, vectors: list[dict]) -> str:
     p, t = api.p, api.value_t
     n = max(len(v["z"]) for v in vectors)
     zs = [list(v["z"]) + [0] * (n - len(v["z"])) for v in vectors]
-    ctrl = ", ".join("{%d, %d, %d}" % v["ctrl"] for v in vectors)
-    flags = [[len(v["z"]), v["warm"], v["sat"], v["overflow"]] for v in vectors]
+    ctrl = ", ".join("{" + ", ".join(str(int(c)) for c in v["ctrl"]) + "}" for v in vectors)
+    flags = [[len(v["z"]), v["warm"], v["sat"], v["overflow"], v["iterations"]] for v in vectors]
     return f"""
 #ifdef MPC_C_SELFTEST
 /* The golden model's answers to a short sequence (cold, warm, words outside the box, OUT_ALL, Imax = 1), replayed:
@@ -310,7 +316,7 @@ int main(void)
     for (k = 0; k < ST_K; k++) {{
         int nout = (int){p}_solve(&state, &st_ctrl[k], st_w[k], out, &st);
         int ok = nout == st_flags[k][0] && st.warm == st_flags[k][1] && st.sat == st_flags[k][2] &&
-                 st.overflow == st_flags[k][3];
+                 st.overflow == st_flags[k][3] && st.iterations == st_flags[k][4];
         for (i = 0; ok && i < nout; i++)
             ok = out[i] == st_z[k][i];
         if (!ok) {{

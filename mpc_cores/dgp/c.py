@@ -286,7 +286,8 @@ class _OneSolve:
 
     def solve(self, w, imax=None, warm=None):
         r = self.model.solve(w, imax=imax, warm=warm)
-        return SimpleNamespace(z=r.z[0], sat=bool(r.sat[0]), overflow=bool(r.overflow[0]))
+        return SimpleNamespace(z=r.z[0], sat=bool(r.sat[0]), overflow=bool(r.overflow[0]),
+                               iterations=int(r.iterations[0]))
 
 
 def _sizes(P: str, mc: int) -> str:

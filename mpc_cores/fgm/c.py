@@ -4,6 +4,7 @@ in double on the unquantised normalised data, warm-started like the core (mpc_be
 iteration). The shared text is mpc_cores.csrc; docs/c.md."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -48,11 +49,43 @@ def _start(clip: str, lo: str, hi: str) -> str:
 """
 
 
+# The exit test (FgmCore): the largest |z+ - z| of an iteration; the solve ends after an iteration where it and the
+# previous iteration's are below EXIT_TOL (the first iteration's previous step is 0)
+MET = "uint8_t met;            /* ITERATIONS.MET: the exit test ended the solve (else IMAX) */"
+exit_decl = """
+    int64_t step, big;
+    int ok, prev_ok = 1, met = 0;"""
+exit_ok = """
+        ok = 1;"""
+exit_step = """
+            step = zn[i] - z[i];
+            big = step < 0 ? -step : step;
+            if (big >= (int64_t)ctrl->exit_tol)
+                ok = 0;"""
+exit_test = """
+        met = ok && prev_ok;
+        prev_ok = ok;
+        if (met) {
+            it++;
+            break;
+        }"""
+exit_end = """
+    if (status)
+        status->met = (uint8_t)met;"""
+
+
 def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     from mpc_cores.fgm.model import FgmFixed
 
     check_headroom(cfg)
     api = capi.fixed_api(nm, cfg, STATE, OVF)
+    early = bool(cfg.get("early_exit"))
+    if early:                   # the exit test: EXIT_TOL as a setting, ITERATIONS.COUNT and MET in the status
+        api = dataclasses.replace(api, ctrl_extra=(("uint32_t", "exit_tol", "EXIT_TOL: the exit test's tolerance, a "
+                                                    "word of z (0: none)", "EXIT_TOL"),),
+                                  defines=list(api.defines) + [("EXIT_TOL", str(int(cfg["exit_tol"])),
+                                                                "reset value of EXIT_TOL")],
+                                  status=api.status + [MET], iters="it")
     n, nw = int(cfg["n"]), int(cfg["nw"])
     A = np.array(cfg["A"], dtype=np.int64).reshape(n, n)
     F = np.array(cfg["F"], dtype=np.int64).reshape(n, nw)
@@ -69,7 +102,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 {emit.array("HI", cfg["hi"])}{emit.array("XLO", cfg["xlo"])}{emit.array("XHI", cfg["xhi"])}
 {emit.helpers(cfg["rounding"], "clip", "dot")}"""
     body = f"""\
-    int64_t w[NW], h[N], z[N], y[N], zn[N];
+    int64_t w[NW], h[N], z[N], y[N], zn[N];{exit_decl if early else ""}
     /* the parameter words, saturated to their box (SAT); h = Phi_n w once per solve */
     for (i = 0; i < NW; i++) {{
         w[i] = mpc_clip(w_in[i], XLO[i], XHI[i]);
@@ -83,15 +116,17 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
         for (i = 0; i < N; i++)
             zn[i] = mpc_clip(mpc_sat(mpc_dot(A[i], y, N, TREE_MAX, W_SUM_LO, W_SUM_HI, &f_sum) - h[i],
                                      W_T_LO, W_T_HI, &f_t), LO[i], HI[i]);
-        /* y = sat(rnd((1 + beta) z+) - rnd(beta z)) */
-        for (i = 0; i < N; i++) {{
+        /* y = sat(rnd((1 + beta) z+) - rnd(beta z)) */{exit_ok if early else ""}
+        for (i = 0; i < N; i++) {{{exit_step if early else ""}
             y[i] = mpc_sat(mpc_rnd(ONE_PLUS_BETA * zn[i], FRAC_BITS) - mpc_rnd(BETA * z[i], FRAC_BITS), W_Y_LO,
                            W_Y_HI, &f_y);
             z[i] = zn[i];
-        }}
-    }}
+        }}{exit_test if early else ""}
+    }}{exit_end if early else ""}
 """
-    vectors = capi.selftest_vectors(model, model.xlo, model.xhi, int(cfg["widths"]["stream"]), cfg)
+    tols = [int(cfg.get("exit_tol", 0)), 1 << max(0, int(cfg["frac_bits"]) - 5), 0]
+    vectors = capi.selftest_vectors(model, model.xlo, model.xhi, int(cfg["widths"]["stream"]), cfg,
+                                    extra=(lambda k: {"exit_tol": tols[k % 3]}) if early else None)
     return capi.solver_files(api, cfg, f"the FGM core {nm.module} in C99 integer arithmetic", f"{TITLE}; the same "
                              "words as the core and its golden model (mpc_cores.fgm.model.FgmFixed), flags included.",
                              data, body, vectors)

@@ -20,6 +20,12 @@ from mpc_cores.interleave import PASS_QUEUE, PASS_START, Interleave
 from mpc_cores.problem import MpcProblem, condense
 
 
+# The exit test (FgmCore): cycles from the last row's z to the sequencer's decision, and EXIT_TOL's default word
+# (2: an iteration ends the solve when no row moved by more than one LSB, twice in a row)
+EXIT_DECISION = 5
+EXIT_TOL_LSB = 2
+
+
 @dataclass
 class FgmDesign(FixedPointDesign):
     """qp: the CondensedQP."""
@@ -36,6 +42,8 @@ class FgmDesign(FixedPointDesign):
     one_plus_beta: int
     tol: float | None = None  # target solution error the design was certified for (make design TOL=...)
     problems: int = 1         # K_p, problems interleaved on the row units (mpc_cores.interleave)
+    early_exit: bool = False  # the exit test is built (EXIT_TOL; FgmCore): a solve may end before Imax
+    exit_tol: int = 0         # EXIT_TOL's reset value, a word of z (0: no exit before Imax)
     widths: dict = field(default_factory=dict)
     bounds: dict = field(default_factory=dict)   # integer-word bounds per signal
     prop1: dict = field(default_factory=dict)    # Prop. 1 bounds in real units
@@ -66,8 +74,26 @@ class FgmDesign(FixedPointDesign):
         return max(0, math.ceil(math.log2(self.m))) if self.m > 1 else 0
 
     @property
+    def exit_extra(self) -> int:
+        """cycles the exit test adds to an iteration (FgmParams.exitExtra): its decision reaches the sequencer 5
+        cycles after the last row's z, of which the y update's lat_mul + lat_add cover part"""
+        return max(0, EXIT_DECISION - self.lat_mul - self.lat_add) if self.early_exit else 0
+
+    @property
     def cycles_per_iteration(self) -> int:
-        return self.K + self.lat_add * self.tree_depth + 2 * self.lat_mul + 3 * self.lat_add + 1
+        return self.K + self.lat_add * self.tree_depth + 2 * self.lat_mul + 3 * self.lat_add + 1 + self.exit_extra
+
+    def exit_bound(self, tol_word: int | None = None) -> float | None:
+        """The suboptimality V(z) - V* the exit test implies for the exact iteration on the core's quantised data
+        (None without the test or at EXIT_TOL 0): the answer z_i = proj(y_(i-1) - grad f_n(y_(i-1))) has
+        ||y_(i-1) - z_i||_inf < (1 + beta) eps (FgmCore), and for f_n mu-strongly convex with L = 1,
+        f_n(z_i) - f_n* <= ||G||_2^2 (1 / mu - 1) / 2 with G = y_(i-1) - z_i; V = c lambda_max f_n."""
+        tol_word = self.exit_tol if tol_word is None else tol_word
+        if not self.early_exit or tol_word <= 0:
+            return None
+        one = float(1 << self.b)
+        eps = (1 + self.beta / one) * tol_word / one
+        return self.c * self.lam_max * self.n * eps ** 2 * (1.0 / self.mu - 1.0) / 2
 
     @property
     def cycles_eq23(self) -> int:
@@ -124,6 +150,7 @@ class FgmDesign(FixedPointDesign):
             "xlo": self.xlo.tolist(), "xhi": self.xhi.tolist(),
             "beta": int(self.beta), "one_plus_beta": int(self.one_plus_beta),
             **({"problems": self.problems} if self.problems > 1 else {}),
+            **({"early_exit": True, "exit_tol": int(self.exit_tol)} if self.early_exit else {}),
         }
 
 
@@ -132,7 +159,7 @@ class FgmDesign(FixedPointDesign):
 def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
     """Build the FGM core description. Keyword overrides take precedence over the spec's `solver:` section:
     frac_bits, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all, target, c, int_bits, stream_width,
-    tol, problems."""
+    tol, problems, early_exit, exit_tol (in the units of u; default EXIT_TOL_LSB words)."""
     opt = lambda k, d: solver_opt(problem, overrides, k, d)  # noqa: E731
     b, P, lat_add, lat_mul, rounding, iterations, warm_start, output_all = run_options(
         problem, overrides, frac_bits=16, rounding="truncate", iterations=15)
@@ -194,8 +221,33 @@ def design_fgm(problem: MpcProblem, **overrides) -> FgmDesign:
                   A=A, F=F, lo=lo, hi=hi, xlo=xlo, xhi=xhi, beta=beta, one_plus_beta=one + beta,
                   tol=None if opt("tol", None) is None else float(opt("tol", None)), problems=problems)
     _size_words(d, opt("int_bits", None), opt("stream_width", None))
+    _exit_option(d, opt("early_exit", opt("exit_tol", None) is not None), opt("exit_tol", None))
     apply_target(d, lat_mul, d.products())
     return d
+
+
+def _exit_option(d: FgmDesign, early_exit, exit_tol) -> None:
+    """The exit test's options: `early_exit` builds it (one problem only); `exit_tol` in the units of u becomes
+    EXIT_TOL's reset word, floor(exit_tol 2^b), at least one LSB, at most the largest word of z's step."""
+    if not isinstance(early_exit, bool):
+        raise DesignError(f"early_exit must be true or false: got {early_exit!r}")
+    if not early_exit:
+        if exit_tol is not None:
+            raise DesignError(f"exit_tol needs early_exit: true (the exit test is not built): got exit_tol={exit_tol}")
+        return
+    if d.problems > 1:
+        raise DesignError(f"early_exit needs one problem: interleaved problems share fixed turns (problems="
+                          f"{d.problems})")
+    d.early_exit = True
+    top = (1 << d.widths["z"]) - 1            # EXIT_TOL is zW bits unsigned (the step z+ - z has zW + 1)
+    if exit_tol is None:
+        d.exit_tol = EXIT_TOL_LSB
+        return
+    word = math.floor(float(exit_tol) * (1 << d.b))
+    if exit_tol != 0 and not 1 <= word <= top:
+        raise DesignError(f"exit_tol must be in [2^-{d.b}, {top / (1 << d.b):.6g}] (one LSB to the largest z step "
+                          f"word): got exit_tol={exit_tol}")
+    d.exit_tol = word
 
 
 def _size_words(d: FgmDesign, int_bits, stream_width) -> None:

@@ -20,6 +20,8 @@ class SolveResult:
     sat: bool                   # an input word was outside the box and saturated
     overflow: bool              # a datapath word saturated
     iterates: list | None = None  # z_0..z_Imax words when recorded
+    iterations: int = 0         # iterations run (Imax, or fewer when the exit test held)
+    met: bool = False           # the exit test held after the last iteration (ITERATIONS.MET)
 
 
 class CoreData:
@@ -34,6 +36,8 @@ class CoreData:
         self.widths = dict(cfg["widths"])
         self.iterations = int(cfg["iterations"])
         self.warm_start = bool(cfg["warm_start"])
+        self.early_exit = bool(cfg.get("early_exit", False))
+        self.exit_tol = int(cfg.get("exit_tol", 0))
 
 
 class FgmFixed:
@@ -74,9 +78,14 @@ class FgmFixed:
         s, f2 = tree_sum(prods, d.widths["sum"])
         return s, f1 or f2
 
-    def solve(self, w_words, imax: int | None = None, warm: bool | None = None, record: bool = False) -> SolveResult:
+    def solve(self, w_words, imax: int | None = None, warm: bool | None = None, record: bool = False,
+              exit_tol: int | None = None) -> SolveResult:
+        """One solve. With the exit test (early_exit), `exit_tol` is EXIT_TOL (default its reset value): the solve
+        ends after the first iteration whose step max |z+ - z| and the previous iteration's are below it (the first
+        iteration's previous step is 0), else after `imax`."""
         d = self.d
         imax = d.iterations if imax is None else int(imax)
+        tol = (d.exit_tol if exit_tol is None else int(exit_tol)) if d.early_exit else 0
         warm = d.warm_start if warm is None else bool(warm)
         w_in = np.asarray(w_words, dtype=np.int64)
         assert w_in.shape == (d.nw,), f"expected {d.nw} words, got {w_in.shape}"
@@ -90,6 +99,7 @@ class FgmFixed:
             z = np.clip(np.zeros(d.n, dtype=np.int64), self.lo, self.hi)
         y = z.copy()
         its = [z.copy()] if record else None
+        prev_ok, met, done = True, False, 0
         for _ in range(imax):
             s, f = self._dot(self.A, y)
             t, ft = saturate(s - h, d.widths["t"])
@@ -97,11 +107,16 @@ class FgmFixed:
             yn, fy = saturate(shift_round(self.opb * zn, d.b, d.rounding) - shift_round(self.beta * z, d.b, d.rounding),
                               d.widths["y"])
             ovf |= f or ft or fy
+            ok = int(np.abs(zn - z).max()) < tol
+            met, prev_ok = ok and prev_ok, ok
             z, y = zn, yn
+            done += 1
             if record:
                 its.append(z.copy())
+            if met:
+                break
         self.z_prev = z.copy()
-        return SolveResult(z=z, sat=sat, overflow=ovf, iterates=its)
+        return SolveResult(z=z, sat=sat, overflow=ovf, iterates=its, iterations=done, met=met)
 
 
 def fgm_float(G: np.ndarray, Phi_n: np.ndarray, beta: float, lb: np.ndarray, ub: np.ndarray, w: np.ndarray,

@@ -52,8 +52,13 @@ def core_json(d: FgmDesign, hw: dict) -> dict:
         "cycles_eq23": hw["cycles_eq23"],
         "cycles_per_solve": hw["cycles_per_solve"],
         "solve_overhead_cycles": hw["solve_overhead_cycles"],
-        "cycles_per_solve_formula": f"{hw['solve_overhead_cycles']} + IMAX * {hw['period_cycles']}" + (
-            f" (+ 0 to {hw['period_cycles'] - 1} waiting for the problem's turn)" if d.problems > 1 else ""),
+        "cycles_per_solve_formula": f"{hw['solve_overhead_cycles']} + {'I' if d.early_exit else 'IMAX'} * "
+                                    f"{hw['period_cycles']}" + (
+            f" (+ 0 to {hw['period_cycles'] - 1} waiting for the problem's turn)" if d.problems > 1 else "") + (
+            ", I = ITERATIONS.COUNT: the iterations run, IMAX at most" if d.early_exit else ""),
+        "early_exit": d.early_exit,
+        **({"exit_tol": d.exit_tol, "exit_tol_value": d.exit_tol / one, "exit_extra_cycles": d.exit_extra,
+            "exit_suboptimality_bound": d.exit_bound()} if d.early_exit else {}),
         **interleave_fields(d),
         "tree_inputs": hw["tree_inputs"], "tree_depth": hw["tree_depth"],
         "multipliers": hw["multipliers"],
@@ -113,9 +118,25 @@ def design_report(d: FgmDesign, core: dict | None = None) -> str:
         *report_lines(d.K, d.cycles_per_iteration, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
                       d.solve_overhead + d.iterations * d.cycles_per_iteration),
         f"  Round-off bound eq. (20) after {d.iterations} iterations: ||z_fixed - z_exact||_2 <= {eta[-1]:.3g}",
+        *_exit_lines(d),
         f"  Multipliers: {d.multipliers} (P * max(n, nw) + 2P)",
     ]
     return "\n".join(lines)
+
+
+def _exit_lines(d: FgmDesign) -> list[str]:
+    """The exit test: what it stops on, its cycles and the suboptimality it implies"""
+    if not d.early_exit:
+        return []
+    one = 1 << d.b
+    bound = d.exit_bound()
+    return [f"  Exit test: a solve ends after the first iteration whose step max |z+ - z| and the previous "
+            f"iteration's are below EXIT_TOL = {d.exit_tol} LSB ({d.exit_tol / one:.4g}), else at IMAX; "
+            f"{d.exit_extra} cycles of L_F are its decision's; cycles per solve {d.solve_overhead} + I * "
+            f"{d.cycles_per_iteration}, I in ITERATIONS.COUNT",
+            f"    it implies ||G(y)||_inf < (1 + beta) EXIT_TOL for the gradient map, so V(z) - V* <= {bound:.3g} "
+            f"for the exact iteration on the quantised data (n (1 + beta)^2 EXIT_TOL^2 c lambda_max (1/mu - 1) / 2), "
+            f"before the round-off of eq. (20)"]
 
 
 def _conditioning_line(d: FgmDesign) -> str:
@@ -139,4 +160,6 @@ def facts(d: FgmDesign) -> dict:
             "multipliers": d.multipliers, "dsp_ecp5": dsp_count("ecp5", d.products(), counts),
             "bram_ecp5": dp16kd(d.P * [(2 * (1 << max(1, (d.K - 1).bit_length())), d.m, d.widths["coef"], True),
                                        (d.K, 2, d.widths["z"], True)]),
-            "words": f"b = {d.b}, widest product {max(d.products(), key=lambda p: p[0] * p[1])}"}
+            "words": f"b = {d.b}, widest product {max(d.products(), key=lambda p: p[0] * p[1])}",
+            **({"cycles_of": lambda i: d.solve_overhead + i * d.cycles_per_iteration,
+                "exit_tol": f"{d.exit_tol} LSB"} if d.early_exit else {})}

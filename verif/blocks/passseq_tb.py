@@ -9,8 +9,11 @@
   last, after the first pass when copyAfterFirst; copyNext a cycle ahead of it;
 - outLoad at s + P (outLoadAhead a cycle earlier); from then the answer's words 0..outLast move out one per cycle
   the queue's room allows: outShiftAhead = a word still to decide and outRoom, outShift the cycle after, with
-  outIndex and outIsLast; outValid from s + P + 1 to the last word's shift, done there with runCycles = P.
-Random frames, iteration counts, answer lengths and outRoom; a reset in the middle of a solve."""
+  outIndex and outIsLast; outValid from s + P + 1 to the last word's shift, done there with runCycles = P and
+  iters = Imax;
+- stop (the early exit), high in the cycle the generator holds iteration i's last position (s + firstLen + (i + 1) L
+  - 2), makes iteration i the solve's last: Imax becomes i + 1 from then on; high in any other cycle it does nothing.
+Random frames, iteration counts, answer lengths, stops and outRoom; a reset in the middle of a solve."""
 from __future__ import annotations
 
 import cocotb
@@ -50,15 +53,18 @@ async def run_pass_sequencer(dut, p: dict):
     imax, out_last = 1, 0
     resets = reset_cycles(r, CYCLES)
     pf = proom = 0.5
+    pstop = 0.0
+    stops = 0
     regs = ("start", "tokN_valid", "tokN_pass0", "tokN_first", "tokN_k", "tokNN_valid", "tokNN_pass0",
             "tokNN_first", "tokNN_k", "running", "copyNow", "copyNext", "outValid", "outIndex", "outShift",
             "outLoad", "outLoadAhead", "outIsLast", "runCycles")
     for t in range(CYCLES):
         if t % SEGMENT == 0:
             pf, proom = r.choice((0.05, 0.3, 1.0)), r.choice((0.2, 0.6, 1.0, 1.0))
+            pstop = r.choice((0.0, 0.1, 0.5))
         if t in resets:
             b.reset_h.value = 1
-            b.set(frameFills=0, frameReady=0, outRoom=0)
+            b.set(frameFills=0, frameReady=0, outRoom=0, stop=0)
             fill, last_done, solve = None, NEVER, None
             await next_cycle(dut)
             continue
@@ -70,7 +76,9 @@ async def run_pass_sequencer(dut, p: dict):
         if r.random() < 0.2:
             imax, out_last = r.randint(1, 3), r.randrange(max_out)
         room = int(r.random() < proom)
-        b.set(frameFills=fills, frameReady=ready, imax=imax, imaxOne=imax == 1, outLast=out_last, outRoom=room)
+        stop = int(r.random() < pstop)
+        b.set(frameFills=fills, frameReady=ready, imax=imax, imaxOne=imax == 1, outLast=out_last, outRoom=room,
+              stop=stop)
         if fills:
             fill = t
         await settle()
@@ -87,7 +95,14 @@ async def run_pass_sequencer(dut, p: dict):
             solve = {"s": t + 1, "I": imax, "P": p["firstLen"] + imax * p["L"], "decided": 0, "shifts": {},
                      "done": None}
             solve["copy"] = copies(p, solve["s"], imax)
-        exp = {k: 0 for k in (*regs, "shiftAhead", "done")}
+        if stop and solve is not None and solve["done"] is None:   # the early exit at an iteration's end
+            i, rest = divmod(t - solve["s"] + 2 - p["firstLen"], p["L"])
+            if rest == 0 and 1 <= i < solve["I"]:
+                solve["I"], solve["P"] = i, p["firstLen"] + i * p["L"]
+                solve["copy"] = copies(p, solve["s"], i)
+                stops += 1
+        got["iters"] = b.get("iters")
+        exp = {k: 0 for k in (*regs, "shiftAhead", "done", "iters")}
         if solve is not None:
             s, P = solve["s"], solve["P"]
             if t == s:
@@ -109,7 +124,7 @@ async def run_pass_sequencer(dut, p: dict):
                 if idx is not None:
                     exp["outShift"], exp["outIndex"], exp["outIsLast"] = 1, idx, int(idx == n - 1)
                     if idx == n - 1:
-                        exp["done"], exp["runCycles"] = 1, P
+                        exp["done"], exp["runCycles"], exp["iters"] = 1, P, solve["I"]
                         solve["done"] = t
                 if solve["decided"] < n and room:
                     exp["shiftAhead"] = 1
@@ -118,7 +133,7 @@ async def run_pass_sequencer(dut, p: dict):
         if not exp["outShift"]:   # the word's index and last flag: at a shift; the cycle count: at done
             exp["outIndex"], exp["outIsLast"] = got["outIndex"], got["outIsLast"]
         if not exp["done"]:
-            exp["runCycles"] = got["runCycles"]
+            exp["runCycles"], exp["iters"] = got["runCycles"], got["iters"]
         for port in ("tokN", "tokNN"):   # row, pass and iteration of a token that issues nothing: no contract
             if not exp[f"{port}_valid"]:
                 for f in ("pass0", "first", "k"):
@@ -126,8 +141,8 @@ async def run_pass_sequencer(dut, p: dict):
         diff = {k: (got[k], exp[k]) for k in exp if got[k] != exp[k]}
         assert not diff, f"{tag} t={t}: (got, expected) {diff}; solve {solve}, frame filled at {fill}"
         await next_cycle(dut)
-    assert solves > 15, f"{tag}: {solves} solves"
-    dut._log.info("%s: %d solves", tag, solves)
+    assert solves > 15 and stops > 3, f"{tag}: {solves} solves, {stops} early exits"
+    dut._log.info("%s: %d solves, %d early exits", tag, solves, stops)
 
 
 @cocotb.test()

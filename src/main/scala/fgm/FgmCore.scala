@@ -36,7 +36,12 @@ class FgmCore(val p: FgmParams) extends Module {
   val s_axil = IO(Flipped(new AxiLiteIO(p.axiAddrW)))
 
   // ------------------------------------------------------------------ registers, input frame, sequencer
-  val regs = new SolverRegs(s_axil, FgmRegs.map(p))
+  // The early exit (p.earlyExit): EXIT_TOL, and the last solve's iterations and whether its test held
+  val tolR   = RegInit(p.exitTol.U((p.tolW - 1).W))
+  val itersR = RegInit(0.U(16.W))
+  val metR   = RegInit(false.B)
+  val regs = new SolverRegs(s_axil, FgmRegs.map(p), coreSources = if (!p.earlyExit) Map() else
+    Map("EXIT_TOL.VALUE" -> tolR, "ITERATIONS.COUNT" -> itersR, "ITERATIONS.MET" -> metR.asUInt))
   /** w = (x, r), saturated to the state box */
   val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi), Kp))
   frameIn.io.s_axis <> s_axis
@@ -46,8 +51,10 @@ class FgmCore(val p: FgmParams) extends Module {
   val outLast = Mux(regs.ctrlOutAll, (n - 1).U, (nu - 1).U)
   /** per problem: the warm start is valid (interleaving; one problem uses the shared WARM_VALID) */
   val warmOk = RegInit(VecInit(Seq.fill(Kp)(false.B)))
+  /** the iteration the sequencer ends now passed the exit test (registers: see the test below) */
+  val exitNow = WireDefault(false.B)
   val ctl = SeqControl(K, K + 1, p.cyclesPerIteration, copyAfterFirst = false, maxOut = n, Kp, frameIn, regs, outLast,
-    m_axis.fire, warmOk)
+    m_axis.fire, warmOk, if (p.earlyExit) Some(exitNow) else None)
   regs.busy := ctl.running || ctl.outPending || frameIn.io.full || frameIn.io.partial || s_axis.fire
 
   // ------------------------------------------------------------------ memories
@@ -155,6 +162,14 @@ class FgmCore(val p: FgmParams) extends Module {
   val unitY = Wire(Vec(P, SInt(p.yW.W)))
   val unitZ = Wire(Vec(P, SInt(p.zW.W)))
   val unitCold = Wire(Vec(P, SInt(p.zW.W)))
+  /** the exit test, per row unit: the step z+ - z of the row two stages past Z is not below EXIT_TOL */
+  val unitBig = Wire(Vec(P, Bool()))
+  unitBig := DontCare
+  // EXIT_TOL, latched at the start (as IMAX), and its negation, per row unit
+  val (tolU, ntolU) = if (!p.earlyExit) (Nil, Nil) else {
+    val tolS = RegEnable(tolR.zext, ctl.take)
+    (unitRegs(tolS), unitRegs(0.S -& tolS))
+  }
   val units = (0 until P).map { u =>
     val tree = if (u == 0) dp else Module(new DotProductTree(dp.p))
     tree.io.inValid := tok1.valid
@@ -210,6 +225,10 @@ class FgmCore(val p: FgmParams) extends Module {
       zSrc(0)
     }
     val zOld      = ofSlot(zHeads, tokZ.slot)
+    if (p.earlyExit) {
+      val step = RegNext(z -& zOld)
+      unitBig(u) := RegNext(step >= tolU(u) || step <= ntolU(u))
+    }
     val ra        = FixedOps.mulRoundPipelined(opbQ, z, p.latMul, b, p.rounding, p.target)
     val rb        = FixedOps.mulRoundPipelined(betaQ, zOld, p.latMul, b, p.rounding, p.target)
     val (y, ofY)  = FixedOps.satSub(ra, rb, p.yW)
@@ -223,6 +242,30 @@ class FgmCore(val p: FgmParams) extends Module {
     ovfNow(u) := ofTree || ofTs || ofYs
   }
   when(RegNext(ovfNow.asUInt, 0.U).orR) { regs.stOvf := true.B } // the flags of a cycle registered first
+
+  // The exit test. Stopping after iteration i when ||z_i - z_(i-1)||_inf < EXIT_TOL and the same held for
+  // iteration i - 1 bounds the gradient map: y_(i-1) - z_i = (z_(i-1) - z_i) + beta (z_(i-1) - z_(i-2)), so
+  // ||y_(i-1) - z_i||_inf < (1 + beta) EXIT_TOL (y_0 = z_0: the first iteration needs its own step only). `big`
+  // collects an iteration's rows (stage Z + 2, the unit flags' stage); `prevOk` is the previous iteration's result,
+  // taken as its first row comes. The sequencer reads `exitNow` as it ends the iteration, the last row's flag
+  // then in `big` (p.exitExtra).
+  if (p.earlyExit) {
+    val tokB   = tokAt(p.stageZ + 2)
+    val anyBig = unitBig.asUInt.orR
+    val big    = RegInit(true.B)
+    val prevOk = RegInit(false.B)
+    when(tokB.valid && !tokB.pass0) {
+      when(tokB.k === 0.U) {
+        big    := anyBig
+        prevOk := tokB.first || !big
+      }.otherwise { big := big || anyBig }
+    }
+    exitNow := !big && prevOk
+    when(ctl.done) {
+      itersR := ctl.iters
+      metR   := exitNow
+    }
+  }
 
   // Register writes: z0 = y0 at the start (warm: the previous solution shifted by one stage, the last stage
   // repeated, Fig. 2b) or in the first pass (cold), y+/z+ at the end of each row's pipeline, the operand copy.
@@ -327,7 +370,12 @@ class FgmCore(val p: FgmParams) extends Module {
     val (unit, k) = unitK(slot)
     k < unitRows(unit)
   }
-  regs.writes(
+  val tolWrite: Seq[(Bool, () => Unit)] = if (!p.earlyExit) Nil else Seq(regs.at(FgmRegs.EXIT_TOL) -> { () =>
+    when(!regs.fitsS(p.tolW) || wD(31)) {
+      regs.axil.wr.resp := bus.AxiLiteResp.SLVERR
+    }.elsewhen(regs.axil.wr.valid) { tolR := wD(p.tolW - 2, 0) }
+  })
+  regs.writes(tolWrite ++ Seq(
     (regs.at(FgmRegs.BETA) || regs.at(FgmRegs.ONE_PLUS_BETA)) -> { () =>
       dataWrite(p.betaW, true.B) {
         betaWen  := true.B
@@ -344,7 +392,7 @@ class FgmCore(val p: FgmParams) extends Module {
     (inRegion("MAT_A") || inRegion("MAT_F")) -> { () =>
       dataWrite(p.coefW, Mux(inRegion("MAT_F"), regs.ahead("MAT_F")(matOk(nw)), regs.ahead("MAT_A")(matOk(n)))) {}
     }
-  )
+  ): _*)
   def matOk(cols: Int)(o: UInt): Bool = slotOk(o >> p.cBits) && (if (p.cBits == 0) true.B else o(p.cBits - 1, 0) < cols.U)
 
   // The row units' memory writes: enables, row and lanes decided a cycle ahead from the early request (the same
@@ -370,6 +418,8 @@ class FgmCore(val p: FgmParams) extends Module {
 object FgmRegs {
   val BETA          = SolverRegs.FirstCoreReg
   val ONE_PLUS_BETA = BETA + 1
+  val ITERATIONS    = BETA + 2
+  val EXIT_TOL      = BETA + 3
 
   def map(p: FgmParams): RegMap = {
     val shared = SolverRegs.registers("FGM1",
@@ -385,7 +435,15 @@ object FgmRegs {
     def fits(w: Int) = s"$word; must fit $w bits, else SLVERR"
     val beta = Seq(
       Register("BETA", BETA, "beta of the y update", Seq(Field.data(s"beta, ${fits(p.betaW)}"))),
-      Register("ONE_PLUS_BETA", ONE_PLUS_BETA, "1 + beta", Seq(Field.data(s"1 + beta, ${fits(p.betaW)}"))))
+      Register("ONE_PLUS_BETA", ONE_PLUS_BETA, "1 + beta", Seq(Field.data(s"1 + beta, ${fits(p.betaW)}")))) ++
+      (if (!p.earlyExit) Nil else Seq(
+        Register("ITERATIONS", ITERATIONS, "the last solve's iterations and how it ended", Seq(
+          Field.status("COUNT", 0, 16, "iterations run by the last solve"),
+          Field.status("MET", 16, 1, "the last solve ended at the exit test (else at IMAX)"))),
+        Register("EXIT_TOL", EXIT_TOL, "exit test: a solve ends after an iteration whose step " +
+          "||z+ - z||_inf and the previous iteration's are below it; writing a negative value or one above " +
+          s"${FixedOps.maxOf(p.tolW)}: SLVERR, ignored", Seq(Field.ctrl("VALUE", 0, p.tolW - 1, p.exitTol,
+          s"a non-negative word with ${p.fracBits} fraction bits, latched at the start of each solve; 0: no exit before IMAX")))))
     val sizes = p.regionSizes.toMap
     def region(nm: String, dims: Seq[Int], desc: String, w: Int) =
       Region(nm, p.regionBase(nm), sizes(nm), dims, desc, Field.data(fits(w)))

@@ -15,6 +15,9 @@ import fixed.{FixedOps, Rounding}
   * @param Kp     problems interleaved on the row units (shell.TurnSequencer), 1: one at a time
   * @param a      (I - H_n), n x n
   * @param f      Phi_n, n x nw
+  * @param earlyExit  build the exit test: a solve ends after the first iteration i with ||z_i - z_(i-1)||_inf and
+  *                   ||z_(i-1) - z_(i-2)||_inf below EXIT_TOL (z_(-1) = z_0), else at Imax (one problem only)
+  * @param exitTol    EXIT_TOL's reset value, a word of z's format (0: the test never holds)
   */
 case class FgmParams(
     name: String,
@@ -46,7 +49,9 @@ case class FgmParams(
     xlo: Seq[BigInt],
     xhi: Seq[BigInt],
     beta: BigInt,
-    onePlusBeta: BigInt) {
+    onePlusBeta: BigInt,
+    earlyExit: Boolean = false,
+    exitTol: BigInt = 0) {
 
   require(n >= 1, s"n must be >= 1, got n=$n")
   require(nu >= 1 && n % nu == 0, s"nu must divide n: got nu=$nu, n=$n")
@@ -75,6 +80,8 @@ case class FgmParams(
   require((lo ++ hi).forall(fits(_, zW)), s"an input bound does not fit the z width $zW")
   require((xlo ++ xhi).forall(fits(_, xW)), s"a state bound does not fit the x width $xW")
   require(fits(beta, betaW) && fits(onePlusBeta, betaW), s"beta does not fit the beta width $betaW")
+  require(!earlyExit || Kp == 1, s"the early exit needs one problem (interleaved problems share fixed turns): got problems=$Kp")
+  require(exitTol >= 0 && fits(exitTol, tolW), s"exit_tol must be in [0, ${FixedOps.maxOf(tolW)}]: got $exitTol")
 
   /** Rows per unit ceil(n/P). */
   val K: Int = (n + P - 1) / P
@@ -88,8 +95,13 @@ case class FgmParams(
   val stageT:   Int = stageSum + latAdd
   val stageZ:   Int = stageT + latAdd
   val stageY:   Int = stageZ + latMul + latAdd
-  /** Cycles per iteration, eq. (23) of 002 with ceil(log2 max(n, nw)) levels. */
-  val cyclesPerIteration: Int = K + latAdd * depth + 2 * latMul + 3 * latAdd + 1
+  /** EXIT_TOL's width: the step z+ - z has zW + 1 bits */
+  lazy val tolW: Int = zW + 1
+  /** Cycles the exit test adds to an iteration: its decision (the step, its comparison, the OR over the row units)
+    * reaches the sequencer 5 cycles after the last row's z, which the y update's latMul + latAdd cover in part. */
+  val exitExtra: Int = if (earlyExit) math.max(0, 5 - latMul - latAdd) else 0
+  /** Cycles per iteration, eq. (23) of 002 with ceil(log2 max(n, nw)) levels, and the exit test's extra cycles. */
+  val cyclesPerIteration: Int = K + latAdd * depth + 2 * latMul + 3 * latAdd + 1 + exitExtra
   /** Cycles between two passes of one problem: L alone, a round of Kp turns of K cycles when interleaving. */
   val periodCycles: Int = if (Kp == 1) cyclesPerIteration else math.max(cyclesPerIteration, Kp * K)
   val cyclesEq23: Int = K + latAdd * log2Ceil(n) + 2 * latMul + 3 * latAdd + 1
@@ -165,7 +177,9 @@ object FgmParams {
       xlo = ints(j("xlo")),
       xhi = ints(j("xhi")),
       beta = BigInt(j("beta").num.toLong),
-      onePlusBeta = BigInt(j("one_plus_beta").num.toLong)
+      onePlusBeta = BigInt(j("one_plus_beta").num.toLong),
+      earlyExit = j.obj.get("early_exit").exists(_.bool),
+      exitTol = j.obj.get("exit_tol").map(v => BigInt(v.num.toLong)).getOrElse(BigInt(0))
     )
   }
 }

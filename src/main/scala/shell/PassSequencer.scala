@@ -34,6 +34,10 @@ object RowToken {
   * start is decided two cycles ahead: a frame's last word taken at t starts the solve at t + 2. `copyNow` marks the
   * cycle after an iteration's last write in which the core moves its next operand vector into place: after every
   * iteration but the last, and after the first pass when `copyAfterFirst`.
+  *
+  * Early exit: `stop`, read in the cycle the generator holds an iteration's last position (two cycles before the
+  * cycle that ends the iteration), makes that iteration the solve's last; it must come from registers and describe
+  * the iteration being ended (a core without the test ties it low). `iters` counts the iterations issued.
   */
 class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxOut: Int) extends Module {
   require(K >= 1 && firstLen >= K && L >= K, s"PassSequencer: need K <= firstLen and K <= L: K=$K, firstLen=$firstLen, L=$L")
@@ -52,6 +56,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     val outLast = Input(UInt(log2Ceil(maxOut + 1).W))
     /** the output queue takes a word in the next cycle (shell.AnswerQueue's room, from registers) */
     val outRoom = Input(Bool())
+    /** the iteration the generator ends this cycle passed the core's exit test: it is the solve's last */
+    val stop = Input(Bool())
 
     /** the solve starts this cycle (the core takes the frame) */
     val start    = Output(Bool())
@@ -77,6 +83,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
     /** the last word of the result moves into the output queue: the solve is complete, after `runCycles` cycles */
     val done      = Output(Bool())
     val runCycles = Output(UInt(32.W))
+    /** iterations issued since the start: the iterations of the solve while `done` */
+    val iters = Output(UInt(16.W))
   })
 
   val sIdle :: sRun :: sOut :: Nil = Enum(3)
@@ -119,13 +127,17 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   val gLast   = RegInit(false.B)           // the pass is the solve's last
   val gRem    = RegInit(0.U(16.W))         // iterations after this pass
   val gRemOne = RegInit(false.B)           // gRem === 1
+  val gIt     = RegInit(0.U(16.W))         // iterations issued
   // A start loads the second position of the first pass (constants, and the iteration count): the input frame's
   // handshake selects at the registers and does not enter the advance logic.
   val rowEnd  = gV && gKLast
   val gapLen0 = firstLen - K
   val gapLen  = L - K
   val passEnd = rowEnd && Mux(gP0, (gapLen0 == 0).B, (gapLen == 0).B) || gGap && gGapEnd
+  /** the pass ending is the solve's last: the IMAX-th iteration, or an iteration that passed the exit test */
+  val endNow  = gLast || !gP0 && io.stop
   when(startA) {
+    gIt     := 0.U
     gRun    := true.B
     gP0     := true.B
     gF      := false.B
@@ -143,7 +155,8 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   }.elsewhen(gRun) {
     when(passEnd) {
       gGap := false.B
-      when(gLast) { // the solve's positions end: back to idle's token
+      when(!gP0) { gIt := gIt + 1.U }
+      when(endNow) { // the solve's positions end: back to idle's token
         gRun := false.B
         gV   := false.B
         gP0  := true.B
@@ -190,9 +203,9 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   // The passes' ends come from the generator: it holds a pass's last position two cycles before the cycle that
   // ends the pass (the state's cycles count from the one after the start). The operand copy follows that cycle,
   // after every iteration but the last, and after the first pass when `copyAfterFirst`.
-  val lastEndA = RegNext(gRun && passEnd && gLast, false.B) // lastEnd a cycle ahead
+  val lastEndA = RegNext(gRun && passEnd && endNow, false.B) // lastEnd a cycle ahead
   val lastEnd  = RegNext(lastEndA, false.B)
-  io.copyNext := ShiftRegister(gRun && passEnd && Mux(gP0, copyAfterFirst.B, !gLast), 2, false.B, true.B)
+  io.copyNext := ShiftRegister(gRun && passEnd && Mux(gP0, copyAfterFirst.B, !endNow), 2, false.B, true.B)
   io.copyNow  := RegNext(io.copyNext, false.B)
 
   switch(state) {
@@ -240,4 +253,5 @@ class PassSequencer(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxO
   io.outIsLast := outAtEnd
   io.done      := outLastFire
   io.runCycles := busyCyc
+  io.iters     := gIt
 }

@@ -8,10 +8,10 @@ import chisel3.util._
   * the solve's end, and per problem whether the solve taken starts warm (several problems). `tokNN`, the token
   * after tokN from registers, for one problem (PassSequencer): row memories can register their address beside
   * their blocks from it; `pass`, for one problem: the sequencer, whose answer leaves through `answer`'s register
-  * and output queue. */
+  * and output queue. `iters`: the iterations of the solve while `done` (one problem; several: IMAX). */
 case class SeqControl(tokN: RowToken, tokNN: Option[RowToken], take: Bool, copyNow: Bool, copyNext: Bool,
     running: Bool, outValid: Bool, outSlot: UInt, outIndex: UInt, outIsLast: Bool, done: Bool, runCycles: UInt,
-    warmOf: Vec[Bool], pass: Option[PassSequencer] = None) {
+    warmOf: Vec[Bool], iters: UInt, pass: Option[PassSequencer]) {
   val problems: Int = warmOf.length
 
   /** the cycle before the answer's first word moves out (one problem) */
@@ -70,9 +70,10 @@ object SeqControl {
   /** The sequencer of a core with K rows per unit and pass, `firstLen` cycles of its first pass and L of an
     * iteration (one problem), answers of up to maxOut words, `Kp` problems: wired to the input frame, the
     * registers and the answer's handshake. `warmOk(j)`: problem j's warm start is valid (Kp > 1; set here when its
-    * answer leaves, the core clears it). */
+    * answer leaves, the core clears it). `stop`: the early exit of one problem (PassSequencer's), None without. */
   def apply(K: Int, firstLen: Int, L: Int, copyAfterFirst: Boolean, maxOut: Int, Kp: Int, frameIn: FrameIn,
-      regs: SolverRegs, outLast: UInt, outFire: Bool, warmOk: Vec[Bool]): SeqControl = {
+      regs: SolverRegs, outLast: UInt, outFire: Bool, warmOk: Vec[Bool], stop: Option[Bool] = None): SeqControl = {
+    require(Kp == 1 || stop.isEmpty, s"SeqControl: the early exit needs one problem, got $Kp")
     // outFire: the stream's handshake, which drives a several-problem sequencer (one problem: the output queue)
     val ctl = if (Kp == 1) {
       val seq = Module(new PassSequencer(K, firstLen, L, copyAfterFirst, maxOut))
@@ -81,9 +82,10 @@ object SeqControl {
       seq.io.imax       := regs.imaxReg
       seq.io.imaxOne    := regs.imaxOne
       seq.io.outLast    := outLast
+      seq.io.stop       := stop.getOrElse(false.B)
       SeqControl(seq.io.tokN, Some(seq.io.tokNN), seq.io.start, seq.io.copyNow, seq.io.copyNext, seq.io.running,
         seq.io.outValid, 0.U, seq.io.outIndex, seq.io.outIsLast, seq.io.done, seq.io.runCycles, VecInit(Seq.fill(1)(false.B)),
-        Some(seq))
+        seq.io.iters, Some(seq))
     } else {
       val seq = Module(new TurnSequencer(K, Kp, L, maxOut))
       seq.io.frameReady := frameIn.io.full
@@ -94,7 +96,7 @@ object SeqControl {
       seq.io.outFire    := outFire
       when(seq.io.done) { warmOk(seq.io.outSlot) := true.B }
       SeqControl(seq.io.tokN, None, seq.io.take, false.B, false.B, seq.io.running, seq.io.outValid, seq.io.outSlot,
-        seq.io.outIndex, seq.io.outIsLast, seq.io.done, seq.io.runCycles, seq.io.warmOf)
+        seq.io.outIndex, seq.io.outIsLast, seq.io.done, seq.io.runCycles, seq.io.warmOf, regs.imaxReg, None)
     }
     frameIn.io.take := ctl.take
     when(ctl.done) { regs.solveDone(ctl.runCycles) }
