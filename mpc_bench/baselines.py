@@ -387,13 +387,28 @@ def slug(name: str) -> str:
     return re.sub(r"[^a-z0-9]+", "_", name.lower()).strip("_")
 
 
+def own_columns(sw: dict | None, loop: dict | None = None) -> dict:
+    """Per solver of `sw` with a timer of its own: its median, p99 and max per solve by that timer
+    (`<solver>_own_median_us`, ...), and, given the core's latency over the same loop (`loop`: median, p99 and max
+    in us), each over the core's (`<solver>_own_median_over_core`, ...: above 1 the core is ahead)."""
+    out = {}
+    for r in (sw or {}).get("solvers", []):
+        k = slug(r.name)
+        own = {"median": r.own_median_us, "p99": r.own_p99_us, "max": r.own_max_us}
+        for q, v in own.items():
+            out[f"{k}_own_{q}_us"] = v
+            core = (loop or {}).get(q)
+            out[f"{k}_own_{q}_over_core"] = v / core if v is not None and core else None
+    return out
+
+
 def core_ratios(lat_us: float | None, sw: dict | None, rate: float | None = None) -> dict:
     """The record fields of one core against every solver of `sw`: the core latency the ratios use and the core's
     solves per second (`rate`; by default one QP in flight: 1 / latency), and per solver its median and p99 wall
     time per solve, their ratios to the core's latency and the throughput ratio, core solves/s over the solver's
-    solves/s at its median (solver over core: above 1 the core is ahead)."""
+    solves/s at its median (solver over core: above 1 the core is ahead), and its own timer's figures (own_columns)."""
     rate = rate if rate is not None else (1e6 / lat_us if lat_us else None)
-    out = {"core_latency_us": lat_us, "core_solves_per_s": rate}
+    out = {"core_latency_us": lat_us, "core_solves_per_s": rate, **own_columns(sw)}
     for r in (sw or {}).get("solvers", []):
         k = slug(r.name)
         med, p99 = r.median_us, r.p99_us

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mpc_bench.baselines import slug, software_notes, timer_table
+from mpc_bench.baselines import own_columns, slug, software_notes, timer_table
 from mpc_bench.qp import _load_text, _mem_list
 from mpc_bench.report import _f, _table, _tool_columns, latency_us, pnr_cells
 from mpc_bench.tools import PNR_SEED
@@ -87,6 +87,7 @@ def _sw_columns(r: dict, sw: dict | None) -> None:
     cycles over the solver's us: median, p99, mean), which need no Fmax."""
     med, p99, mean = r.get("loop_us_median"), r.get("loop_us_p99"), r.get("loop_us_mean")
     r["core_solves_per_s"] = 1e6 / mean if mean else None
+    r.update(own_columns(sw, {"median": med, "p99": p99, "max": r.get("loop_us_max")}))
     for s in (sw or {}).get("solvers", []):
         k = slug(s.name)
         r.update({f"{k}_median_us": s.median_us, f"{k}_p99_us": s.p99_us, f"{k}_mean_us": mean_us(s),

@@ -23,8 +23,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
+
 from mpc_bench.baselines import (
-    NumpyFgm, core_ratios, fastest_cell, prepare_fgm_software, slug, solver_section,
+    NumpyFgm, closed_loop_qps, core_ratios, fastest_cell, own_columns, prepare_fgm_software, slug, solver_section,
 )
 from mpc_bench.plots import by_b, latency_plot, resources_plot
 from mpc_bench.qp import (
@@ -52,6 +54,11 @@ FMAX_B = 15
 # copies of that core placed together on one device (mpc_bench.harness), the throughput one LFE5U-85F gives; and
 # P = 3, the largest P whose multipliers fit the LFE5U-85F (126 of its 156 MULT18X18D), the shortest latency
 FMAX_FULL, FMAX_QUICK = ((1, 1, 1), (1, 2, 1), (1, 2, 2), (3, 1, 1)), ((1, 1, 1),)
+# The Fmax cores of one problem have the exit test (docs/fgm.md) at EXIT_TOL = 2^-9 (in the units of u, 64 LSB at
+# b = 15): over the software loop their latency is overhead + I L_F with I the iterations the golden model runs
+# there, warm-started step after step as in the loop; Imax bounds the worst case.
+FMAX_EXIT_TOL = 2.0 ** -9
+LOOP_HOLD = 30                   # the software loop's references hold this many steps
 
 
 def fmax_cores(text: str | None, default) -> tuple[tuple[int, int, int], ...]:
@@ -104,8 +111,25 @@ def paper_memory_blocks(n: int, nx: int, P: int) -> tuple[int, int]:
 
 # ----------------------------------------------------------------------------------------- records and tables
 
-def fgm_rows(cores: list[Core], sw: dict | None) -> list[dict]:
-    """One flat record per FGM core: the CSV rows and the source of every FGM table."""
+def loop_columns(r: dict, c: Core, iters, sw: dict | None) -> None:
+    """A core with the exit test over the software loop: its iterations per step (median, p99, max), its latency
+    overhead + I L_F in cycles and in us at its Fmax, and each solver's own-timer figures over that latency."""
+    cj = c.core
+    it = np.asarray(iters, dtype=np.int64)
+    cyc = cj["solve_overhead_cycles"] + it * cj["cycles_per_iteration"]
+    lat = {}
+    for q, f in (("median", np.median), ("p99", lambda v: np.percentile(v, 99)), ("max", np.max)):
+        r[f"loop_iter_{q}"] = float(f(it))
+        r[f"loop_cycles_{q}"] = float(f(cyc))
+        lat[q] = r[f"loop_us_{q}"] = latency_us(r[f"loop_cycles_{q}"], r["fmax_mhz"])
+    r.update({"exit_tol": cj.get("exit_tol_value"), "loop_solves": len(it),
+              "loop_exit_share": float(np.mean(it < cj["iterations"])), **own_columns(sw, lat)})
+
+
+def fgm_rows(cores: list[Core], sw: dict | None, loops: dict | None = None) -> list[dict]:
+    """One flat record per FGM core: the CSV rows and the source of every FGM table; `loops`: core tag ->
+    iterations per step over the software loop, for the cores with the exit test (loop_columns)."""
+    loops = loops or {}
     med = {r.name: r.median_us for r in sw["solvers"]} if sw else {}
     out = []
     for c in cores:
@@ -150,8 +174,35 @@ def fgm_rows(cores: list[Core], sw: dict | None) -> list[dict]:
             r[f"{key}_us"] = med.get(name)
             r[f"{key}_over_core"] = ratio(med.get(name), lat)
         r.update(core_ratios(lat_max, sw, rate))
+        r["early_exit"] = bool(cj.get("early_exit"))
+        if c.tag in loops:
+            loop_columns(r, c, loops[c.tag], sw)
         out.append(r)
     return out
+
+
+def exit_table(recs: list[dict], sw: dict | None) -> list[str]:
+    """The cores with the exit test over the software loop, against DAQP's own timer."""
+    recs = [r for r in recs if "loop_us_median" in r]
+    if not recs:
+        return []
+    daqp = next((s for s in (sw or {}).get("solvers", []) if s.name.startswith("DAQP")), None)
+    k = slug(daqp.name) if daqp else None
+    body = []
+    for r in recs:
+        qs = ("median", "p99", "max")
+        body.append([str(r["P"]), str(r["b"]), _f(r["fmax_mhz"], "{:.1f}"), f"{r['exit_tol']:.3g}",
+                     " / ".join(f"{r[f'loop_iter_{q}']:g}" for q in qs),
+                     " / ".join(_f(r[f"loop_us_{q}"], "{:.2f}") for q in qs),
+                     " / ".join(_f(r.get(f"{k}_own_{q}_us") if k else None, "{:.2f}") for q in qs),
+                     " / ".join(_f(r.get(f"{k}_own_{q}_over_core") if k else None, "{:.1f}x") for q in qs)])
+    return ["", "### The exit test over the software loop", ""] + _table(
+        ["P", "b", "Fmax MHz", "EXIT_TOL", "iterations median / p99 / max", "core us median / p99 / max",
+         "DAQP own us median / p99 / max", "DAQP own / core"], body) + [
+        "", f"The same {recs[0]['loop_solves']} QPs as the software timing, in the loop's order: the core's golden "
+        "model, warm-started step after step, ends each solve at the exit test (docs/fgm.md) or at Imax; core us: "
+        "overhead + I L_F cycles (core.json's contract) at the placed Fmax. DAQP own: its solve timer (C level), "
+        "hot-started on the same QPs. Above 1x the core is ahead.", ""]
 
 
 def fgm_summary_table(recs: list[dict]) -> list[str]:
@@ -219,6 +270,7 @@ def fgm_section(cores: list[Core], recs: list[dict], sw: dict | None) -> list[st
         L += _fmax_section(*map(list, zip(*fast)), "fgm_core.lpf")
     if fast:
         L += interleave_table([r for _, r in fast], sw)
+        L += exit_table([r for _, r in fast], sw)
     L += ["", "### Latency against Table III(a) of 002", ""]
     body = [[str(r["P"]), str(r["b"]), _f(r["cycles_per_solve_measured"], "{}"), _f(r["fmax_mhz"], "{:.1f}"),
              _f(r["latency_us_ecp5"], "{:.3f}"), _f(r["latency_us_v6_ours"], "{:.3f}"),
@@ -344,12 +396,13 @@ class Section(QpSection):
                 self.cores.append(Core("fgm", "masses", P, b, out / "cores" / f"masses_p{P}_b{b}", d, d.iterations))
         la, lm, tg = FMAX_LAT["lat_add"], FMAX_LAT["lat_mul"], FMAX_LAT["target"]
         for P, kp, copies in self.fmax:
-            tag = f"masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}" + (f"_k{kp}" if kp > 1 else "") \
+            tag = f"masses_p{P}_b{FMAX_B}_la{la}_lm{lm}_{tg}" + (f"_k{kp}" if kp > 1 else "_exit") \
                 + (f"_x{copies}" if copies > 1 else "")
+            ex = dict(early_exit=True, exit_tol=FMAX_EXIT_TOL) if kp == 1 else {}
             try:
-                d = cached_design(designs, f"fgm_{tag}", ("fgm", spec, P, FMAX_B, la, lm, tg, kp),
-                                  lambda P=P, kp=kp: design_fgm(problem, P=P, frac_bits=FMAX_B, problems=kp,
-                                                                **FMAX_LAT))
+                d = cached_design(designs, f"fgm_{tag}", ("fgm", spec, P, FMAX_B, la, lm, tg, kp, tuple(ex.items())),
+                                  lambda P=P, kp=kp, ex=ex: design_fgm(problem, P=P, frac_bits=FMAX_B, problems=kp,
+                                                                       **FMAX_LAT, **ex))
             except DesignError as e:
                 self.error(f"FGM P={P} l_A={la} l_M={lm} K_p={kp}: design refused: {e}")
                 continue
@@ -358,14 +411,32 @@ class Section(QpSection):
                                    pnr_args=PLACER_ARGS, floorplan=copies == 1))
 
     def software_case(self):
-        return prepare_fgm_software(self.problem, self.designs, self.steps, 30)
+        return prepare_fgm_software(self.problem, self.designs, self.steps, LOOP_HOLD)
+
+    def exit_loops(self) -> dict:
+        """tag -> iterations per step of each core with the exit test over the software loop's QPs (the same
+        closed_loop_qps as software_case), its golden model warm-started step after step"""
+        from mpc_cores.fgm.model import FgmFixed
+        from mpc_cores.fixed import quantize
+        from mpc_cores.problem import condense
+
+        exits = [c for c in self.cores if getattr(c.design, "early_exit", False)]
+        if not exits:
+            return {}
+        ref = self.designs[max(self.designs)] if self.designs else exits[0].design
+        W = closed_loop_qps(self.problem, condense(self.problem), ref, self.steps, LOOP_HOLD)
+        out = {}
+        for c in exits:
+            m = FgmFixed(c.design)
+            out[c.tag] = [m.solve(quantize(w, c.design.b)).iterations for w in W]
+        return out
 
     def job_costs(self, c: Core) -> tuple[float, float, float]:
         # rough seconds seen on a 2-core EPYC; place and route dominates
         return (30, (60 + 15 * c.P + (350 * c.P if c.placeable else 0)) * c.copies, 40 * c.P)
 
     def make_rows(self) -> list[dict]:
-        return fgm_rows(self.cores, self.sw)
+        return fgm_rows(self.cores, self.sw, self.exit_loops())
 
     # ------------------------------------------------------------------------------------- outputs
 

@@ -88,9 +88,13 @@ def _dsp_advice(d: FgmDesign) -> str | None:
 
 
 def interleave_fields(d) -> dict:
-    """core.json's interleaving entries (mpc_cores.interleave.core_fields)."""
-    return core_fields(d.K, d.cycles_per_iteration, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
-                       d.solve_overhead + d.iterations * d.cycles_per_iteration)
+    """core.json's interleaving entries (mpc_cores.interleave.core_fields); with the exit test the least latency is
+    one iteration's"""
+    f = core_fields(d.K, d.cycles_per_iteration, d.problems, d.iterations, d.n if d.output_all else d.nu, d.nw,
+                    d.solve_overhead + d.iterations * d.cycles_per_iteration)
+    if d.early_exit:
+        f["latency_cycles"] = dict(f["latency_cycles"], min=d.solve_overhead + d.cycles_per_iteration)
+    return f
 
 
 def design_report(d: FgmDesign, core: dict | None = None) -> str:
