@@ -138,6 +138,7 @@ def cmd_verilog(a) -> None:
     print(line)
     files = [core["sv"], "core.json"] + [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact",
                                                            "ipxact_component", "fusesoc_core") if core.get(k)]
+    files += core.get("driver", [])
     print("wrote " + ", ".join(str(out / f) for f in files))
 
 

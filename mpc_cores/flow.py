@@ -145,7 +145,7 @@ def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
     out_dir: config.json, <module>.sv, hw.json, core.json, the SystemRDL register description <module>.rdl and
     what PeakRDL makes of it (C header, register reference, IP-XACT memory map), the IP-XACT component
     <module>.component.xml and the FuseSoC core file. Returns the core.json dicts."""
-    from mpc_cores import fusesoc, ipxact, registry, regmap
+    from mpc_cores import cdriver, fusesoc, ipxact, registry, regmap
 
     kind = registry.get(kind) if isinstance(kind, str) else kind
     with locked(GENERATE_LOCK):
@@ -158,6 +158,7 @@ def generate(kind, jobs: list[tuple[object, Path]]) -> list[dict]:
             core = kind.core_json(d, hw)
             core["axil_response_cycles"] = hw["axil_response_cycles"]
             core.update(regmap.export(out, core))
+            core.update(cdriver.write_driver(out, core))
             core.update(ipxact.write_component(out, core))
             core.update(fusesoc.write_core(out, core))
             tmp = out / "core.json.tmp"

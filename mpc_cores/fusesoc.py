@@ -38,8 +38,8 @@ def core_text(core: dict, regmap_files: list[str]) -> str:
     if regmap_files:
         lines += ["  regmap:", "    files:"]
         for f in regmap_files:
-            ft = {".h": "cSource", ".rdl": "systemRDLSource", ".xml": "ipxact", ".md": "markdown"}.get(Path(f).suffix,
-                                                                                                     "user")
+            ft = {".h": "cSource", ".c": "cSource", ".rdl": "systemRDLSource", ".xml": "ipxact",
+                  ".md": "markdown"}.get(Path(f).suffix, "user")
             inc = ", is_include_file: true" if f.endswith(".h") else ""
             lines.append(f"      - {f}: {{file_type: {ft}{inc}}}")
     lines += [
@@ -72,6 +72,7 @@ def write_core(out, core: dict) -> dict:
     """Write <out>/<module>.core; returns the core.json entries naming it."""
     out = Path(out)
     regmap_files = [core[k] for k in ("rdl", "header", "regmap_doc", "ipxact", "ipxact_component") if core.get(k)]
+    regmap_files += core.get("driver", [])
     name = f"{core['module']}.core"
     (out / name).write_text(core_text(core, regmap_files))
     return {"fusesoc_core": name, "fusesoc_vlnv": vlnv(core)}

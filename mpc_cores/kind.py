@@ -27,6 +27,8 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
                        mpc_cores.csrc), returning the paths written (None: the kind has no C solver)
   split_fn(d, out_dir) optional: `make split`, the heterogeneous split of 004: the hardware block of the
                        linear-system step and the C that calls it, returning (paths written, report text)
+  driver, answer_status_word  whether `make verilog` writes the C driver (mpc_cores.cdriver), and whether an
+                       answer ends with a status word after z
 
 Modules are named by strings and imported on use, so the registry imports no core package and no package
 imports the testbenches or the benchmark.
@@ -75,6 +77,8 @@ class CoreKind:
     c_fn: str | None = None        # "module:function(design, out_dir) -> list of paths": `make c`
     split_fn: str | None = None    # "module:function(design, out_dir) -> (paths, report)": `make split`
     constraints: tuple[str, ...] = ()  # the constraint sections of SECTIONS the core enforces
+    driver: bool = False           # `make verilog` writes the C driver (mpc_cores.cdriver): fixed-point stream words
+    answer_status_word: bool = False  # an answer ends with a status word after z (the driver reads it)
 
     def __post_init__(self):
         n = self.name

@@ -12,6 +12,7 @@ KIND = CoreKind(
     controllers_fn="mpc_cores.admm.kind:controllers",
     c_fn="mpc_cores.admm.c:write_c",
     split_fn="mpc_cores.admm.split:write_split",
+    driver=True,
 )
 
 
@@ -33,7 +34,7 @@ def _method_kind(method: str, title: str) -> CoreKind:
         testbench="verif.admm.tb", soak=f"mpc_cores.admm.soak:{method.upper()}_SOAK",
         spec_section=KIND.spec_section, overrides=KIND.overrides, constraints=KIND.constraints,
         controllers_fn="mpc_cores.admm.kind:controllers",
-        c_fn="mpc_cores.admm.c:write_c", split_fn=KIND.split_fn)
+        c_fn="mpc_cores.admm.c:write_c", split_fn=KIND.split_fn, driver=True)
 
 
 AMA_KIND = _method_kind("ama", "alternating minimisation algorithm (Tseng; 004) on the ADMM datapath, fixed point")

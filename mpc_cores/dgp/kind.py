@@ -12,4 +12,6 @@ KIND = CoreKind(
     controllers_fn="mpc_cores.dgp.control:controllers",
     c_fn="mpc_cores.dgp.c:write_c",
     tol_fn="mpc_cores.dgp.design:write_tol_spec",
+    driver=True,
+    answer_status_word=True,
 )

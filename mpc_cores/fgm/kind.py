@@ -13,6 +13,7 @@ KIND = CoreKind(
     c_fn="mpc_cores.fgm.c:write_c",
     tol_fn="mpc_cores.fgm.certify:write_certified_spec",
     certificate_fn="mpc_cores.fgm.certify:certificate_text",
+    driver=True,
 )
 
 
