@@ -273,6 +273,15 @@ def _with_c(kind: str, d, makers: list, missing: list) -> tuple[list, list]:
     return makers + cm, missing + cmiss
 
 
+def _with_tinympc(problem, makers: list, missing: list) -> tuple[list, list]:
+    """TinyMPC on the spec's model after the others, where its package is installed (built from its source)"""
+    from mpc_bench.qp_solvers import TinyMpc, installed
+
+    if not installed(TinyMpc):
+        return makers, missing + ["TinyMPC (tinympc)"]
+    return makers + [lambda: TinyMpc(problem, "TinyMPC", {})], missing
+
+
 def prepare_fgm_software(problem, designs: dict, steps: int, hold: int) -> SwCase:
     """The masses loop for the FGM solvers, and the error of the core's golden model (per b) on it."""
     from mpc_cores.fgm.model import FgmFixed
@@ -292,6 +301,7 @@ def prepare_fgm_software(problem, designs: dict, steps: int, hold: int) -> SwCas
         core_err[b] = (max(err), float(np.median(err)))
     makers, missing = _with_c("fgm", d, *_makers("box", box_qp(qp), lambda: NumpyFgm(qp, nu, d.c, d.lam_max,
                                                                                     d.iterations)))
+    makers, missing = _with_tinympc(problem, makers, missing)
     return SwCase("fgm", W, u_opt, nu, makers, {
         "core_err": core_err, "steps": steps, "hold": hold, "imax": d.iterations, "missing": missing,
         "u_box": (float(np.min(problem.umin)), float(np.max(problem.umax)))})
@@ -367,8 +377,12 @@ def pinned():
 def time_software(case: SwCase, repeats: int, log) -> dict:
     """Per-solve wall time (and own time) of each solver of the case over its loop, `repeats` replays each, the
     process pinned to one CPU (a progress bar on stderr counts the replays)."""
-    with pinned() as cpu, tqdm(total=len(case.makers) * repeats, desc=f"{case.kind.upper()} software timing",
-                                unit="replay", disable=None) as bar:
+    from mpc_cores.quiet import c_output_silenced
+
+    # the solvers' C chatter (OSQP's polishing note, TinyMPC's convergence line) off; the log and the bar are stderr's
+    with pinned() as cpu, c_output_silenced(), tqdm(total=len(case.makers) * repeats,
+                                                    desc=f"{case.kind.upper()} software timing", unit="replay",
+                                                    disable=None) as bar:
         res = [_time_solver(mk, case.W, case.nu, case.u_opt, repeats, bar) for mk in case.makers]
     for r in res:
         it = f", iterations median {np.median(r.iters):.0f} max {max(r.iters)}" if r.iters else ""

@@ -387,6 +387,47 @@ class Quadprog:
         return x, None
 
 
+class TinyMpc:
+    """TinyMPC (ADMM on the MPC problem itself, Riccati-cached, single precision; the `tinympc` package built from
+    its source) on the spec's model: N + 1 knot points, the input box, the references as steady-state targets
+    (x_s, u_s) = (M_x r, M_u r) over the horizon. Its terminal cost is its own (the infinite-horizon Riccati cost of
+    Q + rho I, R + rho I), so it solves a neighbour of the core's QP (the error column says how near). Set up once;
+    each solve sets x0 and the references and starts from its previous iterates. No timer of its own."""
+    module = "tinympc"
+    timer = "n/a"
+
+    def __init__(self, problem, name: str, settings: dict):
+        import tinympc
+
+        from mpc_cores.problem import steady_state_maps
+
+        p = problem
+        if not (np.allclose(p.Q, np.diag(np.diag(p.Q))) and np.allclose(p.R, np.diag(np.diag(p.R)))):
+            raise RuntimeError("TinyMPC takes diagonal Q and R only")
+        self.name, self.p = name, p
+        self.Mx, self.Mu = steady_state_maps(p)
+        self.solver = tinympc.TinyMPC()
+        st = dict(settings)
+        rho = st.pop("rho", 1.0)
+        self.solver.setup(np.array(p.A, dtype=float), np.array(p.B, dtype=float), np.array(p.Q, dtype=float),
+                          np.array(p.R, dtype=float), p.N + 1, rho=rho, u_min=np.asarray(p.umin, dtype=float),
+                          u_max=np.asarray(p.umax, dtype=float), verbose=False, **st)
+        s = self.solver.settings
+        self.settings = (f"rho = {rho:g}, abs_pri_tol = {s.abs_pri_tol:g}, abs_dua_tol = {s.abs_dua_tol:g}, "
+                         f"max_iter = {s.max_iter}, check_termination = {s.check_termination} (defaults), float32")
+        self.iters: list[int] = []
+
+    def solve(self, w: np.ndarray):
+        p = self.p
+        x, r = np.asarray(w[: p.nx], dtype=float), np.asarray(w[p.nx:], dtype=float)
+        self.solver.set_x0(x)
+        self.solver.set_x_ref(np.tile((self.Mx @ r)[:, None], (1, p.N + 1)))
+        self.solver.set_u_ref(np.tile((self.Mu @ r)[:, None], (1, p.N)))
+        sol = self.solver.solve()
+        self.iters.append(int(self.solver._solver.solution.iter))
+        return np.asarray(sol["controls"], dtype=float), None
+
+
 # The one table: problem -> (name, class, settings) in report order. "box" is problem A (the FGM section), "soft"
 # problem B (the ADMM section). OSQP comes first (the latency plots draw the first rows).
 SOLVERS: dict[str, tuple] = {

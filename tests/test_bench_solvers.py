@@ -197,3 +197,37 @@ def test_a_missing_package_leaves_its_solver_out(box, monkeypatch):
     assert sorted(missing) == sorted(set(absent) | {"OSQP default", "OSQP tuned"})
     assert len(makers) == len(qs.SOLVERS["box"]) - len(missing)
     assert "no_such_package_here" not in qs.versions()
+
+
+def test_own_timer_columns_and_the_exit_loop():
+    """Every core row carries each solver's own-timer median, p99 and max (None without a timer); a core with the
+    exit test over the loop gets its latency quantiles at its Fmax and the own-timer ratios against them."""
+    sw = _sw(["DAQP hot start", "quadprog"])
+    r = baselines.core_ratios(5.0, sw)
+    assert r["daqp_hot_start_own_median_us"] == pytest.approx(8.8)
+    assert r["daqp_hot_start_own_max_us"] == pytest.approx(24.0) and r["quadprog_own_p99_us"] is None
+    c = _fgm_core()
+    c.core.update(early_exit=True, exit_tol_value=2.0 ** -9)
+    rec = dict(fmax_mhz=100.0)
+    fgm.loop_columns(rec, c, [1] * 98 + [15, 15], sw)
+    assert rec["loop_iter_median"] == 1 and rec["loop_iter_max"] == 15 and rec["loop_exit_share"] == 0.98
+    assert rec["loop_us_median"] == pytest.approx((43 + 52) / 100.0)
+    assert rec["loop_us_max"] == pytest.approx((43 + 15 * 52) / 100.0)
+    assert rec["daqp_hot_start_own_median_over_core"] == pytest.approx(8.8 / 0.95)
+    assert "### The exit test over the software loop" in "\n".join(fgm.exit_table([dict(rec, P=1, b=15)], sw))
+
+
+@pytest.mark.skipif(not qs.installed(qs.TinyMpc), reason="tinympc not installed (make bench builds it)")
+def test_tinympc_on_the_masses_loop(box):
+    """TinyMPC on the spec's model: an answer of nu inputs inside the box per step, warm-started (few iterations)"""
+    from mpc_cores.problem import load_spec
+    from mpc_cores.quiet import c_output_silenced
+
+    p = load_spec(REPO / "examples/masses.yaml")
+    s = qs.TinyMpc(p, "TinyMPC", {})
+    with c_output_silenced():
+        for w in box[1]:
+            u, own = s.solve(w)
+            assert own is None and u.shape == (p.nu,)
+            assert np.all(u >= p.umin - 1e-6) and np.all(u <= p.umax + 1e-6)
+    assert len(s.iters) == len(box[1]) and max(s.iters) < 1000
