@@ -188,7 +188,8 @@ def cmd_demo(a) -> None:
     print(kind.design_report(d))
     print(line)
     try:
-        table = run_demo(kind, d, Path(a.problem), Path(a.out), a.steps, a.hold, a.seed)
+        steps, hold = kind.demo_steps
+        table = run_demo(kind, d, Path(a.problem), Path(a.out), a.steps or steps, a.hold or hold, a.seed)
     except (DemoError, GeneratorError) as e:
         refuse(str(e))
     print(table)
@@ -251,8 +252,9 @@ def main(argv=None) -> None:
         if name == "design":
             s.add_argument("--tol", help="target ||z_fixed - z*||_2 over the state box")
         if name == "demo":
-            s.add_argument("--steps", type=int, default=60)
-            s.add_argument("--hold", type=int, default=20)
+            s.add_argument("--steps", type=int, default=None, help="closed-loop steps (default: the kind's, 60; "
+                                                                   "ipm 20)")
+            s.add_argument("--hold", type=int, default=None, help="steps a reference holds (default 20; ipm 5)")
             s.add_argument("--seed", type=int, default=0)
     for name, what in (("table2", "closed-loop cost tables (options: see `mpc-cores table2 --help`)"),
                        ("bench", "benchmark report (options: see `mpc-cores bench --help`)"),

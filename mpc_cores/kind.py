@@ -78,6 +78,7 @@ class CoreKind:
     split_fn: str | None = None    # "module:function(design, out_dir) -> (paths, report)": `make split`
     constraints: tuple[str, ...] = ()  # the constraint sections of SECTIONS the core enforces
     driver: bool = False           # `make verilog` writes the C driver (mpc_cores.cdriver): fixed-point stream words
+    demo_steps: tuple[int, int] = (60, 20)  # `make demo`'s closed loop: steps, and steps a reference holds
     answer_status_word: bool = False  # an answer ends with a status word after z (the driver reads it)
 
     def __post_init__(self):

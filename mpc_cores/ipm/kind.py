@@ -12,6 +12,8 @@ KIND = CoreKind(
     cycle_test="latency",
     controllers_fn="mpc_cores.ipm.kind:controllers",
     rtl_controller_fn="mpc_cores.ipm.control:rtl_controller",
+    # a solve of masses is about 141,000 cycles: 20 steps (four references of 5 steps) keep the demo near 2 minutes
+    demo_steps=(20, 5),
 )
 
 
