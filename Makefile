@@ -61,7 +61,7 @@ GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--f
            $(if $(EARLY_EXIT),--early-exit $(EARLY_EXIT)) $(if $(EXIT_TOL),--exit-tol $(EXIT_TOL)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY)) \
            $(if $(ITER),--iterations $(ITER)) $(if $(GAP),--gap $(GAP)) $(if $(CYCLES),--cycles $(CYCLES)) $(if $(filter 0,$(CHECK)),--no-check)
 
-.PHONY: help setup verilog c split design test test-slow demo table2 methods bench soak soak-all gallery clean test-float
+.PHONY: help setup verilog c split design test test-slow demo table2 methods bench scaling soak soak-all gallery clean test-float
 
 ## help: the targets and the variables (the default goal)
 help:
@@ -139,6 +139,11 @@ $(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed
 
 bench: setup $(VENV)/.bench-installed
 	$(MPC) bench --out $(BENCH) $(if $(QUICK),--quick) $(BENCH_ARGS)
+
+## scaling: the FGM core against DAQP and OSQP as the problem grows (chains of M masses, horizon N; QUICK=1 for the
+## small grid) into BENCH: scaling.md, scaling.csv, scaling.png (the clock: the FGM section's placed Fmax in BENCH)
+scaling: setup $(VENV)/.bench-installed
+	$(PY) -m mpc_bench.scaling --out $(BENCH) $(if $(QUICK),--quick) --docs docs/bench
 
 ## soak: SOLVES random solves of CORE (default 10^4) over random configurations (sizes, constraint sets, P, b, latencies,
 ## roundings, formats), each generated and run in Verilator against its golden model word for word under random idle

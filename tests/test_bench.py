@@ -459,3 +459,28 @@ def test_fgm_fmax_core_list():
     for bad in ("1x2x3x4", "0x2", "1xx2"):
         with pytest.raises(ValueError):
             fgm.fmax_cores(bad, None)
+
+
+def test_scaling_sweep_parts(tmp_path):
+    """mpc_bench.scaling: the chain of 4 masses at N = 10 is examples/masses.yaml's plant and QP; the report's
+    table and plot from canned rows (an instance that does not fit says so); the clock from a placed core's CSV."""
+    from mpc_bench import scaling
+    from mpc_cores.problem import condense, load_spec
+
+    from mpc_cores.flow import REPO
+
+    a, b = condense(scaling.chain(4, 10)), condense(load_spec(REPO / "examples/masses.yaml"))
+    assert np.allclose(a.H, b.H) and np.allclose(a.Phi, b.Phi) and np.allclose(a.lb, b.lb)
+    row = {"M": 2, "N": 5, "n": 10, "P": 8, "mult18x18d": 96, "dp16kd_est": 96, "imax": 4, "cycles_per_iteration": 20,
+           "core_error_max": 0.03, "daqp_error_max": 1e-10}
+    for q, v in (("median", 1), ("p99", 3), ("max", 4)):
+        row.update({f"core_iter_{q}": v, f"core_us_{q}": 0.1 * v, f"daqp_own_{q}_us": 0.2 * v,
+                    f"daqp_own_{q}_over_core": 2.0, f"osqp_tuned_own_{q}_us": 2.0 * v})
+    far = {"M": 8, "N": 30, "n": 240, "P": 0, "note": "does not fit at P = 1: 484 MULT18X18D, 300 DP16KD"}
+    text = "\n".join(scaling.table([row, far], "at 200 MHz"))
+    assert "| 2 | 5 | 10 | 8 | 96 / 96, Imax 4, L_F 20 | 1 / 3 / 4 | 0.10 / 0.30 / 0.40 |" in text
+    assert "does not fit at P = 1" in text
+    scaling.plot([row, far], tmp_path / "s.png", "200 MHz")
+    assert (tmp_path / "s.png").stat().st_size > 1000
+    (tmp_path / "fgm.csv").write_text("role,early_exit,fmax_mhz\nsweep,False,90.5\nfmax,True,217.7\n")
+    assert scaling.placed_clock(tmp_path) == 217.7 and scaling.placed_clock(tmp_path / "none") is None

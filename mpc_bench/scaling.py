@@ -1,0 +1,255 @@
+"""How the FGM core's cost grows with the problem, against DAQP and OSQP on the same QPs (`make scaling`; also
+`python -m mpc_bench.scaling [--quick] [--out build/bench] [--clock-mhz F]`).
+
+The plants: a chain of M masses between two walls (examples/masses.yaml for M = 4: nx = 2M, nu = M, the M positions
+tracked), horizon N, so n = N M variables. For every (M, N) of the grid:
+
+  design      the FGM core for TARGET=ecp5 (b = 15, l_A = 1, l_M = 5, the FGM section's Fmax cores) with the exit test;
+              the design check at a 1 % target chooses Imax (the test off) and EXIT_TOL (mpc_cores.check); the row
+              units P: the largest power of two whose MULT18X18D and DP16KD estimates (the design flow's) fit the
+              LFE5U-85F (156 and 208); no P that fits: the instance does not fit
+  latency     one closed loop of the plant (mpc_bench.baselines.closed_loop_qps, references held 30 steps), the
+              core's golden model warm-started step after step: its iterations per step, its cycles per step
+              (core.json's overhead + I L_F), in us at the clock --clock-mhz (default: the placed Fmax of the FGM
+              section's exit-test core in <out>/fgm.csv, else 200 MHz, the constraint; the report says which)
+  software    DAQP (hot start) and OSQP (tuned) on the same condensed QPs, single-threaded on one pinned CPU: median,
+              p99 and max per solve by their own timers (C level), and the error of u0 against OSQP at eps 1e-9
+
+Writes scaling.csv, scaling.png and scaling.md into --out, and with --docs DIR a dated copy of scaling.md there.
+The state-constrained core (DGP) is not in the sweep: its one row unit runs hundreds of cycles per iteration
+(docs/dgp.md), far from DAQP on these sizes.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime
+import math
+from pathlib import Path
+
+import numpy as np
+
+GRID_FULL = ((2, 4, 6, 8), (5, 10, 20, 30))      # masses M, horizons N
+GRID_QUICK = ((2, 4), (5, 10))
+STEPS_FULL, STEPS_QUICK, HOLD = 200, 60, 30
+FMAX_DESIGN = dict(frac_bits=15, lat_add=1, lat_mul=5, target="ecp5", early_exit=True)
+DSP_85F, BRAM_85F = 156, 208
+TARGET_GAP = 1.0
+
+
+def chain(M: int, N: int):
+    """M masses of 1 kg between two walls, springs of 1 N/m, one force per mass (masses.yaml generalised)"""
+    from mpc_cores.problem import problem_from_dict
+
+    K = -2 * np.eye(M) + np.eye(M, k=1) + np.eye(M, k=-1)
+    Ac = np.block([[np.zeros((M, M)), np.eye(M)], [K, np.zeros((M, M))]])
+    Bc = np.vstack([np.zeros((M, M)), np.eye(M)])
+    return problem_from_dict({
+        "name": f"chain{M}_N{N}", "model": {"Ac": Ac.tolist(), "Bc": Bc.tolist(), "Ts": 0.5},
+        "cost": {"Q": 1.0, "R": 1.0, "QN": "dare"}, "horizon": N, "inputs": {"min": -0.5, "max": 0.5},
+        "states": {"min": -2.0, "max": 2.0}, "tracking": {"outputs": list(range(M)), "min": -1.0, "max": 1.0}})
+
+
+def fitting_design(problem, log):
+    """(design, check, P) of the largest power-of-two P whose hard blocks fit the LFE5U-85F, or (None, reason, 0)"""
+    from mpc_cores import registry
+    from mpc_cores.check import CheckFailed, checked_design
+    from mpc_cores.errors import DesignError
+
+    kind = registry.get("fgm")
+    n = problem.N * problem.nu
+    best = None
+    P = 1
+    while P <= n:
+        try:
+            d = kind.design(problem, P=P, **FMAX_DESIGN)
+        except DesignError as e:
+            return None, f"refused: {e}", 0
+        f = kind.facts(d)
+        if f["dsp_ecp5"] > DSP_85F or f["bram_ecp5"] > BRAM_85F:
+            break
+        best = P
+        P *= 2
+    if best is None:
+        f = kind.facts(kind.design(problem, P=1, **FMAX_DESIGN))
+        return None, f"does not fit at P = 1: {f['dsp_ecp5']} MULT18X18D, {f['bram_ecp5']} DP16KD", 0
+    try:
+        d, res = checked_design(kind, problem, dict(P=best, **FMAX_DESIGN), target=TARGET_GAP)
+    except CheckFailed as e:
+        return None, f"check: {e}", best
+    log(f"{problem.name}: P = {best}, Imax = {d.iterations}, EXIT_TOL {d.exit_tol} LSB")
+    return d, res, best
+
+
+def stats(v) -> dict:
+    v = np.asarray(v, dtype=float)
+    return {"median": float(np.median(v)), "p99": float(np.percentile(v, 99)), "max": float(v.max())}
+
+
+def measure(M: int, N: int, steps: int, clock: float, repeats: int, log) -> dict:
+    from mpc_bench.baselines import _optimal_u0, _time_solver, closed_loop_qps, pinned
+    from mpc_bench.qp_solvers import OSQP_TUNED, Daqp, Osqp, box_qp, installed
+    from mpc_cores import registry
+    from mpc_cores.fgm.model import FgmFixed
+    from mpc_cores.fixed import quantize
+    from mpc_cores.problem import condense
+    from mpc_cores.quiet import c_output_silenced
+
+    p = chain(M, N)
+    qp = condense(p)
+    r = {"M": M, "N": N, "nx": p.nx, "nu": p.nu, "n": qp.n}
+    d, res, P = fitting_design(p, log)
+    r["P"] = P
+    if d is None:
+        r["note"] = res
+        return r
+    f = registry.get("fgm").facts(d)
+    r.update(imax=d.iterations, exit_tol_lsb=d.exit_tol, b=d.b, cycles_per_iteration=d.cycles_per_iteration,
+             overhead=d.solve_overhead, mult18x18d=f["dsp_ecp5"], dp16kd_est=f["bram_ecp5"],
+             check_gap_pct=res.gap, note="")
+    W = closed_loop_qps(p, qp, d, steps, HOLD)
+    u_opt = _optimal_u0(p, qp, W)
+    m = FgmFixed(d)
+    its, err = [], []
+    for k, w in enumerate(W):
+        s = m.solve(quantize(w, d.b))
+        its.append(s.iterations)
+        err.append(float(np.abs(s.z[: p.nu] / (1 << d.b) - u_opt[k]).max()))
+    cyc = d.solve_overhead + np.asarray(its) * d.cycles_per_iteration
+    for q, v in stats(its).items():
+        r[f"core_iter_{q}"] = v
+    for q, v in stats(cyc).items():
+        r[f"core_cycles_{q}"] = v
+        r[f"core_us_{q}"] = v / clock
+    r["core_error_max"] = max(err)
+    lqp = box_qp(qp)
+    makers = [(name, mk) for name, cls, mk in (
+        ("daqp", Daqp, lambda: Daqp(lqp, "DAQP hot start", {})),
+        ("osqp_tuned", Osqp, lambda: Osqp(lqp, "OSQP tuned", OSQP_TUNED))) if installed(cls)]
+    with pinned(), c_output_silenced():
+        for key, mk in makers:
+            sw = _time_solver(mk, W, p.nu, u_opt, repeats)
+            own = sw.own_us if sw.own_us is not None else sw.times_us
+            for q, v in stats(own).items():
+                r[f"{key}_own_{q}_us"] = v
+                r[f"{key}_own_{q}_over_core"] = v / r[f"core_us_{q}"]
+            r[f"{key}_error_max"] = sw.u_err
+    return r
+
+
+def table(rows: list[dict], clock_text: str) -> list[str]:
+    from mpc_bench.report import _f, _table
+
+    body = []
+    for r in rows:
+        if "core_us_median" not in r:
+            body.append([str(r["M"]), str(r["N"]), str(r["n"]), "-", r.get("note", "")[:90]] + ["-"] * 6)
+            continue
+        q3 = ("median", "p99", "max")
+        body.append([str(r["M"]), str(r["N"]), str(r["n"]), str(r["P"]),
+                     f"{r['mult18x18d']} / {r['dp16kd_est']}, Imax {r['imax']}, L_F {r['cycles_per_iteration']}",
+                     " / ".join(f"{r[f'core_iter_{q}']:g}" for q in q3),
+                     " / ".join(f"{r[f'core_us_{q}']:.2f}" for q in q3),
+                     " / ".join(_f(r.get(f"daqp_own_{q}_us"), "{:.2f}") for q in q3),
+                     " / ".join(_f(r.get(f"daqp_own_{q}_over_core"), "{:.1f}x") for q in q3),
+                     " / ".join(_f(r.get(f"osqp_tuned_own_{q}_us"), "{:.1f}") for q in q3),
+                     f"{r['core_error_max']:.1e} / {_f(r.get('daqp_error_max'), '{:.0e}')}"])
+    return _table(["M", "N", "n", "P", "MULT18X18D / DP16KD (est.), Imax, L_F", "core iterations med / p99 / max",
+                   "core us med / p99 / max", "DAQP own us med / p99 / max",
+                   "DAQP / core med / p99 / max", "OSQP tuned own us med / p99 / max", "error max core / DAQP"], body)
+
+
+def plot(rows: list[dict], path: Path, clock_text: str) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for M in sorted({r["M"] for r in rows}):
+        rr = [r for r in rows if r["M"] == M and "core_us_median" in r]
+        if not rr:
+            continue
+        n = [r["n"] for r in rr]
+        line, = ax.plot(n, [r["core_us_median"] for r in rr], "o-", label=f"FGM core, M = {M} (median)")
+        ax.plot(n, [r["core_us_max"] for r in rr], "o:", color=line.get_color(), label=f"FGM core, M = {M} (max)")
+        if all("daqp_own_median_us" in r for r in rr):
+            ax.plot(n, [r["daqp_own_median_us"] for r in rr], "s--", color=line.get_color(), alpha=0.6,
+                    label=f"DAQP own timer, M = {M} (median)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("decision variables n = N M")
+    ax.set_ylabel("latency per solve, us")
+    ax.set_title(f"FGM core ({clock_text}) against DAQP on a chain of M masses, horizon N")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def placed_clock(out: Path) -> float | None:
+    """The placed Fmax of the FGM section's exit-test core, from <out>/fgm.csv"""
+    path = out / "fgm.csv"
+    if not path.exists():
+        return None
+    for r in csv.DictReader(path.open()):
+        if r.get("role") == "fmax" and r.get("early_exit") == "True" and r.get("fmax_mhz"):
+            return float(r["fmax_mhz"])
+    return None
+
+
+def main(argv=None) -> None:
+    from tqdm import tqdm
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="M in {2, 4}, N in {5, 10}, 60 loop steps")
+    ap.add_argument("--out", default="build/bench")
+    ap.add_argument("--clock-mhz", type=float, default=None)
+    ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--docs", default=None, help="folder for a dated copy of scaling.md (e.g. docs/bench)")
+    a = ap.parse_args(argv)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    Ms, Ns = GRID_QUICK if a.quick else GRID_FULL
+    steps = STEPS_QUICK if a.quick else STEPS_FULL
+    placed = placed_clock(out)
+    clock = a.clock_mhz or placed or 200.0
+    clock_text = (f"at {clock:.1f} MHz" + (" (given)" if a.clock_mhz else " (the placed Fmax of the FGM section's "
+                  "masses core, P = 1, in fgm.csv: an estimate for these cores, not placed)" if placed else
+                  " (the constraint: no placed FGM core in this folder)"))
+    rows, notes = [], []
+    for M, N in tqdm([(M, N) for M in Ms for N in Ns], desc="scaling", unit="instance", disable=None):
+        rows.append(measure(M, N, steps, clock, a.repeats, notes.append))
+    keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in ("M", "N", "n", "P"), k))
+    with (out / "scaling.csv").open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+    plot(rows, out / "scaling.png", f"{clock:g} MHz")
+    fits = [r for r in rows if "core_us_median" in r]
+    wins = [r for r in fits if (r.get("daqp_own_median_over_core") or 0) >= 1 and (r.get("daqp_own_max_over_core")
+                                                                                   or 0) >= 1]
+    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [f"# FGM core against DAQP as the problem grows ({'QUICK' if a.quick else 'full'})", "",
+             f"{when}; `python -m mpc_bench.scaling{' --quick' if a.quick else ''}`; {steps} closed-loop steps per "
+             f"instance, references held {HOLD} steps; the core {clock_text}; design: TARGET=ecp5, b = 15, "
+             f"l_A = 1, l_M = 5, the exit test, Imax and EXIT_TOL from the design check at {TARGET_GAP:g} %, P the "
+             "largest power of two whose MULT18X18D and DP16KD estimates fit the LFE5U-85F.", "",
+             *table(rows, clock_text), "",
+             "Core us: overhead + I L_F cycles (core.json's contract) per loop step, I the iterations the golden "
+             "model ran. DAQP and OSQP: their own solve timers (C level), hot-started / warm-started on the same "
+             "QPs, one pinned CPU. DAQP / core: above 1x the core is ahead. Error: max over the loop of |u0 - u0*|, "
+             "u0* from OSQP at eps 1e-9.", "",
+             f"Where the core is ahead of DAQP at the median and at the maximum: "
+             + (", ".join(f"M = {r['M']}, N = {r['N']} (n = {r['n']})" for r in wins) or "none") + ".",
+             "Largest instance that fits the LFE5U-85F: "
+             + (f"n = {max(r['n'] for r in fits)}" if fits else "none") + ".", "", "Design choices: " + "; ".join(notes) + ".", "", "Plot: scaling.png."]
+    (out / "scaling.md").write_text("\n".join(lines) + "\n")
+    if a.docs:
+        dest = Path(a.docs) / f"{datetime.date.today().isoformat()}-scaling{'-quick' if a.quick else ''}.md"
+        dest.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
