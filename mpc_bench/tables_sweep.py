@@ -16,7 +16,8 @@ import numpy as np
 from tqdm import tqdm
 
 from mpc_bench.tables_paper import PAPER_002_ADMM_B
-from mpc_cores.closedloop import FixedController, OsqpController, Trajectory, reference_schedule, run_closed_loop
+from mpc_cores.closedloop import OsqpController, Trajectory, reference_schedule, run_closed_loop
+from mpc_cores.fgm.control import FixedController
 from mpc_cores.fgm.design import DesignError, design_fgm
 from mpc_cores.flow import REPO
 from mpc_cores.problem import load_spec

@@ -1,9 +1,9 @@
 """Closed-loop simulation: plant + MPC controller with setpoint tracking.
 
-A controller maps (x, r) to u0. Three controllers share one interface, so a user swaps one line:
+A controller maps (x, r) to u0. The controllers share one interface, so a user swaps one line:
   OsqpController   float64, the QP solved to optimality (OSQP)
-  FixedController  the bit-exact golden model of the core (mpc_cores/fgm/model.py)
   RtlController    the Verilator model of the generated core, through its AXI interfaces (inside cocotb)
+and each kind's golden model has its controller in its package (FGM: mpc_cores.fgm.control.FixedController).
 The loop is a coroutine (`closed_loop`), so the RTL controller can await the simulator; the Python-only
 controllers run it with `run_closed_loop`. The ADMM controllers (input-rate and soft state constraints) are in
 mpc_cores/admm/control.py and use the same loop: its cost adds the du weight and the soft penalty when the problem has
@@ -40,31 +40,6 @@ class OsqpController(Controller):
     async def step(self, x, r):
         z = solve_qp_osqp(self.qp, np.concatenate([x, r]), eps=self.eps)
         return z[: self.nu]
-
-
-class FixedController(Controller):
-    """The bit-exact golden model: the words the core would send back."""
-    name = "golden"
-
-    def __init__(self, design, imax: int | None = None, warm: bool | None = None):
-        from mpc_cores.fgm.model import FgmFixed
-
-        self.d = design
-        self.model = FgmFixed(design)
-        self.imax = imax
-        self.warm = warm
-        self.words: list[list[int]] = []
-        self.iterations: list[int] = []     # per step, the iterations run (fewer than Imax after the exit test)
-
-    def w_words(self, x, r) -> np.ndarray:
-        return quantize(np.concatenate([x, r]), self.d.b)
-
-    async def step(self, x, r):
-        res = self.model.solve(self.w_words(x, r), imax=self.imax, warm=self.warm)
-        u = res.z[: self.d.nu]
-        self.words.append([int(v) for v in u])
-        self.iterations.append(res.iterations)
-        return u / (1 << self.d.b)
 
 
 class RtlController(Controller):

@@ -1,9 +1,9 @@
 """cocotb test: a generated core in a closed loop (plant in Python, controller = the Verilator model through its
 AXI interfaces). A kind with `rtl_controller_fn` (mpc_cores.kind.CoreKind) brings its own testbench driver and
-controller; the fixed-point kinds (FGM, ADMM) are driven through mpc_cores.driver.TB.
+controller; the others (FGM) are driven through mpc_cores.driver.TB.
 
 Environment: CORE_OUT (generator output), CL_SPEC (problem spec path), CL_STEPS, CL_HOLD, CL_SEED, CL_HOLDABLE
-(reference_schedule's holdable; default 0.9 for FGM, 0 for ADMM as in mpc_cores.admm.control.admm_references),
+(reference_schedule's holdable; default the kind's, CoreKind.holdable),
 CL_IMAX (optional IMAX for every solve), CL_RESULT (JSON written with the trajectory and the words the core
 returned)."""
 from __future__ import annotations
@@ -26,21 +26,16 @@ async def closed_loop_rtl(dut):
     problem = load_spec(os.environ["CL_SPEC"])
     core = json.loads((Path(os.environ["CORE_OUT"]) / "core.json").read_text())
     kind = registry.get(core["core"])
-    admm = "method" in core          # the ADMM datapath (admm, ama, vucondat)
     if kind.rtl_controller_fn:
         tb, ctrl = await kind.rtl_controller(dut, problem)
     else:
         tb = TB(dut, seed=21)
         await tb.reset()
-        if admm:
-            from mpc_cores.admm.control import AdmmRtlController
-            ctrl = AdmmRtlController(tb, problem)
-        else:
-            ctrl = RtlController(tb, tb.core["frac_bits"])
+        ctrl = RtlController(tb, tb.core["frac_bits"])
     if os.environ.get("CL_IMAX"):
         await tb.set_imax(int(os.environ["CL_IMAX"]))
     steps, hold = int(os.environ.get("CL_STEPS", "60")), int(os.environ.get("CL_HOLD", "20"))
-    holdable = float(os.environ.get("CL_HOLDABLE", "0" if admm else "0.9"))
+    holdable = float(os.environ.get("CL_HOLDABLE", kind.holdable))
     refs = reference_schedule(problem, steps, hold, int(os.environ.get("CL_SEED", "0")), holdable=holdable)
     traj = await closed_loop(problem, ctrl, np.zeros(problem.nx), refs)
     st = await tb.status()

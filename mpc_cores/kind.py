@@ -22,7 +22,8 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
                        reference schedule's holdability, for `make demo` with the RTL (None: no demo)
   rtl_controller(dut, problem)  optional: async, the closed loop's RTL side inside cocotb (the testbench driver,
                        reset, and a controller recording `.words` in the golden controller's layout); without it
-                       mpc_cores.closedloop_tb drives a fixed-point core (FGM, ADMM) through mpc_cores.driver.TB
+                       mpc_cores.closedloop_tb drives a fixed-point core (FGM) through mpc_cores.driver.TB
+  holdable             the closed-loop testbench's default reference holdability (mpc_cores.closedloop)
   c_fn(d, out_dir)     optional: `make c`, the portable C99 solvers of a design (bit-exact fixed point and float,
                        mpc_cores.csrc), returning the paths written (None: the kind has no C solver)
   split_fn(d, out_dir) optional: `make split`, the heterogeneous split of 004: the hardware block of the
@@ -79,6 +80,7 @@ class CoreKind:
     constraints: tuple[str, ...] = ()  # the constraint sections of SECTIONS the core enforces
     driver: bool = False           # `make verilog` writes the C driver (mpc_cores.cdriver): fixed-point stream words
     demo_steps: tuple[int, int] = (60, 20)  # `make demo`'s closed loop: steps, and steps a reference holds
+    holdable: float = 0.9          # the closed loop's references: the share of the input box their steady state needs
     answer_status_word: bool = False  # an answer ends with a status word after z (the driver reads it)
 
     def __post_init__(self):

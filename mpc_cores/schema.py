@@ -100,11 +100,11 @@ class Text:
 
 @dataclass(frozen=True)
 class FloatFormat:
-    """binary32, binary16 or e<E>m<M> within the stream word: the rule of mpc_cores.minres.design.parse_format."""
+    """binary32, binary16 or e<E>m<M> within the stream word: the rule of mpc_cores.float.format.parse_format."""
 
     def check(self, v, fld: str):
         from mpc_cores.errors import DesignError
-        from mpc_cores.minres.design import parse_format
+        from mpc_cores.float.format import parse_format
 
         if not isinstance(v, str):
             raise SpecError(f"{fld}: expected a format name (binary32, binary16 or e<E>m<M>), got {v!r}")

@@ -6,7 +6,8 @@ import json
 
 import numpy as np
 
-from mpc_cores.closedloop import FixedController, OsqpController, reference_schedule, run_closed_loop
+from mpc_cores.closedloop import OsqpController, reference_schedule, run_closed_loop
+from mpc_cores.fgm.control import FixedController
 from mpc_cores.fgm.design import design_fgm
 from mpc_cores.flow import REPO
 from mpc_cores.problem import load_spec

@@ -110,3 +110,28 @@ def test_core_kind_provides_its_parts(name):
     pkg, obj = k.generator_main.rsplit(".", 1)
     scala = REPO / "src/main/scala" / pkg.replace(".", "/")
     assert any(f"object {obj}" in f.read_text() for f in scala.glob("*.scala")), f"no Scala object {k.generator_main}"
+
+
+# Cross-kind studies of 004 (the methods compared on one problem): they import the kinds' packages by design.
+STUDIES = {"mpc_cores.methods", "mpc_cores.methods_table"}
+
+
+def test_shared_modules_do_not_import_a_kinds_package():
+    """A kind's facts live with the kind: no module of mpc_cores outside a kind's package imports one (the registry
+    loads them by name), except the cross-kind studies (STUDIES)"""
+    kind_pkgs = {f"mpc_cores.{n}" for n in ("fgm", "admm", "dgp", "minres", "ipm")}
+    assert {f"mpc_cores.{load_name}" for load_name in kind_pkgs_of_registry()} <= kind_pkgs
+    g = _graph()
+    bad = {}
+    for m, deps in g.items():
+        if m.split(".")[0] != "mpc_cores" or m in STUDIES or any(m == k or m.startswith(k + ".") for k in kind_pkgs):
+            continue
+        hit = sorted(d for d in deps if any(d == k or d.startswith(k + ".") for k in kind_pkgs))
+        if hit:
+            bad[m] = hit
+    assert not bad, bad
+
+
+def kind_pkgs_of_registry() -> set[str]:
+    """the packages of the registry's kinds (mpc_cores/<package>/kind.py)"""
+    return {registry.get(n).model_fn.split(".")[1] for n in registry.names()}

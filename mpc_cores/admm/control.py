@@ -131,6 +131,16 @@ class AdmmFixedController(_AdmmController):
         self.model.reset()
 
 
+async def rtl_controller(dut, problem: MpcProblem):
+    """The closed-loop testbench's entry (CoreKind.rtl_controller_fn) for the ADMM datapath: the fixed-point cores'
+    driver (mpc_cores.driver.TB), reset, and the RTL controller."""
+    from mpc_cores.driver import TB
+
+    tb = TB(dut, seed=21)
+    await tb.reset()
+    return tb, AdmmRtlController(tb, problem)
+
+
 class AdmmRtlController(AdmmFixedController):
     """The generated ADMM core in Verilator, driven by the cocotb testbench `tb` (verif.tb.TB): the words of
     `w_words` go out on s_axis, du_0 (or u_0: core.json's `rate`) comes back on m_axis; the rest is

@@ -13,6 +13,8 @@ KIND = CoreKind(
     c_fn="mpc_cores.admm.c:write_c",
     split_fn="mpc_cores.admm.split:write_split",
     driver=True,
+    rtl_controller_fn="mpc_cores.admm.control:rtl_controller",
+    holdable=0.0,
 )
 
 
@@ -22,7 +24,7 @@ def controllers(d):
     rate limit active (Fig. 5 of 002)."""
     from mpc_cores.admm.control import AdmmFixedController, AdmmOsqpController
 
-    return AdmmOsqpController(d.problem), AdmmFixedController(d), 0.0
+    return AdmmOsqpController(d.problem), AdmmFixedController(d), KIND.holdable
 
 
 def _method_kind(method: str, title: str) -> CoreKind:
@@ -34,7 +36,8 @@ def _method_kind(method: str, title: str) -> CoreKind:
         testbench="verif.admm.tb", soak=f"mpc_cores.admm.soak:{method.upper()}_SOAK",
         spec_section=KIND.spec_section, overrides=KIND.overrides, constraints=KIND.constraints,
         controllers_fn="mpc_cores.admm.kind:controllers",
-        c_fn="mpc_cores.admm.c:write_c", split_fn=KIND.split_fn, driver=True)
+        c_fn="mpc_cores.admm.c:write_c", split_fn=KIND.split_fn, driver=True,
+        rtl_controller_fn=KIND.rtl_controller_fn, holdable=KIND.holdable)
 
 
 AMA_KIND = _method_kind("ama", "alternating minimisation algorithm (Tseng; 004) on the ADMM datapath, fixed point")

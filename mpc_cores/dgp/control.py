@@ -8,7 +8,7 @@
 The golden controller applies the first nu words of the z the core returns as they are (u = words / 2^b): the
 core's answer meets the input box to within eps_g only (the input rows are constraints of the dual, not a
 projection), and the loop takes that answer. It records, per step, the nu words of u0 (`words`, as
-mpc_cores.closedloop.FixedController), the iterations the solve ran (`iterations`), whether the stopping test was met
+mpc_cores.fgm.control.FixedController), the iterations the solve ran (`iterations`), whether the stopping test was met
 (`met`), the parameter words after the core's input saturation (`w`) and all n output words (`z`), so that a study
 can compare each answer with the optimum of the same QP. An RTL controller can inherit it and override
 `solve_words` (send the words, return the core's z words and its iterations).

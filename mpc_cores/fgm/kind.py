@@ -19,6 +19,7 @@ KIND = CoreKind(
 
 def controllers(d):
     """Closed loop of `make demo`: OSQP to optimality, the golden model, references filtered for holdability."""
-    from mpc_cores.closedloop import FixedController, OsqpController
+    from mpc_cores.closedloop import OsqpController
+    from mpc_cores.fgm.control import FixedController
 
-    return OsqpController(d.problem), FixedController(d), 0.9
+    return OsqpController(d.problem), FixedController(d), KIND.holdable
