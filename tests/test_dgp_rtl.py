@@ -23,12 +23,26 @@ def _small(seed, **extra):
                           "hard_states": {"indices": [0], "min": -1.0, "max": 1.0}, **extra})
 
 
+def _dgp_soak_config(seed: int):
+    """(problem, design overrides) of a `make soak CORE=dgp` configuration"""
+    import numpy as np
+
+    from mpc_cores.dgp.soak import SOAK
+    from mpc_cores.problem import problem_from_dict
+
+    c = SOAK.draw(np.random.default_rng(seed))
+    return problem_from_dict(dict(c.spec, name=f"s{seed}"), f"s{seed}"), c.design
+
+
 # id -> (problem factory, design overrides, random solves)
 CASES = {
     "small_accel": (lambda: _small(5), dict(lanes=2, iterations=60), 6),
     # plain form: averaged primal through the serial divider; lanes not dividing the rows; l_A = 2; an input box
     # narrow enough that the averaged primal leaves it (the output words clamped to it)
     "small_plain_l3": (lambda: _small(6, inputs={"min": -0.15, "max": 0.1}), dict(lanes=3, iterations=400, accelerated=False, lat_add=2), 5),
+    # soak configuration 1000033: 15-bit data words, so the stream word was 16 bits and the answer's status word lost
+    # its flags (met, sat, overflow) at the port; the stream now holds the 19-bit status word whole
+    "soak_1000033_narrow_data": (lambda: _dgp_soak_config(1000033)[0], _dgp_soak_config(1000033)[1], 12),
     # the issue's example on the ECP5 target (every product on MULT18X18D partial products)
     "masses_state_ecp5": (lambda: load_spec(REPO / "examples/masses_state.yaml"), dict(target="ecp5"), 3),
 }

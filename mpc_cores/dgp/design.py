@@ -216,6 +216,8 @@ def sample_duals(qp: DgpQP, p: MpcProblem, samples: int = 256, seed: int = 0) ->
 
 #: data words: the golden model's and the C solver's products are exact in 64 bits
 DATA_MAX = 40
+# bits of the answer's status word (iterations 15:0, met 16, sat 17, overflow 18): the stream word holds it whole
+STATUS_WORD_BITS = 19
 #: fraction bits where (36) and (37) together ask more than DATA_MAX (the design check may add more)
 UNCERTIFIED_BITS = 16
 
@@ -353,9 +355,10 @@ def _size_words(d: DgpDesign, r: int) -> None:
     if max(bits_for(xmax), W) > 64:
         raise DesignError(f"{W}-bit data words exceed the 64-bit stream: reduce eps_g / eps_V or the state box")
     sums = bits_for(dmax * 65536)          # Sz, Sg and T over IMAX <= 65535 iterations
+    # the stream word also carries the answer's status word (iterations 15:0, met 16, sat 17, overflow 18)
     d.widths = {"data": W, "coef": bits_for(cb), "x": bits_for(xmax), "op": max(W + 1, bits_for(xmax)),
                 "acc": bits_for(acc + (1 << (W - 1))), "sum": sums + 1, "beta": bits_for(one),
-                "stream": 8 * -(-max(W, bits_for(xmax)) // 8)}
+                "stream": 8 * -(-max(W, bits_for(xmax), STATUS_WORD_BITS) // 8)}
 
 
 def write_tol_spec(kind, problem_path, tol: float, overrides: dict, out=None):

@@ -59,8 +59,8 @@ case class DgpParams(
   require(fracBits >= 1, s"frac_bits must be >= 1, got $fracBits")
   require(latAdd >= 0 && latMul >= 0, s"latencies must be >= 0: got lat_add=$latAdd, lat_mul=$latMul")
   require(dataW >= 2 && dataW <= 62 && xW <= 62, s"data words must be in [2, 62] bits: got $dataW")
-  require(streamW % 8 == 0 && streamW >= math.max(xW, dataW) && streamW <= 64,
-    s"stream width must be a multiple of 8 in [max(x, data width), 64]: got $streamW")
+  require(streamW % 8 == 0 && streamW >= math.max(math.max(xW, dataW), 19) && streamW <= 64,
+    s"stream width must be a multiple of 8 in [max(x, data width, 19), 64] (the status word has 19 bits): got $streamW")
   require(imaxDefault >= 1 && imaxDefault <= 65535, s"iterations must be in [1, 65535], got $imaxDefault")
   require(k.length == n && k.forall(_.length == mc), s"K must be $n x $mc")
   require(g.length == mc && g.forall(_.length == n), s"G must be $mc x $n")
