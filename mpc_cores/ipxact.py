@@ -29,9 +29,11 @@ BUSES = {
 }
 CLOCK, RESET = "clock", "reset"    # Chisel's implicit clock and synchronous active-high reset
 
-# file sets: (name, core.json key of the file, IP-XACT file type, include file)
+# file sets: (name, core.json key of the file or the list of files, IP-XACT file type, include file; None: the .h
+# files); the driver's files join the C header's set
 FILESETS = (("rtl", "sv", "systemVerilogSource", False),
             ("sw", "header", "cSource", True),
+            ("sw", "driver", "cSource", None),
             ("regmap", "rdl", "systemRDL-2.0", False))
 
 # component parameters: (core.json key, parameter name, description); absent keys are left out
@@ -189,10 +191,16 @@ def component(out, core: dict) -> ET.Element:
             _el(vec, "right", 0)
 
     fss = _el(comp, "fileSets")
+    sets: dict[str, list] = {}
     for fs_name, key, ftype, include in FILESETS:
-        if core.get(key):
-            f = _el(_named(fss, "fileSet", fs_name), "file")
-            _el(f, "name", core[key])
+        v = core.get(key)
+        for name in [v] if isinstance(v, str) else (v or []):
+            sets.setdefault(fs_name, []).append((name, ftype, name.endswith(".h") if include is None else include))
+    for fs_name, files in sets.items():
+        fs = _named(fss, "fileSet", fs_name)
+        for name, ftype, include in files:
+            f = _el(fs, "file")
+            _el(f, "name", name)
             _el(f, "fileType", ftype)
             if include:
                 _el(f, "isIncludeFile", "true")

@@ -162,6 +162,6 @@ def test_memory_map_and_file_sets(generated):
 
     files = {_text(fs, "ipxact:name"): [_text(f, "ipxact:name") for f in fs.iterfind("ipxact:file", N)]
              for fs in root.iterfind("ipxact:fileSets/ipxact:fileSet", N)}
-    assert files == {"rtl": [core["sv"]], "sw": [core["header"]], "regmap": [core["rdl"]]}
+    assert files == {"rtl": [core["sv"]], "sw": [core["header"]] + core.get("driver", []), "regmap": [core["rdl"]]}
     for f in sum(files.values(), []):
         assert (out / f).is_file(), f
