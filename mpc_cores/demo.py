@@ -68,6 +68,11 @@ def run_demo(kind, d, spec: Path, out: Path, steps: int, hold: int, seed: int) -
         clocks = core.get("reference_clocks_mhz", [400, 230])
         lines.append(f"latency: {cps} cycles per solve{per_it} = " +
                      ", ".join(f"{cps / f:.3f} us at {f} MHz" for f in clocks))
+        its = getattr(golden, "iterations", None)
+        if core.get("early_exit") and its:   # the exit test: the iterations the loop's solves ran
+            cyc = [core["solve_overhead_cycles"] + i * core["cycles_per_iteration"] for i in its]
+            lines.append(f"exit test (EXIT_TOL {core['exit_tol']} LSB): iterations per step median {np.median(its):g}, "
+                         f"max {max(its)} of IMAX {core['iterations']}; cycles median {np.median(cyc):g}, max {max(cyc)}")
     table = "\n".join(lines)
     (out / "report.md").write_text(kind.design_report(d, core) + "\n" + table + "\n")
     plot(out / "closed_loop.png", p, t_opt, np.array(rtl["x"]), u_rtl, refs)
