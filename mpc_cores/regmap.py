@@ -228,3 +228,17 @@ def export(out, core: dict) -> dict:
     IPXACTExporter(vendor=VENDOR, library=f"{core['core']}-regmap", version=VERSION).export(
         top, str(out / files["ipxact"]))
     return files
+
+
+def markdown_table(core: dict) -> str:
+    """The registers of a core as a table for its docs page (offset, name, access, description, fields by bits) and
+    the names of its data regions, generated from core.json (the generator's register map, as in the .rdl); the
+    size-dependent values (resets, region bases) are left to the core's own core.json and .rdl"""
+    lines = ["| offset | register | access | description | fields |", "|---|---|---|---|---|"]
+    for r in core["registers"]:
+        fields = ", ".join(f"{f['name']} [{f['lsb'] + f['width'] - 1}:{f['lsb']}]" if f["width"] > 1
+                           else f"{f['name']} [{f['lsb']}]" for f in r["fields"])
+        lines.append(f"| 0x{r['offset']:02X} | {r['name']} | {r['access']} | {r['desc']} | {fields} |")
+    regions = list(core.get("regions", {}))
+    lines += ["", "Data regions (write-only; bases in core.json and the .rdl): " + (", ".join(regions) or "none") + "."]
+    return "\n".join(lines) + "\n"

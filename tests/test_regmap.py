@@ -16,6 +16,7 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from conftest import suite_kinds
+from mpc_cores.flow import REPO
 from mpc_cores.regmap import Regmap
 from mpc_cores.sim import run_cocotb
 
@@ -166,3 +167,25 @@ def test_readback_over_axi(generated):
                                {"CORE_OUT": str(out)})
     assert tests == SCENARIOS, f"{tests} cocotb tests ran, expected {SCENARIOS}"
     assert failed == 0, f"{failed} of {tests} scenarios failed: see {out / 'sim' / 'sim.log'}"
+
+
+# the docs page of each kind with a page of its own (ama and vucondat share admm's)
+PAGES = {"fgm": "fgm.md", "admm": "admm.md", "dgp": "dgp.md", "minres": "minres.md", "ipm": "ipm.md"}
+TEMPLATE = ["What it solves", "Theory of operation", "Ports", "Registers", "Programmer's guide", "Latency and resources",
+            "Verification"]
+
+
+def test_docs_page_follows_the_template_with_the_generated_registers(generated):
+    """The kind's page has the template's sections in order (docs/verification.md, Docs pages) and its Registers section
+    holds the register table generated from the kind's register map (mpc_cores.regmap.markdown_table)"""
+    from mpc_cores.regmap import markdown_table
+
+    out, core = generated[0], generated[1]
+    if core["core"] not in PAGES:
+        pytest.skip(f"{core['core']} shares {PAGES['admm']}")
+    text = (REPO / "docs" / PAGES[core["core"]]).read_text()
+    assert [ln[3:].strip() for ln in text.splitlines() if ln.startswith("## ")] == TEMPLATE
+    begin = f"<!-- registers: rendered from the {core['core']} core's register map -->\n"
+    assert begin in text, "no generated register table"
+    got = text.split(begin, 1)[1].split("<!-- /registers -->", 1)[0]
+    assert got == markdown_table(core), f"docs/{PAGES[core['core']]}: the register table is stale"

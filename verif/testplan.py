@@ -18,6 +18,8 @@ SUITES = {
     "the PeakRDL C header compiles with the offsets": "tests/test_regmap.py::test_c_header_compiles_with_the_offsets",
     "the IP-XACT memory map names the registers": "tests/test_regmap.py::test_ipxact_names_the_registers",
     "the register reference (markdown)": "tests/test_regmap.py::test_regmap_doc",
+    "the docs page follows the core template, its register table generated from the map":
+        "tests/test_regmap.py::test_docs_page_follows_the_template_with_the_generated_registers",
     "protocol assertions in the simulation": "tests/test_assertions.py::test_assertions_outside_synthesis",
     "a forced protocol violation stops the simulation": "tests/test_assertions.py::test_violation_stops_the_simulation",
     "IP-XACT component against the IEEE 1685-2022 schema": "tests/test_ipxact.py::test_component_validates_against_the_schema",
