@@ -28,6 +28,7 @@ import numpy as np
 from mpc_bench.baselines import (
     NumpyFgm, closed_loop_qps, core_ratios, fastest_cell, own_columns, prepare_fgm_software, slug, solver_section,
 )
+from mpc_bench.dgp_report import fit_85f
 from mpc_bench.plots import by_b, latency_plot, resources_plot
 from mpc_bench.qp import (
     F_S6_MHZ, F_V6_MHZ, REFERENCE_CLOCKS, Core, QpSection, _core_latency, _fmax_section, _memories,
@@ -174,6 +175,7 @@ def fgm_rows(cores: list[Core], sw: dict | None, loops: dict | None = None) -> l
             r[f"{key}_us"] = med.get(name)
             r[f"{key}_over_core"] = ratio(med.get(name), lat)
         r.update(core_ratios(lat_max, sw, rate))
+        r["fit_85f"] = fit_85f(c.ecp5)
         r["early_exit"] = bool(cj.get("early_exit"))
         if c.tag in loops:
             loop_columns(r, c, loops[c.tag], sw)
