@@ -28,7 +28,7 @@ import numpy as np
 from mpc_bench.baselines import (
     NumpyFgm, closed_loop_qps, core_ratios, fastest_cell, own_columns, prepare_fgm_software, slug, solver_section,
 )
-from mpc_bench.dgp_report import fit_85f
+from mpc_bench.dgp_report import fit_85f, stats
 from mpc_bench.plots import by_b, latency_plot, resources_plot
 from mpc_bench.qp import (
     F_S6_MHZ, F_V6_MHZ, REFERENCE_CLOCKS, Core, QpSection, _core_latency, _fmax_section, _memories,
@@ -119,10 +119,9 @@ def loop_columns(r: dict, c: Core, iters, sw: dict | None) -> None:
     it = np.asarray(iters, dtype=np.int64)
     cyc = cj["solve_overhead_cycles"] + it * cj["cycles_per_iteration"]
     lat = {}
-    for q, f in (("median", np.median), ("p99", lambda v: np.percentile(v, 99)), ("max", np.max)):
-        r[f"loop_iter_{q}"] = float(f(it))
-        r[f"loop_cycles_{q}"] = float(f(cyc))
-        lat[q] = r[f"loop_us_{q}"] = latency_us(r[f"loop_cycles_{q}"], r["fmax_mhz"])
+    for q, i, c in zip(("median", "p99", "max"), stats(it), stats(cyc)):
+        r[f"loop_iter_{q}"], r[f"loop_cycles_{q}"] = i, c
+        lat[q] = r[f"loop_us_{q}"] = latency_us(c, r["fmax_mhz"])
     r.update({"exit_tol": cj.get("exit_tol_value"), "loop_solves": len(it),
               "loop_exit_share": float(np.mean(it < cj["iterations"])), **own_columns(sw, lat)})
 

@@ -82,8 +82,10 @@ def fitting_design(problem, log):
 
 
 def stats(v) -> dict:
-    v = np.asarray(v, dtype=float)
-    return {"median": float(np.median(v)), "p99": float(np.percentile(v, 99)), "max": float(v.max())}
+    """{"median", "p99", "max"} of v (mpc_bench.dgp_report.stats)"""
+    from mpc_bench.dgp_report import stats as quantiles
+
+    return dict(zip(("median", "p99", "max"), quantiles(v)))
 
 
 def measure(M: int, N: int, steps: int, clock: float, repeats: int, log) -> dict:
