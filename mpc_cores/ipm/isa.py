@@ -32,7 +32,7 @@ import numpy as np
 OPS = ("ADD", "SUB", "MUL", "DIV", "SQRT", "MOV", "MIN", "MAX", "SELNEG", "ACC", "MINRED", "IN", "OUT")
 SPACES = ("slot", "const")
 MODES = ("vec", "scalar", "gather")
-ISSUE_GAP = 6      # cycles an instruction adds to n + latency: the engine's table, address, memory and operand stages
+ISSUE_GAP = 7      # cycles an instruction adds to n + latency: the engine's table, address, memory, select and operand stages
 PROGRAM_START = 1  # cycles a program adds to its instructions': its first instruction word is decoded ahead
 
 

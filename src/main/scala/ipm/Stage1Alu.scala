@@ -46,7 +46,7 @@ class Stage1Alu(p: Stage1Params) extends Module {
   override def desiredName = s"Stage1Alu_${fmt.tag}"
 
   // op and n hold for all of an instruction's elements and from at least a cycle before its first (the engine
-  // loads them at the launch, 6 cycles ahead): their decode is registered, off the operands' paths
+  // loads them at the launch, 7 cycles ahead): their decode is registered, off the operands' paths
   private val opIs = Isa.ops.indices.map(c => RegNext(io.op === c.U, false.B))
   private def is(codes: Int*): Bool = io.valid && codes.map(opIs(_)).reduce(_ || _)
   /** the operands of the units of `codes`: each unit's own registers next to it, loaded the cycle before its
@@ -93,7 +93,7 @@ class Stage1Alu(p: Stage1Params) extends Module {
   cmp.in_valid  := is(MIN, MAX, SELNEG)
   private val (cmpA, cmpB) = operands(MIN, MAX, SELNEG)
   // the comparator's own operands, ordered as they are loaded (opIs is valid on every pre cycle of its instruction:
-  // the engine loads the op at the launch, 6 cycles before the first), so that no decode is ahead of the compare
+  // the engine loads the op at the launch, 7 cycles before the first), so that no decode is ahead of the compare
   private val cmpEn = io.pre && (isMin || isSel || opIs(MAX))
   cmp.a         := RegEnable(Mux(isMin || isSel, io.bPre, io.aPre), cmpEn)
   cmp.b         := RegEnable(Mux(isMin, io.aPre, Mux(isSel, 0.U, io.bPre)), cmpEn)

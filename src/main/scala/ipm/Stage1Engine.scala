@@ -10,7 +10,7 @@ import float.Stages
   * Interface. `start` (with `prog`, `slot`) runs program `prog` on slot `slot`; it is taken when the engine is
   * idle or on the cycle `done` is high (and ignored for a `prog` beyond the programs; `slot` must be < slots). `busy` is high from the cycle after `start` to `done` included. A
   * program started on cycle s raises `done` on cycle s + cycles(program) with cycles as
-  * mpc_cores.ipm.isa.cycles when the streams do not stall (1 + the sum over the instructions of n + latency + 5); its
+  * mpc_cores.ipm.isa.cycles when the streams do not stall (1 + the sum over the instructions of n + latency + 7); its
   * last result is written on the cycle after `done`, before any read of a program started on the `done`
   * cycle, so back-to-back programs run as one. IN takes words from `s_axis` (the format's word in the low bits
   * of tdata), OUT writes them to `m_axis` (tlast on an instruction's last word) through an 8-word buffer; both
@@ -26,8 +26,9 @@ import float.Stages
   *   A  slot memory and constant ROMs read at them (one copy per operand a, b)
   *   R  memory words out, registered per bank of the slot memory (SlotMem) and in the constant ROMs (as the table ROMs)
   *   Q  the words registered once more in the fabric next to their block RAMs, which lie far from the units
-  *   S  bank select and operand select (slot or constant), registered at the inputs of the op's unit (each
-  *      unit has its own operand registers, Stage1Alu)
+  *   S  bank select and operand select (slot or constant), registered once per operand (the memories and the
+  *      units lie far apart: this register splits the route between them)
+  *   D  the operands into the op's unit's own registers (each unit has its operand registers, Stage1Alu)
   *   U  operands ready; into the unit of the op (Stage1Alu), result written latency(op) cycles later.
   * Every block RAM's output and every address adder ends in a register, so no path runs from one memory
   * through an adder into another, nor from a memory into a unit.
@@ -35,7 +36,7 @@ import float.Stages
   * table bases) before its launch, so a program's first instruction launches two cycles after `start` (one cycle
   * per program, Stage1Params.ProgramStart).
   * An instruction issues its n elements on consecutive cycles (IN: when a word is there; OUT: when the output
-  * buffer has room for the words in flight, a credit counter) and the next one issues latency + 7 cycles after
+  * buffer has room for the words in flight, a credit counter) and the next one issues latency + 8 cycles after
   * its last element, that is on the cycle its last result is written: its first read is three cycles after. The
   * sequencer decides from flags registered a cycle ahead (gap = 0 or 1, last element, last instruction, IN or
   * OUT), so no compare or adder lies between its registers and the issue. So instructions run
@@ -50,8 +51,8 @@ import float.Stages
   */
 class Stage1Engine(p: Stage1Params) extends Module {
   import Isa._
-  /** output buffer: one word per pipeline stage (G, M, A, R, Q, S, U) and one more, so that OUT streams without a gap */
-  private val OutDepth = 8
+  /** output buffer: one word per pipeline stage (G, M, A, R, Q, S, D, U) and one more, so that OUT streams without a gap */
+  private val OutDepth = 9
   override def desiredName = p.moduleName
   private val w = p.fmt.width
   /** block RAMs as DP16KD with their output register where they have one (SlotMem, the registered ROMs) */
@@ -110,7 +111,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   done := finish
 
   // the instruction at pc, decoded, and its table bases, registered ahead of its launch (the ROM word of the pc
-  // of cycle t is here on t + 2: pc moves at a launch and the next launch is at least 6 cycles later)
+  // of cycle t is here on t + 2: pc moves at a launch and the next launch is at least 7 cycles later)
   private val tableBase = table(p.tableBase.init.map(_.U(17.W)), 1 << TableW, 0.U(17.W))
   private val word      = InstrBits.decode(code)
   private val nxt       = RegNext(word)
@@ -204,17 +205,18 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val tabA = tableRom("A", p.gatherA, 1)
   private val tabB = tableRom("B", p.gatherB, 2)
 
-  // ---- G: table words registered (the element in G, M, A, R, Q and S belongs to `cur`: the next instruction
-  // launches at least 7 cycles after the last element issues); the operands' bases registered from the launch on
+  // ---- G: table words registered (the element in G, M, A, R, Q, S and D belongs to `cur`: the next instruction
+  // launches at least 8 cycles after the last element issues); the operands' bases registered from the launch on
   // the element's valid bit, index, last flag and input word travel beside it: `at(k)` is the element k stages
-  // after T (1: G, 2: M, 3: A, 4: R, 5: Q, 6: S, 7: U)
+  // after T (1: G, 2: M, 3: A, 4: R, 5: Q, 6: S, 7: D, 8: U)
   private val eT = Wire(new Stage1Elem(w))
   eT.i    := iT
   eT.last := lastT
   eT.in   := s_axis.tdata(w - 1, 0)
-  private val at = (1 to 7).scanLeft(eT)((x, _) => RegNext(x))
+  private val at = (1 to 8).scanLeft(eT)((x, _) => RegNext(x))
   private val vS = Stages.delayValid(issue, 6)
-  private val vU = RegNext(vS, false.B)
+  private val vD = RegNext(vS, false.B)
+  private val vU = RegNext(vD, false.B)
   private val iM = at(2).i
   private val aBase = RegNext(slotBase +& cur.a.addr)
   private val bBase = RegNext(slotBase +& cur.b.addr)
@@ -243,16 +245,17 @@ class Stage1Engine(p: Stage1Params) extends Module {
   // ---- Q: memory words registered once more, in the fabric next to their block RAMs (the slot memory's in SlotMem)
   private val (constAR, constBR) = (RegNext(constA), RegNext(constB))
 
-  // ---- S: bank and operand selected, registered
+  // ---- S: bank and operand selected, registered once per operand
+  // ---- D: the selected operands into the op's unit's registers (Stage1Alu)
 
   // ---- U: operands, units, write-back (the element in U still belongs to `cur`: a new instruction is
   // loaded into `cur` at the end of its first issue cycle, at the earliest the cycle its predecessor's last
   // element is here)
-  private val eU    = at(7)
-  private val addrU = Stages.delay(dAdr, 4) // registered at M, here at U
-  private val aS    = Mux(cur.a.inConst, constAR, slotA)
-  private val bS    = Mux(cur.b.inConst, constBR, slotBw)
-  private val aU    = RegEnable(aS, vS && curOut) // the OUT word; the units register their own operands
+  private val eU    = at(8)
+  private val addrU = Stages.delay(dAdr, 5) // registered at M, here at U
+  private val aD    = RegNext(Mux(cur.a.inConst, constAR, slotA))
+  private val bD    = RegNext(Mux(cur.b.inConst, constBR, slotBw))
+  private val aU    = RegEnable(aD, vD && curOut) // the OUT word; the units register their own operands
 
   private val alu = Module(new Stage1Alu(p))
   alu.io.valid  := vU
@@ -260,9 +263,9 @@ class Stage1Engine(p: Stage1Params) extends Module {
   alu.io.n      := cur.n
   alu.io.idx    := eU.i
   alu.io.last   := eU.last
-  alu.io.pre    := vS
-  alu.io.aPre   := aS
-  alu.io.bPre   := bS
+  alu.io.pre    := vD
+  alu.io.aPre   := aD
+  alu.io.bPre   := bD
   alu.io.inData := eU.in
   alu.io.addr   := addrU
   mem.write(alu.io.wen, alu.io.waddr, alu.io.wdata)

@@ -124,9 +124,9 @@ case class Stage1Params(
 
 object Stage1Params {
   /** cycles an instruction adds beyond its n elements and its unit's latency: Stage1Engine's table register (G),
-    * address register (M), memory read (A), memory word registers (R, Q) and operand register (S), less the write
-    * that overlaps the next instruction's launch */
-  val IssueGap = 6
+    * address register (M), memory read (A), memory word registers (R, Q), operand select register (S) and the
+    * units' operand registers (D), less the write that overlaps the next instruction's launch */
+  val IssueGap = 7
   /** cycles a program adds beyond its instructions: its first instruction word is decoded into a register */
   val ProgramStart = 1
 
