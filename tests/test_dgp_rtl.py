@@ -43,8 +43,14 @@ CASES = {
     # soak configuration 1000033: 15-bit data words, so the stream word was 16 bits and the answer's status word lost
     # its flags (met, sat, overflow) at the port; the stream now holds the 19-bit status word whole
     "soak_1000033_narrow_data": (lambda: _dgp_soak_config(1000033)[0], _dgp_soak_config(1000033)[1], 12),
-    # the example on the ECP5 target (every product on MULT18X18D partial products)
-    "masses_state_ecp5": (lambda: load_spec(REPO / "examples/masses_state.yaml"), dict(target="ecp5"), 3),
+    # row units: P = 2, and P = 3 with the plain form (n = 4 rows of pass K on 3 units: the last round's missing
+    # rows are zero rows)
+    "small_accel_p2": (lambda: _small(7), dict(P=2, lanes=2, iterations=60), 6),
+    "small_plain_p3": (lambda: _small(8, inputs={"min": -0.15, "max": 0.1}),
+                       dict(P=3, lanes=2, iterations=300, accelerated=False), 4),
+    # the example on the ECP5 target (every product on MULT18X18D partial products), 4 row units of 16
+    # lanes (each unit's operands and tokens from kept copies of its own)
+    "masses_state_ecp5": (lambda: load_spec(REPO / "examples/masses_state.yaml"), dict(target="ecp5", P=4, lanes=16), 3),
 }
 
 

@@ -47,7 +47,7 @@ class DgpDesign(FixedPointDesign):
     """qp: the DgpQP. Words: b = p fraction bits; widths['data'] = r + p."""
     output_all: bool
     accelerated: bool
-    lanes: int                   # multipliers of the row unit (a row of c columns takes ceil(c / lanes) cycles)
+    lanes: int                   # multipliers of each row unit (a row of c columns takes ceil(c / lanes) cycles)
     eps_g: float
     eps_V: float
     margin: float
@@ -86,7 +86,9 @@ class DgpDesign(FixedPointDesign):
     @property
     def module_name(self) -> str:
         acc = "a" if self.accelerated else "p"
-        return f"DgpCore_{self.name}_n{self.n}_m{self.m}_l{self.lanes}_b{self.b}{acc}{module_suffix(self.target)}"
+        units = f"u{self.P}" if self.P > 1 else ""
+        return (f"DgpCore_{self.name}_n{self.n}_m{self.m}_l{self.lanes}{units}_b{self.b}{acc}"
+                f"{module_suffix(self.target)}")
 
     def label(self) -> str:
         return f"p = {self.b}, Imax = {self.iterations}, {'accelerated' if self.accelerated else 'plain'}"
@@ -98,18 +100,28 @@ class DgpDesign(FixedPointDesign):
         return {"F": -(-self.nw // c), "K": -(-self.mc // c), "G": -(-self.n // c)}
 
     @property
+    def rounds(self) -> dict:
+        """rows per row unit: pass K (and Fe), pass G (and Lw); unit u takes the rows u, u + P, ..."""
+        return {"K": -(-self.n // self.P), "G": -(-self.mc // self.P)}
+
+    @property
     def issue_cycles(self) -> dict:
-        ch = self.chunks
-        return {"F": (self.n + self.mc) * ch["F"], "K": self.n * ch["K"], "G": self.mc * ch["G"]}
+        ch, r = self.chunks, self.rounds
+        return {"F": (r["K"] + r["G"]) * ch["F"], "K": r["K"] * ch["K"], "G": r["G"] * ch["G"]}
 
     @property
     def row_latency(self) -> int:
+        """issue to the row's sum: memory read and its output register (2), the tree, the accumulator (1)"""
         depth = math.ceil(math.log2(self.lanes)) if self.lanes > 1 else 0
-        return 1 + self.lat_mul + self.lat_add * depth + 1
+        return 2 + self.lat_mul + self.lat_add * depth + 1
 
     @property
     def gap_cycles(self) -> dict:
-        return {"K": self.row_latency, "G": self.row_latency + 2 + (self.lat_mul if self.accelerated else 0)}
+        """after pass K: the row latency; after pass G: the element stage (2), the accelerated form's products,
+        the sums over the units (ceil(log2 P) registered levels) and the test's flags (1)"""
+        units = math.ceil(math.log2(self.P)) if self.P > 1 else 0
+        return {"K": self.row_latency,
+                "G": self.row_latency + 2 + (self.lat_mul if self.accelerated else 0) + units + 1}
 
     @property
     def cycles_per_iteration(self) -> int:
@@ -130,14 +142,13 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def multipliers(self) -> int:
-        return self.lanes + (6 if self.accelerated else 0)
+        return self.P * (self.lanes + (6 if self.accelerated else 0))
 
     def memories(self) -> list[tuple]:
-        """(words, lanes, bits per lane, built from primitives): the matrix memory, Fe, Lw, K and G rows chunk by
-        chunk (DgpCore; inferred by synthesis)"""
-        ch = self.chunks
-        return [((self.n + self.mc) * ch["F"] + self.n * ch["K"] + self.mc * ch["G"], self.lanes, self.widths["coef"],
-                 False)]
+        """(words, lanes, bits per lane, built from primitives): per row unit its matrix memory, its rows of Fe,
+        Lw, K and G chunk by chunk (DgpCore; inferred by synthesis)"""
+        return [(self.issue_cycles["F"] + self.issue_cycles["K"] + self.issue_cycles["G"], self.lanes,
+                 self.widths["coef"], False)] * self.P
 
     def products(self) -> list[tuple[int, int]]:
         """(a, b) bit widths of the multipliers: the row unit (coefficient x operand word), and the accelerated
@@ -224,18 +235,18 @@ UNCERTIFIED_BITS = 16
 
 def product_counts(d) -> list[int]:
     """how many multipliers of each width pair of DgpDesign.products() the core has"""
-    return [d.lanes] + ([4, 2] if d.accelerated else [])
+    return [d.P * d.lanes] + ([4 * d.P, 2 * d.P] if d.accelerated else [])
 
 
 def _fit_lanes(d: DgpDesign) -> int:
-    """`lanes: fit`: the most multipliers (up to the longest row) whose products and matrix memory fit the
-    LFE5U-85F (ECP5 counts of mpc_cores.target)"""
+    """`lanes: fit`: the most multipliers per row unit (up to the longest row) whose products and matrix memories
+    fit the LFE5U-85F (ECP5 counts of mpc_cores.target) with the design's P row units"""
     for lanes in range(max(d.n, d.mc, d.nw), 0, -1):
         d.lanes = lanes
         if dsp_count("ecp5", d.products(), product_counts(d)) <= PART_MULTS and dp16kd(d.memories()) <= PART_BLOCKS:
             return lanes
-    raise DesignError(f"lanes=fit: not even one multiplier's row unit fits the {PART} ({PART_MULTS} MULT18X18D, "
-                      f"{PART_BLOCKS} DP16KD)")
+    raise DesignError(f"lanes=fit: not even one multiplier per row unit fits the {PART} with P={d.P} "
+                      f"({PART_MULTS} MULT18X18D, {PART_BLOCKS} DP16KD)")
 
 
 def bits_36(n: int, m: int, D: float, LV: float, eps: float) -> float:
@@ -254,8 +265,6 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
                               f"also has {k}; use the ADMM core for it")
     _, P, lat_add, lat_mul, _, iterations, warm_start, output_all = run_options(
         problem, overrides, frac_bits=0, rounding="nearest", iterations=200)
-    if P != 1:
-        raise DesignError(f"the DGP core has one row unit (set its multipliers with `lanes`): got P={P}")
     rounding = str(opt("rounding", "nearest"))
     if rounding != "nearest":
         raise DesignError(f"the DGP core rounds to nearest, as (36) of 003 assumes: got rounding={rounding!r}")
@@ -281,6 +290,8 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     n, mc, nw = qp.n, qp.mc, qp.nw
     if not 1 <= lanes <= max(n, mc, nw):
         raise DesignError(f"lanes must be in [1, {max(n, mc, nw)}] (the longest row): got lanes={lanes}")
+    if not 1 <= P <= max(n, mc):
+        raise DesignError(f"P (row units) must be in [1, {max(n, mc)}] (the most rows of a pass): got P={P}")
 
     d = np.maximum(margin * sample_duals(qp, problem), 1.0)
     D = float(np.linalg.norm(d))
@@ -320,7 +331,7 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     xlo = quantize(wlo, b, "floor")
     xhi = quantize(whi, b, "ceil")
     beta = np.array([int(round(k / (k + 3) * one)) for k in range(BETA_TABLE)], dtype=np.int64)
-    dsn = DgpDesign(problem=problem, qp=qp, b=b, P=1, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
+    dsn = DgpDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
                     iterations=iterations, warm_start=warm_start, target=target, output_all=output_all,
                     accelerated=accelerated, lanes=lanes, eps_g=eps_g, eps_V=eps_V, margin=margin, d=d,
                     K=quantize(K, b), G=quantize(qp.G, b), Fe=quantize(Fe, b), Lw=quantize(qp.Lw, b),
@@ -377,7 +388,7 @@ def write_tol_spec(kind, problem_path, tol: float, overrides: dict, out=None):
     spec.setdefault("name", p.name)
     spec["solver"] = dict(spec.get("solver") or {}, eps_g=float(tol), eps_V=float(tol), frac_bits=d.b,
                           int_bits=d.widths["data"] - d.b, iterations=d.iterations, accelerated=d.accelerated,
-                          lanes=d.lanes)
+                          lanes=d.lanes, P=d.P)
     out = Path(out or f"build/design/{p.name}_dgp_tol{tol:g}.yaml")
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(f"# Designed by `make design CORE=dgp TOL={tol:g}` from {problem_path}: fraction bits from (36) "

@@ -22,7 +22,7 @@ def core_json(d: DgpDesign, hw: dict) -> dict:
     return {
         "core": "dgp", "name": d.name, "module": hw["module"], "sv": f"{hw['module']}.sv",
         "n": d.n, "nu": d.nu, "nw": d.nw, "nx": d.problem.nx, "ny": d.problem.ny, "N": d.problem.N,
-        "mc": d.mc, "m": d.m, "lanes": d.lanes, "accelerated": d.accelerated,
+        "mc": d.mc, "m": d.m, "P": d.P, "lanes": d.lanes, "accelerated": d.accelerated,
         "frac_bits": b, "int_bits": d.widths["data"] - b, "bits_eq36": d.bits36, "bits_eq37": d.bits37,
         "eps_certified": d.b >= d.bits36,
         "data_format": {"int_bits": d.widths["data"] - b, "frac_bits": b, "width": d.widths["data"]},
@@ -66,8 +66,8 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
         f"g^ = {a['g_hat']:.4g})",
         f"  Words: data {W} bits = Q{W - d.b - 1}.{d.b} (sign included in r), coefficients {d.widths['coef']}, "
         f"row accumulator {d.widths['acc']}, sums of the test {d.widths['sum']}, stream {d.widths['stream']} bits",
-        f"  Row unit: {d.lanes} lanes; chunks per row F {d.chunks['F']}, K {d.chunks['K']}, G {d.chunks['G']}; "
-        f"l_A = {d.lat_add}, l_M = {d.lat_mul}",
+        f"  Row units: P = {d.P} of {d.lanes} lanes, rows per unit K {d.rounds['K']}, G {d.rounds['G']}; chunks per "
+        f"row F {d.chunks['F']}, K {d.chunks['K']}, G {d.chunks['G']}; l_A = {d.lat_add}, l_M = {d.lat_mul}",
         report_line(d.target, d.lat_mul, d.products(), _counts(d)),
         f"  Cycles per iteration: {d.cycles_per_iteration} = pass K {i['K']} + {g['K']} + pass G {i['G']} + {g['G']}"
         f" + 1",

@@ -5,24 +5,28 @@ import chisel3.util._
 import bus.{AxiLiteIO, AxiStreamIO}
 import fixed.{FixedOps, Rounding, SerialDivider}
 import linalg.{DotProductParams, DotProductTree}
-import mem.InitRam
+import dsp.Target
+import mem.{InitRam, KeepReg}
 import shell.{Field, FrameIn, RegMap, Register, SolverRegs}
 
 /** Fixed-point dual gradient projection (iteration (35) of 003) for MPC with input and state constraints; the
   * arithmetic is that of mpc_cores/dgp/model.py, word for word.
   *
-  * One row unit of `lanes` multipliers computes a row's dot product chunk by chunk (a row of c columns takes
-  * ceil(c / lanes) cycles) from one matrix memory holding the rows of Fe, Lw, K and G. A solve: the first pass
-  * (e = Fe w, the bounds lo, hi = lo0, hi0 + Lw w), then per iteration pass K (z = K v + e, v = wy+ - wy-) and pass
-  * G (s = G z), whose rows feed the element stage (g, the projected dual step, the sums of the stopping test);
-  * the iteration ends in a decision cycle (stop when the test holds or at IMAX). Output: the averaged primal
-  * (plain form; a serial divider forms Sz / I) or the last z (accelerated), u0 or all of z, each word clamped to
-  * the quantised input box on its way out (the iteration's state unclamped), then a status word
-  * (iterations run in bits 15:0, test met 16, input saturated 17, datapath overflow 18) with tlast.
+  * P row units of `lanes` multipliers each compute rows' dot products chunk by chunk (a row of c columns takes
+  * ceil(c / lanes) cycles); unit u takes the rows u, u + P, ... of every pass from a matrix memory of its own
+  * holding its rows of Fe, Lw, K and G, all units reading the same address and the same operand chunk. A solve: the
+  * first pass (e = Fe w, then the bounds lo, hi = lo0, hi0 + Lw w), then per iteration pass K (z = K v + e,
+  * v = wy+ - wy-) and pass G (s = G z), whose rows feed each unit's element stage (g, the projected dual step, the
+  * sums of the stopping test); the iteration ends in a decision cycle (stop when the test holds or at IMAX), from
+  * the units' sums added in registered levels. Output: the averaged primal (plain form; a serial divider forms
+  * Sz / I) or the last z (accelerated), u0 or all of z, each word clamped to the quantised input box on its way
+  * out (the iteration's state unclamped), then a status word (iterations run in bits 15:0, test met 16, input
+  * saturated 17, datapath overflow 18) with tlast.
   */
 class DgpCore(val p: DgpParams) extends Module {
   override def desiredName = p.moduleName
-  import p.{mc, n, nu, nw}
+  import p.{mc, n, nu, nw, rK, rG}
+  val P = p.units
   val W = p.dataW
   val b = p.fracBits
   val acc = p.accelerated
@@ -47,47 +51,58 @@ class DgpCore(val p: DgpParams) extends Module {
   regs.writes()
 
   def sat(x: SInt): (SInt, Bool) = FixedOps.saturate(x, W)
+  def clip(t: SInt, u: SInt): SInt = Mux(t < 0.S, 0.S, Mux(t > u, u, t))(W - 1, 0).asSInt
+  /** per unit, FPGA target, P > 1: each unit's registers take their controls and operands from kept copies of
+    * their own (mem.KeepReg), so that no register drives all units across the device */
+  val split = P > 1 && p.target != Target.Generic
 
   // ------------------------------------------------------------------ state
-  // The rows of a pass come in order, so the vectors read row by row are rotating FIFOs read at their head (as the
-  // FGM's, Fig. 1 of 002): e, lo, hi, Sz (one step per row of their pass), and the element stage's y, its copy of
-  // the operand dual and Sg (one step per row of pass G, the new value entering at the tail). A pass rotates each
-  // exactly once round, so between passes element i sits at index i. No row needs a wide multiplexer.
+  // The vectors read row by row are, per unit, rotating FIFOs read at their head (as the FGM's, Fig. 1 of 002):
+  // e and Sz (one step per row of pass K), lo, hi, y, the element stage's copy of the operand dual and Sg (one step
+  // per row of pass G, the new value entering at the tail). A pass rotates each exactly once round, so between
+  // passes unit u's element k is row k P + u. No row needs a wide multiplexer. The vectors read whole (the operand
+  // chunks of w, v and z; the output) are flat registers: row i of unit u's FIFOs is element i of them.
   val wReg = Reg(Vec(nw, SInt(p.xW.W)))
-  val e    = Reg(Vec(n, SInt(W.W)))
-  val lo   = Reg(Vec(mc, SInt(W.W)))
-  val hi   = Reg(Vec(mc, SInt(W.W)))
+  val eU   = Seq.fill(P)(Reg(Vec(rK, SInt(W.W))))
+  val loU  = Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
+  val hiU  = Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
   val z    = Reg(Vec(n, SInt(W.W)))
   /** the dual y = (y+, y-), upper and lower rows; it survives a solve (the warm start) */
-  val yH   = Seq.fill(2)(Reg(Vec(mc, SInt(W.W))))
-  /** the operand dual of pass K (accelerated: the extrapolated dual, its candidate, and the element stage's copy;
-    * plain: y itself) */
-  val wyH  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else yH
-  val wycH = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else Nil
-  val wyE  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else yH
-  val sz   = if (acc) None else Some(Reg(Vec(n, SInt(p.sumW.W))))
-  val sg   = if (acc) Nil else Seq.fill(2)(Reg(Vec(mc, SInt(p.sumW.W))))
+  val yU   = Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W))))
+  /** the element stage's copy of the operand dual (accelerated: the extrapolated dual; plain: y itself) */
+  val wyEU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else yU
+  /** accelerated: the extrapolated dual's candidate, written row by row */
+  val wyc  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else Nil
+  /** the operand of pass K, v = wy+ - wy-, formed in the decision cycle (and at the start) */
+  val v    = Reg(Vec(mc, SInt(p.opW.W)))
+  val szU  = if (acc) Nil else Seq.fill(P)(Reg(Vec(rK, SInt(p.sumW.W))))
+  val sgU  = if (acc) Nil else Seq.fill(2, P)(Reg(Vec(rG, SInt(p.sumW.W))))
+  /** flat views: constraint row c is unit c mod P's element c / P */
+  def flat(f: Seq[Vec[SInt]], len: Int): Seq[SInt] = (0 until len).map(i => f(i % P)(i / P))
   /** one step of a rotating FIFO: the head leaves, `in` enters at the tail */
-  def rotate(v: Vec[SInt], in: SInt): Unit = {
-    for (i <- 0 until v.length - 1) v(i) := v(i + 1)
-    v(v.length - 1) := in
+  def rotate(q: Vec[SInt], in: SInt): Unit = {
+    for (i <- 0 until q.length - 1) q(i) := q(i + 1)
+    q(q.length - 1) := in
   }
   val tThr = Reg(SInt(p.sumW.W))
   val kAcc = RegInit(0.U(8.W))
-  val betaRom = VecInit(p.beta.map(v => v.S(p.betaW.W)))
+  val betaRom = VecInit(p.beta.map(x => x.S(p.betaW.W)))
   val betaR = Reg(SInt(p.betaW.W))
   val iter  = Reg(UInt(16.W))
   val imax  = Reg(UInt(16.W))
   val solveSat = RegInit(false.B)
   val solveOvf = RegInit(false.B)
-  val ovfNow   = WireDefault(false.B)
+  val ovfU     = Wire(Vec(P, Bool()))
+  ovfU.foreach(_ := false.B)
+  // the units' overflow flags, ORed a cycle later (the flags are read at the status word, long after)
+  val ovfNow = RegNext(ovfU.asUInt.orR, false.B)
   when(ovfNow) { solveOvf := true.B; regs.stOvf := true.B }
-  // per iteration: the test's violations (plain: some Sg_i > T; accelerated: some g_i > eg), the sums of the gap
-  // and of the restart test
-  val viol   = RegInit(false.B)
+  // per iteration and unit: the test's violations (plain: some Sg_i > T; accelerated: some g_i > eg), the sums of
+  // the gap and of the restart test
   val gapW   = 2 * W + 8
-  val gapAcc = RegInit(0.S(gapW.W))
-  val rstAcc = RegInit(0.S(gapW.W))
+  val violU  = RegInit(VecInit(Seq.fill(P)(false.B)))
+  val gapU   = RegInit(VecInit(Seq.fill(P)(0.S(gapW.W))))
+  val rstU   = RegInit(VecInit(Seq.fill(P)(0.S(gapW.W))))
 
   // ------------------------------------------------------------------ sequencer
   object St extends ChiselEnum { val idle, issue, gap, decide, out = Value }
@@ -96,31 +111,30 @@ class DgpCore(val p: DgpParams) extends Module {
   val pass    = RegInit(0.U(2.W))
   val addr    = RegInit(0.U(log2Ceil(p.matRows + 1).W))
   val chunk   = RegInit(0.U(8.W))
-  val row     = RegInit(0.U(16.W))
+  val round   = RegInit(0.U(16.W))
   val waitCnt = RegInit(0.U(16.W))
   val cycles  = RegInit(0.U(32.W))
   def chunksOf(ps: UInt): UInt = MuxLookup(ps, p.cF.U)(Seq(1.U -> p.cK.U, 2.U -> p.cG.U))
-  def rowsOf(ps: UInt): UInt = MuxLookup(ps, (n + mc).U)(Seq(1.U -> n.U, 2.U -> mc.U))
+  def roundsOf(ps: UInt): UInt = MuxLookup(ps, (rK + rG).U)(Seq(1.U -> rK.U, 2.U -> rG.U))
 
   val take = st === St.idle && frameIn.io.full
   frameIn.io.take := take
   val warmNow = regs.ctrlWarm && regs.warmValid
+  val yFlat = yU.map(flat(_, mc))
   when(take) {
     wReg := frameIn.io.frame
-    st := St.issue; pass := 0.U; addr := 0.U; chunk := 0.U; row := 0.U
+    st := St.issue; pass := 0.U; addr := 0.U; chunk := 0.U; round := 0.U
     iter := 0.U; imax := regs.imaxReg; cycles := 0.U
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
-    viol := false.B; gapAcc := 0.S; rstAcc := 0.S
-    for (h <- 0 until 2; i <- 0 until mc) {
-      when(!warmNow) { yH(h)(i) := 0.S }
-      if (acc) {
-        wyH(h)(i) := Mux(warmNow, yH(h)(i), 0.S)
-        wyE(h)(i) := Mux(warmNow, yH(h)(i), 0.S)
-      }
+    violU.foreach(_ := false.B); gapU.foreach(_ := 0.S); rstU.foreach(_ := 0.S)
+    for (h <- 0 until 2; u <- 0 until P; k <- 0 until rG) {
+      when(!warmNow) { yU(h)(u)(k) := 0.S }
+      if (acc) wyEU(h)(u)(k) := Mux(warmNow, yU(h)(u)(k), 0.S)
     }
-    sz.foreach(_.foreach(_ := 0.S))
-    sg.foreach(_.foreach(_ := 0.S))
+    for (c <- 0 until mc) v(c) := Mux(warmNow, yFlat(0)(c) -& yFlat(1)(c), 0.S)
+    szU.foreach(_.foreach(_ := 0.S))
+    sgU.flatten.foreach(_.foreach(_ := 0.S))
   }
   // a frame's saturation belongs to its solve (the frame may arrive while the previous one runs)
   val frameSat = RegInit(false.B)
@@ -130,12 +144,12 @@ class DgpCore(val p: DgpParams) extends Module {
 
   val issuing   = st === St.issue
   val lastChunk = chunk === (chunksOf(pass) - 1.U)
-  val lastRow   = row === (rowsOf(pass) - 1.U)
+  val lastRound = round === (roundsOf(pass) - 1.U)
   when(issuing) {
     addr  := addr + 1.U
     chunk := Mux(lastChunk, 0.U, chunk + 1.U)
-    when(lastChunk) { row := Mux(lastRow, 0.U, row + 1.U) }
-    when(lastChunk && lastRow) {
+    when(lastChunk) { round := Mux(lastRound, 0.U, round + 1.U) }
+    when(lastChunk && lastRound) {
       switch(pass) {
         is(0.U) { pass := 1.U }                       // pass K follows the first pass at once
         is(1.U) { st := St.gap; waitCnt := (p.gapK - 1).U }
@@ -150,145 +164,158 @@ class DgpCore(val p: DgpParams) extends Module {
     }
   }
 
-  // ------------------------------------------------------------------ row unit
-  val matRam = Module(new InitRam(s"${p.moduleName}_mat", p.matRows, p.lanes, p.coefW, p.matInit))
-  matRam.io.clock := clock
-  matRam.io.wen   := false.B
-  matRam.io.waddr := 0.U
-  matRam.io.wmask := 0.U
-  matRam.io.wdata := 0.U
-  matRam.io.raddr := addr
+  // ------------------------------------------------------------------ row units
+  // Issue (cycle 0): the matrix address and the operand chunk. Cycle 1: the chunk registered, the memory read.
+  // Cycle 2: the memory's output register and the chunk's copy at the unit: the tree's inputs.
+  val matRam = (0 until P).map { u =>
+    val r = Module(new InitRam(s"${p.moduleName}_mat$u", p.matRows, p.lanes, p.coefW, p.matInit(u), outReg = true,
+      ecp5 = p.target == Target.Ecp5 && p.matRows <= 1024))
+    r.io.clock := clock
+    r.io.wen   := false.B
+    r.io.waddr := 0.U
+    r.io.wmask := 0.U
+    r.io.wdata := 0.U
+    r.io.raddr := addr
+    r
+  }
   class Tok extends Bundle {
-    val valid = Bool(); val pass = UInt(2.W); val row = UInt(16.W); val first = Bool(); val last = Bool()
+    val valid = Bool(); val pass = UInt(2.W); val round = UInt(16.W); val first = Bool(); val last = Bool()
   }
   val tok0 = Wire(new Tok)
-  tok0.valid := issuing; tok0.pass := pass; tok0.row := row; tok0.first := chunk === 0.U; tok0.last := lastChunk
+  tok0.valid := issuing; tok0.pass := pass; tok0.round := round; tok0.first := chunk === 0.U; tok0.last := lastChunk
   def tokAt(d: Int): Tok = ShiftRegister(tok0, d, 0.U.asTypeOf(new Tok), true.B)
+  /** the token at stage `d` (>= 1) per unit: split, a kept copy each of the token a stage earlier */
+  def unitTok(d: Int): Seq[Tok] = if (split) Seq.fill(P)(KeepReg(tokAt(d - 1))) else Seq.fill(P)(tokAt(d))
 
-  // the operands of a chunk, registered with the RAM read: w (first pass), v = wy+ - wy- (K), z (G)
-  def chunked(v: Seq[SInt], cs: Int): Vec[Vec[SInt]] =
-    VecInit((0 until cs).map(j => VecInit((0 until p.lanes).map(l => v.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))))
-  val wCh  = chunked(wReg, p.cF)(chunk)
-  val ypCh = chunked(wyH(0), p.cK)(chunk)
-  val ymCh = chunked(wyH(1), p.cK)(chunk)
-  val zCh  = chunked(z, p.cG)(chunk)
-  val opR = RegNext(VecInit((0 until p.lanes).map { l =>
-    MuxLookup(pass, wCh(l))(Seq(1.U -> (ypCh(l) -& ymCh(l))(p.opW - 1, 0).asSInt, 2.U -> zCh(l)))
-  }))
-  val tree = Module(new DotProductTree(DotProductParams(p.lanes, p.coefW, p.opW, p.accW, b, p.latMul, p.latAdd,
-    Rounding.Nearest, p.target)))
-  val tok1 = tokAt(1)
-  tree.io.inValid := tok1.valid
-  tree.io.coef    := matRam.io.rdata.asTypeOf(Vec(p.lanes, SInt(p.coefW.W)))
-  tree.io.op      := opR
-  val tokT  = tokAt(1 + p.treeLat)
-  val accR  = Reg(SInt(p.accW.W))
-  when(tokT.valid) { accR := Mux(tokT.first, 0.S, accR) + tree.io.sum }
-  val tokR  = tokAt(p.rowLat)
-  val rowOk = tokR.valid && tokR.last
-
-  // ------------------------------------------------------------------ row results: first pass and pass K
-  val eOf = e(0)
-  val (zNew, ofZ) = sat(accR +& eOf)
-  val (eNew, ofE) = sat(accR)
-  val cIdx = tokR.row - n.U
-  val (loNew, ofL) = sat(VecInit(p.lo0.map(_.S(W.W)))(cIdx) +& accR)
-  val (hiNew, ofH) = sat(VecInit(p.hi0.map(_.S(W.W)))(cIdx) +& accR)
-  when(rowOk && tokR.pass === 0.U) {
-    // rows 0..n-1 (e), then n..n+mc-1 (the bounds), in order: each enters its FIFO at the tail
-    when(tokR.row < n.U) {
-      rotate(e, eNew)
-      ovfNow := ofE
-    }.otherwise {
-      rotate(lo, loNew); rotate(hi, hiNew)
-      ovfNow := ofL || ofH
-    }
-  }
-  when(rowOk && tokR.pass === 1.U) {
-    z(tokR.row) := zNew
-    ovfNow := ofZ
-    rotate(e, e(0))
-    sz.foreach(s => rotate(s, s(0) + zNew))
+  // the operand chunk: w (first pass), v (K), z (G)
+  def chunked(x: Seq[SInt], cs: Int): Vec[Vec[SInt]] =
+    VecInit((0 until cs).map(j => VecInit((0 until p.lanes).map(l => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))))
+  val wCh = chunked(wReg, p.cF)(chunk)
+  val vCh = chunked(v, p.cK)(chunk)
+  val zCh = chunked(z, p.cG)(chunk)
+  val opR = RegNext(VecInit((0 until p.lanes).map(l => MuxLookup(pass, wCh(l))(Seq(1.U -> vCh(l), 2.U -> zCh(l))))))
+  val opU = KeepReg.copies(opR, P, split)
+  val tokTU = unitTok(2 + p.treeLat)
+  val tokRU = unitTok(p.rowLat)
+  val accR  = Seq.fill(P)(Reg(SInt(p.accW.W)))
+  val tok2  = tokAt(2)
+  val tree = (0 until P).map { u =>
+    val t = Module(new DotProductTree(DotProductParams(p.lanes, p.coefW, p.opW, p.accW, b, p.latMul, p.latAdd,
+      Rounding.Nearest, p.target)))
+    t.io.inValid := tok2.valid
+    t.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(p.lanes, SInt(p.coefW.W)))
+    t.io.op      := opU(u)
+    when(tokTU(u).valid) { accR(u) := Mux(tokTU(u).first, 0.S, accR(u)) + t.io.sum }
+    t
   }
 
-  // ------------------------------------------------------------------ pass G: the element stage, upper and lower row
-  // E1: g = (s - hi, lo - s)
-  val (sNow, ofS) = sat(accR)
-  val (gpNow, ofGp) = sat(sNow -& hi(0))
-  val (gmNow, ofGm) = sat(lo(0) -& sNow)
-  when(rowOk && tokR.pass === 2.U) {
-    rotate(lo, lo(0)); rotate(hi, hi(0))
-    when(ofS || ofGp || ofGm) { ovfNow := true.B }
-  }
-  val e1 = RegNext(rowOk && tokR.pass === 2.U, false.B)
-  val r1 = RegNext(tokR.row)
-  val g1 = RegNext(VecInit(gpNow, gmNow))
-  // E2: y_new = clip(wy + g, 0, ud), dy = y_new - y; the sums of the test
-  val udRom = VecInit(p.ud.map(_.S(W.W)))
-  val idx1  = Seq(r1, r1 + mc.U)
-  val wy1   = wyE.map(_(0))
-  val yNew1 = (0 until 2).map { h =>
-    val t = wy1(h) +& g1(h)
-    val u = udRom(idx1(h))
-    Mux(t < 0.S, 0.S, Mux(t > u, u, t))(W - 1, 0).asSInt
-  }
-  val dy1 = (0 until 2).map(h => (yNew1(h) -& yH(h)(0))(W - 1, 0).asSInt)
-  when(e1) {
-    for (h <- 0 until 2) {
-      rotate(yH(h), yNew1(h))                          // plain: also the operand dual
-      if (acc) rotate(wyE(h), wyE(h)(0))
-      if (!acc) {
-        val nv = sg(h)(0) + g1(h)
-        rotate(sg(h), nv)
-        when(nv > tThr) { viol := true.B }
+  // ------------------------------------------------------------------ per unit: row results and the element stage
+  val lo0U = (0 until P).map(u => VecInit((0 until rG).map(k => p.ofUnit(p.lo0, u, k).S(W.W))))
+  val hi0U = (0 until P).map(u => VecInit((0 until rG).map(k => p.ofUnit(p.hi0, u, k).S(W.W))))
+  val udU  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rG).map(k => p.ofUnit(p.ud.slice(h * mc, (h + 1) * mc), u, k).S(W.W))))
+  /** accelerated: per unit, its rows' gap, restart and extrapolation products, and where they land */
+  for (u <- 0 until P) {
+    val tokR  = tokRU(u)
+    val rowOk = tokR.valid && tokR.last
+    val a     = accR(u)
+    // first pass and pass K
+    val (zNew, ofZ) = sat(a +& eU(u)(0))
+    val (eNew, ofE) = sat(a)
+    val cIdx = tokR.round - rK.U
+    val (loNew, ofL) = sat(lo0U(u)(cIdx) +& a)
+    val (hiNew, ofH) = sat(hi0U(u)(cIdx) +& a)
+    when(rowOk && tokR.pass === 0.U) {
+      // rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail
+      when(tokR.round < rK.U) {
+        rotate(eU(u), eNew)
+        ovfU(u) := ofE
+      }.otherwise {
+        rotate(loU(u), loNew); rotate(hiU(u), hiNew)
+        ovfU(u) := ofL || ofH
       }
     }
-  }
-  if (acc) when(e1 && (g1(0) > p.eg.S || g1(1) > p.eg.S)) { viol := true.B }
-  val e2 = RegNext(e1, false.B)
-  val r2 = RegNext(r1)
-  val yN2 = RegNext(VecInit(yNew1))
-  if (acc) {
-    val g2  = RegNext(g1)
-    val dy2 = RegNext(VecInit(dy1))
-    val wy2 = RegNext(VecInit(wy1))
-    def prod(a: SInt, c: SInt): SInt = FixedOps.mulRoundPipelined(a, c, p.latMul, b, Rounding.Nearest, p.target)
-    val pGap = (0 until 2).map(h => prod(wy2(h), g2(h)))
-    val pRst = (0 until 2).map(h => prod(g2(h), dy2(h)))
-    val pExt = (0 until 2).map(h => prod(betaR, dy2(h)))
-    val e3  = ShiftRegister(e2, p.latMul, false.B, true.B)
-    val r3  = ShiftRegister(r2, p.latMul)
-    val yN3 = ShiftRegister(yN2, p.latMul)
-    when(e3) {
-      gapAcc := gapAcc + pGap(0) + pGap(1)
-      rstAcc := rstAcc + pRst(0) + pRst(1)
+    when(rowOk && tokR.pass === 1.U) {
+      for (k <- 0 until p.rowsK(u)) when(tokR.round === k.U) { z(k * P + u) := zNew }
+      ovfU(u) := ofZ
+      rotate(eU(u), eU(u)(0))
+      szU.lift(u).foreach(s => rotate(s, s(0) + zNew))
+    }
+
+    // pass G: E1: g = (s - hi, lo - s)
+    val (sNow, ofS) = sat(a)
+    val (gpNow, ofGp) = sat(sNow -& hiU(u)(0))
+    val (gmNow, ofGm) = sat(loU(u)(0) -& sNow)
+    when(rowOk && tokR.pass === 2.U) {
+      rotate(loU(u), loU(u)(0)); rotate(hiU(u), hiU(u)(0))
+      when(ofS || ofGp || ofGm) { ovfU(u) := true.B }
+    }
+    val e1 = RegNext(rowOk && tokR.pass === 2.U, false.B)
+    val r1 = RegNext(tokR.round)
+    val g1 = RegNext(VecInit(gpNow, gmNow))
+    // E2: y_new = clip(wy + g, 0, ud), dy = y_new - y; the sums of the test
+    val wy1   = wyEU.map(_(u)(0))
+    val yNew1 = (0 until 2).map(h => clip(wy1(h) +& g1(h), udU(h)(u)(r1)))
+    val dy1   = (0 until 2).map(h => (yNew1(h) -& yU(h)(u)(0))(W - 1, 0).asSInt)
+    when(e1) {
       for (h <- 0 until 2) {
+        rotate(yU(h)(u), yNew1(h))                     // plain: also the element stage's operand dual
+        if (acc) rotate(wyEU(h)(u), wyEU(h)(u)(0))
+        if (!acc) {
+          val nv = sgU(h)(u)(0) + g1(h)
+          rotate(sgU(h)(u), nv)
+          when(nv > tThr) { violU(u) := true.B }
+        }
+      }
+    }
+    if (acc) when(e1 && (g1(0) > p.eg.S || g1(1) > p.eg.S)) { violU(u) := true.B }
+    if (acc) {
+      val e2  = RegNext(e1, false.B)
+      val r2  = RegNext(r1)
+      val yN2 = RegNext(VecInit(yNew1))
+      val g2  = RegNext(g1)
+      val dy2 = RegNext(VecInit(dy1))
+      val wy2 = RegNext(VecInit(wy1))
+      def prod(x: SInt, c: SInt): SInt = FixedOps.mulRoundPipelined(x, c, p.latMul, b, Rounding.Nearest, p.target)
+      val pGap = (0 until 2).map(h => prod(wy2(h), g2(h)))
+      val pRst = (0 until 2).map(h => prod(g2(h), dy2(h)))
+      val pExt = (0 until 2).map(h => prod(betaR, dy2(h)))
+      val e3  = ShiftRegister(e2, p.latMul, false.B, true.B)
+      val r3  = ShiftRegister(r2, p.latMul)
+      val yN3 = ShiftRegister(yN2, p.latMul)
+      val u3  = ShiftRegister(VecInit(udU.map(_(u)(r2))), p.latMul)
+      when(e3) {
+        gapU(u) := gapU(u) + pGap(0) + pGap(1)
+        rstU(u) := rstU(u) + pRst(0) + pRst(1)
         // the extrapolated dual stays in [0, ud] (so the gap test bounds V(z) - V*)
-        val t = yN3(h) +& pExt(h)
-        val u = udRom(r3 + (h * mc).U)
-        wycH(h)(r3) := Mux(t < 0.S, 0.S, Mux(t > u, u, t))(W - 1, 0).asSInt
+        for (h <- 0 until 2; k <- 0 until p.rowsG(u))
+          when(r3 === k.U) { wyc(h)(k * P + u) := clip(yN3(h) +& pExt(h), u3(h)) }
       }
     }
   }
 
   // ------------------------------------------------------------------ decision
-  val gapOk   = gapAcc >= (-p.eV).S
-  val stop    = !viol && (if (acc) gapOk else true.B)
-  val restart = rstAcc < 0.S
+  // the units' flags and sums added in registered levels (unitDepth), then the test's flags registered
+  def reduce[T <: Data](xs: Seq[T], f: (T, T) => T): T =
+    if (xs.length == 1) xs.head else reduce(xs.grouped(2).map(g => RegNext(if (g.length == 2) f(g(0), g(1)) else g(0))).toSeq, f)
+  val violAll = reduce[Bool](violU, _ || _)
+  val gapSum  = reduce[SInt](gapU, _ + _)
+  val rstSum  = reduce[SInt](rstU, _ + _)
+  val stop    = RegNext(!violAll && (if (acc) gapSum >= (-p.eV).S else true.B))
+  val restart = RegNext(rstSum < 0.S)
   val finish  = stop || iter + 1.U === imax
   val outIdx  = RegInit(0.U(16.W))
   when(st === St.decide) {
-    viol := false.B; gapAcc := 0.S; rstAcc := 0.S
+    violU.foreach(_ := false.B); gapU.foreach(_ := 0.S); rstU.foreach(_ := 0.S)
     tThr := tThr + p.eg.S
     if (acc) {
-      for (h <- 0 until 2; i <- 0 until mc) {
-        val next = Mux(restart, yH(h)(i), wycH(h)(i))
-        wyH(h)(i) := next
-        wyE(h)(i) := next
-      }
+      for (h <- 0 until 2; u <- 0 until P; k <- 0 until rG)
+        wyEU(h)(u)(k) := Mux(restart, yU(h)(u)(k), wyc(h).lift(k * P + u).getOrElse(0.S))
+      for (c <- 0 until mc) v(c) := Mux(restart, yFlat(0)(c) -& yFlat(1)(c), wyc(0)(c) -& wyc(1)(c))
       val kNew = Mux(restart, 0.U, Mux(kAcc === 255.U, 255.U, kAcc + 1.U))
       kAcc  := kNew
       betaR := betaRom(Mux(kNew === 255.U, 255.U, kNew + 1.U))
+    } else {
+      for (c <- 0 until mc) v(c) := yFlat(0)(c) -& yFlat(1)(c)
     }
     when(finish) {
       st := St.out; outIdx := 0.U
@@ -322,8 +349,9 @@ class DgpCore(val p: DgpParams) extends Module {
     // zbar_i = floor((2 Sz_i + I) / (2 I)): Sz / I rounded to nearest
     val div = Module(new SerialDivider(p.divW, 18))
     val have = RegInit(false.B)
+    val sz = VecInit(flat(szU, n))
     div.io.start := st === St.out && !have && !div.io.busy && !div.io.done && !statusNow
-    div.io.x := (sz.get(outIdx) << 1) +& itersR.zext
+    div.io.x := (sz(outIdx) << 1) +& itersR.zext
     div.io.d := itersR << 1
     val q = div.io.q(W - 1, 0).asSInt
     val qc = VecInit((0 until n).map(i => clampAt(q, i)))(outIdx)

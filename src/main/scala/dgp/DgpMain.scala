@@ -12,7 +12,8 @@ object DgpMain extends App {
   def hwJson(p: DgpParams): String = {
     val (regJson, regions) = gen.CoreMain.registerJson(DgpRegs.map(p))
     ujson.write(ujson.Obj(
-      "module" -> p.moduleName, "n" -> p.n, "mc" -> p.mc, "lanes" -> p.lanes, "accelerated" -> p.accelerated,
+      "module" -> p.moduleName, "n" -> p.n, "mc" -> p.mc, "P" -> p.units, "lanes" -> p.lanes,
+      "accelerated" -> p.accelerated, "rounds" -> ujson.Obj("K" -> p.rK, "G" -> p.rG),
       "chunks" -> ujson.Obj("F" -> p.cF, "K" -> p.cK, "G" -> p.cG),
       "issue_cycles" -> ujson.Obj("F" -> p.issueF, "K" -> p.issueK, "G" -> p.issueG),
       "gap_cycles" -> ujson.Obj("K" -> p.gapK, "G" -> p.gapG),

@@ -8,7 +8,9 @@ import fixed.FixedOps
   * and the quantised data of iteration (35). Integers are words with `fracBits` fraction bits.
   *
   * @param mc     two-sided constraint rows (the dual has 2 mc words: upper rows, then lower rows)
-  * @param lanes  multipliers of the row unit: a row of c columns takes ceil(c / lanes) cycles
+  * @param units  row units P: unit u takes the rows u, u + P, ... of every pass (rK = ceil(n / P) rows of pass K
+  *               and rG = ceil(mc / P) of pass G each; the last rounds' missing rows are zero rows)
+  * @param lanes  multipliers of each row unit: a row of c columns takes ceil(c / lanes) cycles
   * @param k      K = -Q^-1 G', n x mc (z = K v + e)
   * @param g      G, mc x n (s = G z)
   * @param fe     Fe, n x nw (e = Fe w)
@@ -21,6 +23,7 @@ case class DgpParams(
     nu: Int,
     nw: Int,
     mc: Int,
+    units: Int,
     lanes: Int,
     accelerated: Boolean,
     fracBits: Int,
@@ -56,6 +59,7 @@ case class DgpParams(
   require(n >= 1 && nw >= 1 && mc >= 1, s"sizes must be >= 1: n=$n nw=$nw mc=$mc")
   require(nu >= 1 && n % nu == 0, s"nu must divide n: got nu=$nu, n=$n")
   require(lanes >= 1 && lanes <= math.max(n, math.max(mc, nw)), s"lanes must be in [1, longest row]: got $lanes")
+  require(units >= 1 && units <= math.max(n, mc), s"units P must be in [1, max(n, mc)]: got $units")
   require(fracBits >= 1, s"frac_bits must be >= 1, got $fracBits")
   require(latAdd >= 0 && latMul >= 0, s"latencies must be >= 0: got lat_add=$latAdd, lat_mul=$latMul")
   require(dataW >= 2 && dataW <= 62 && xW <= 62, s"data words must be in [2, 62] bits: got $dataW")
@@ -80,27 +84,36 @@ case class DgpParams(
   val cF: Int = chunks(nw)
   val cK: Int = chunks(mc)
   val cG: Int = chunks(n)
-  /** matrix memory rows (lanes words each): Fe, Lw, K, G rows, chunk by chunk */
+  /** rounds of the passes: each unit's rows of pass K (rK) and pass G (rG); the first pass takes the rows of Fe
+    * (rK rounds) then those of Lw (rG rounds) */
+  val rK: Int = (n + units - 1) / units
+  val rG: Int = (mc + units - 1) / units
+  /** rows of unit u: pass K, pass G */
+  def rowsK(u: Int): Int = if (u < n) (n - u + units - 1) / units else 0
+  def rowsG(u: Int): Int = if (u < mc) (mc - u + units - 1) / units else 0
+  /** each unit's matrix memory rows (lanes words each): its Fe, Lw, K, G rows, chunk by chunk */
   val baseF: Int = 0
-  val baseK: Int = (n + mc) * cF
-  val baseG: Int = baseK + n * cK
-  val matRows: Int = baseG + mc * cG
+  val baseK: Int = (rK + rG) * cF
+  val baseG: Int = baseK + rK * cK
+  val matRows: Int = baseG + rG * cG
   /** issue cycles of the passes */
-  val issueF: Int = (n + mc) * cF
-  val issueK: Int = n * cK
-  val issueG: Int = mc * cG
+  val issueF: Int = (rK + rG) * cF
+  val issueK: Int = rK * cK
+  val issueG: Int = rG * cG
 
   val depth: Int = log2Ceil(lanes)
   /** dot-product tree: l_M + l_A ceil(log2 lanes) */
   val treeLat: Int = latMul + latAdd * depth
-  /** from a chunk's issue (matrix address) to its row's sum in the accumulator register (row result stage):
-    * RAM read and operand register 1, tree, accumulator 1 */
-  val rowLat: Int = 1 + treeLat + 1
+  /** from a chunk's issue (matrix address, operand select) to its row's sum in the accumulator register (row
+    * result stage): RAM read with its output register and the operand registers 2, tree, accumulator 1 */
+  val rowLat: Int = 2 + treeLat + 1
+  /** registered levels that add the units' sums of the stopping and restart tests */
+  val unitDepth: Int = log2Ceil(units)
   /** idle cycles after pass K: its last z is written at its result stage, pass G's first operand reads it after */
   val gapK: Int = rowLat
-  /** idle cycles after pass G before the decision: the element stage (g; y_new, dy and the test's sums; y written)
-    * and the accelerated form's products (l_M) */
-  val gapG: Int = rowLat + 2 + (if (accelerated) latMul else 0)
+  /** idle cycles after pass G before the decision: the element stage (g; y_new, dy and the test's sums; y written),
+    * the accelerated form's products (l_M), the sums over the units and the registered test flags (1) */
+  val gapG: Int = rowLat + 2 + (if (accelerated) latMul else 0) + unitDepth + 1
   /** one iteration: pass K, gap, pass G, gap, the decision cycle */
   val cyclesPerIteration: Int = issueK + gapK + issueG + gapG + 1
   /** the averaged primal's dividend 2 Sz + I */
@@ -112,20 +125,25 @@ case class DgpParams(
   val solveOverhead: Int = 2 + issueF + divCycles
   /** data-dependent solve: from the handshake of the last input word to the first output word */
   def cyclesToOutput(iters: Int): Int = solveOverhead + iters * cyclesPerIteration
-  val multipliers: Int = lanes + (if (accelerated) 6 else 0)
+  val multipliers: Int = units * (lanes + (if (accelerated) 6 else 0))
 
   val moduleName: String =
-    s"DgpCore_${name}_n${n}_m${2 * mc}_l${lanes}_b${fracBits}" + (if (accelerated) "a" else "p") +
+    s"DgpCore_${name}_n${n}_m${2 * mc}_l${lanes}" + (if (units > 1) s"u$units" else "") + s"_b${fracBits}" + (if (accelerated) "a" else "p") +
       (if (target == Target.Generic) "" else s"_${target.name}")
 
   /** byte-address width of the AXI4-Lite port: the registers only (the data are fixed at generation) */
   val axiAddrW: Int = log2Ceil(shell.SolverRegs.RegionStart) + 2
 
-  def matInit: Seq[Seq[BigInt]] = {
+  /** unit u's matrix memory: its rows of Fe, Lw, K and G (zero rows past the last) */
+  def matInit(u: Int): Seq[Seq[BigInt]] = {
     def rowChunks(r: Seq[BigInt], c: Int) =
       (0 until c).map(j => (0 until lanes).map(l => r.lift(j * lanes + l).getOrElse(BigInt(0))))
-    fe.flatMap(rowChunks(_, cF)) ++ lw.flatMap(rowChunks(_, cF)) ++ k.flatMap(rowChunks(_, cK)) ++ g.flatMap(rowChunks(_, cG))
+    def mine(m: Seq[Seq[BigInt]], rounds: Int, c: Int) =
+      (0 until rounds).flatMap(k => rowChunks(m.lift(k * units + u).getOrElse(Nil), c))
+    mine(fe, rK, cF) ++ mine(lw, rG, cF) ++ mine(k, rK, cK) ++ mine(g, rG, cG)
   }
+  /** unit u's word of a per-row vector at round k (0 past the last row) */
+  def ofUnit(v: Seq[BigInt], u: Int, k: Int): BigInt = v.lift(k * units + u).getOrElse(BigInt(0))
 }
 
 object DgpParams {
@@ -136,7 +154,7 @@ object DgpParams {
     val w = j("widths")
     DgpParams(
       name = j("name").str, n = j("n").num.toInt, nu = j("nu").num.toInt, nw = j("nw").num.toInt,
-      mc = j("mc").num.toInt, lanes = j("lanes").num.toInt, accelerated = j("accelerated").bool,
+      mc = j("mc").num.toInt, units = j.obj.get("P").map(_.num.toInt).getOrElse(1), lanes = j("lanes").num.toInt, accelerated = j("accelerated").bool,
       fracBits = j("frac_bits").num.toInt, latAdd = j("lat_add").num.toInt, latMul = j("lat_mul").num.toInt,
       target = Target(j.obj.get("target").map(_.str).getOrElse("generic")),
       coefW = w("coef").num.toInt, xW = w("x").num.toInt, dataW = w("data").num.toInt, opW = w("op").num.toInt,
