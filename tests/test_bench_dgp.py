@@ -153,7 +153,7 @@ def _core_json(accelerated: bool) -> dict:
 
 def _fake_core(role: str, measured=None, ecp5=None, pnr=None):
     cj = _core_json(role == "accelerated")
-    design = SimpleNamespace(lanes=8, b=27, products=lambda: [(30, 39)], accelerated=role == "accelerated")
+    design = SimpleNamespace(P=1, lanes=8, b=27, products=lambda: [(30, 39)], accelerated=role == "accelerated")
     c = dgp.DgpBenchCore("ms", Path("/nonexistent") / role, design, role, core=cj, measured=measured, ecp5=ecp5,
                          pnr=pnr)
     return c
