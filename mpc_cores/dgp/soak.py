@@ -1,5 +1,5 @@
 """Random configurations of the DGP core for `make soak` (mpc_cores.soak): input boxes and hard state boxes, the
-plain and the accelerated form, lanes, pipeline latencies, targets and the accuracy the words are chosen for."""
+plain and the accelerated form, row units and lanes, pipeline latencies, targets and the accuracy the words are chosen for."""
 from __future__ import annotations
 
 from mpc_cores.soak.space import Config, SoakSpace, _box, pick, random_spec, target_latency
@@ -16,10 +16,13 @@ def draw(rng) -> Config:
     ny = len(spec.get("tracking", {}).get("outputs", []))
     longest = max(N * nu + N * hard, nx + ny)          # the longest matrix row: lanes beyond it are refused
     eps = pick(rng, [1e-2, 3e-3, 1e-3])
-    return Config(spec, dict(lanes=int(rng.integers(1, min(6, longest) + 1)), accelerated=accelerated, eps_g=eps, eps_V=eps,
-                             lat_add=int(rng.integers(0, 4)), **target_latency(rng, int(rng.integers(0, 4))),
-                             iterations=int(rng.integers(10, 61)) if accelerated else int(rng.integers(40, 301)),
-                             warm_start=bool(rng.random() < 0.8), output_all=bool(rng.random() < 0.3)))
+    design = dict(lanes=int(rng.integers(1, min(6, longest) + 1)), accelerated=accelerated, eps_g=eps, eps_V=eps,
+                  lat_add=int(rng.integers(0, 4)), **target_latency(rng, int(rng.integers(0, 4))),
+                  iterations=int(rng.integers(10, 61)) if accelerated else int(rng.integers(40, 301)),
+                  warm_start=bool(rng.random() < 0.8), output_all=bool(rng.random() < 0.3))
+    # row units last, so that the draws before them stay those of the configurations found before P existed
+    design["P"] = min(int(rng.integers(1, 5)), N * nu)
+    return Config(spec, design)
 
 
 def solve_cycles(core: dict) -> int:
@@ -39,7 +42,7 @@ SOAK = SoakSpace(
            "[0.1, 0.5] (configurations with a state from which the constraints cannot be met are refused by the "
            "design flow); 0 to min(nx, nu) tracked states",
            "design: accelerated (60 %, Imax in [10, 60]) or plain (Imax in [40, 300]); eps_g = eps_V in {1e-2, "
-           "3e-3, 1e-3} (the bits of (36)/(37)); lanes in [1, 6]; lat_add in [0, 3]; target generic (50 %, lat_mul "
+           "3e-3, 1e-3} (the bits of (36)/(37)); lanes in [1, 6]; P in [1, 4] row units (at most n); lat_add in [0, 3]; target generic (50 %, lat_mul "
            "in [0, 3]), ecp5 or xilinx7; warm start (80 %); full output (30 %)",
            "solves (verif/dgp/tb.py bitexact_random): random parameters, 10 % of words outside the box, random warm "
            "or cold start and IMAX, random idle and backpressure on both streams; words, status word and latency "
