@@ -2,7 +2,9 @@
 
 The dual gradient projection core (iteration (35) of 003, fixed point) on examples/masses_state.yaml (n = 40, 80
 two-sided rows: the input box and the position limits at stages 1..N, 160 one-sided) for the ECP5 (TARGET=ecp5,
-every product on MULT18X18D partial products), in both forms: accelerated (the spec's default) and plain.
+every product on MULT18X18D partial products), in both forms: accelerated (the spec's default) and plain; and the
+accelerated form on P = 2 row units of 20 lanes at 15 fraction bits (ROLE_OPTIONS), the core that fits the device
+with room to spare.
 
   cycles      per iteration and the solve overhead of core.json, measured in Verilator (cocotb test `cycle_contract`
               of verif.dgp.tb, which asserts the answer's cycle overhead + I x cycles_per_iteration);
@@ -20,7 +22,7 @@ every product on MULT18X18D partial products), in both forms: accelerated (the s
               its input saturation), single-threaded on one pinned CPU: median and p99 time per solve, the error
               max |u0 - u0*|, and the ratios of their times to the core's latency and throughput.
 
-QUICK: generation, both cores in Verilator, a shorter loop and fewer random states; Yosys and nextpnr results only
+QUICK: generation, the cores in Verilator, a shorter loop and fewer random states; Yosys and nextpnr results only
 when a run before cached them for the same SystemVerilog (mpc_bench.tools.is_cached). Records and report lines:
 mpc_bench.dgp_report. Alone it writes dgp.csv and dgp_report.md:
 
@@ -53,7 +55,12 @@ from mpc_cores.flow import REPO
 
 SPEC = REPO / "examples/masses_state.yaml"
 TARGET = "ecp5"
-ROLES = ("accelerated", "plain")
+# the roles: the spec's default design in both forms (P = 1, 8 lanes, the fraction bits of (36)), and the Fmax core
+# of row units (accelerated, P row units of `lanes` each, 15 fraction bits: the loop meets the same iterations and
+# accuracy as at (36)'s 27 bits, and every product fits two MULT18X18D)
+ROLES = ("accelerated", "plain", "units")
+ROLE_OPTIONS = {"accelerated": dict(accelerated=True), "plain": dict(accelerated=False),
+                "units": dict(accelerated=True, P=2, lanes=20, frac_bits=15)}
 # The closed loop (mpc_cores.closedloop.reference_schedule: references held `HOLD` steps, their steady-state input
 # inside mpc_cores.dgp.control.HOLDABLE of the input box) and the random states of the cold start.
 STEPS_FULL, STEPS_QUICK, HOLD, SEED = 200, 60, 5, 1
@@ -77,7 +84,7 @@ class DgpBenchCore(ToolResults):
     @property
     def tag(self) -> str:
         d = self.design
-        return f"DGP {self.problem} {self.role} lanes={d.lanes} b={d.b}"
+        return f"DGP {self.problem} {self.role} P={d.P} lanes={d.lanes} b={d.b}"
 
     @property
     def mult18(self) -> int:
@@ -334,7 +341,7 @@ class Section(QpSection):
             "%Y-%m-%d %H:%M UTC")
 
     def log_text(self) -> str:
-        return "DGP masses_state accelerated and plain (ECP5)"
+        return "DGP masses_state accelerated, plain and on row units (ECP5)"
 
     def plan(self) -> None:
         from mpc_cores.dgp.design import design_dgp
@@ -347,9 +354,8 @@ class Section(QpSection):
         for role in ROLES:
             tag = f"{problem.name}_{role}_{TARGET}"
             try:
-                d = cached_design(self.design_dir, f"dgp_{tag}", ("dgp", spec, role, TARGET),
-                                  lambda role=role: design_dgp(problem, target=TARGET,
-                                                               accelerated=role == "accelerated"))
+                d = cached_design(self.design_dir, f"dgp_{tag}", ("dgp", spec, role, TARGET, ROLE_OPTIONS[role]),
+                                  lambda role=role: design_dgp(problem, target=TARGET, **ROLE_OPTIONS[role]))
             except DesignError as e:
                 self.error(f"DGP {role}: design refused: {e}")
                 continue

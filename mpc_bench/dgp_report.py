@@ -114,8 +114,8 @@ def _form(r: dict) -> str:
 def _cycles_part(rows: list[dict]) -> list[str]:
     L = ["### Cycles", "",
          "core.json's contract: overhead + I x cycles per iteration from the last input word to the first answer "
-         "word, I the iterations run (1..Imax); cycles per iteration = pass K (n ceil(mc / lanes)) + its pipeline "
-         "+ pass G (mc ceil(n / lanes)) + its pipeline + 1. Measured: the cocotb test `cycle_contract` of "
+         "word, I the iterations run (1..Imax); cycles per iteration = pass K (ceil(n / P) ceil(mc / lanes)) + its "
+         "pipeline + pass G (ceil(mc / P) ceil(n / lanes)) + its pipeline + 1. Measured: the cocotb test `cycle_contract` of "
          "verif/dgp/tb.py in Verilator, which asserts every answer's cycle against the contract (Imax = 1, 2, 3, cold "
          "start) and reads CYCLES_PER_ITER.", ""]
     body = [[r["tag"], f"{r['issue_K']} + {r['issue_G']}", str(r["cycles_per_iteration"]), str(r["overhead"]),

@@ -38,12 +38,14 @@ def planned():
     return full, quick
 
 
-def test_plan_two_cores_for_the_ecp5(planned):
+def test_plan_three_cores_for_the_ecp5(planned):
     full, quick = planned
     assert not full.errors and not quick.errors
     assert [c.role for c in full.cores] == list(dgp.ROLES)
-    acc, plain = full.cores
+    acc, plain, units = full.cores
     assert acc.design.accelerated and not plain.design.accelerated
+    assert units.design.accelerated and (units.design.P, units.design.lanes, units.design.b) == (2, 20, 15)
+    assert len({c.design.module_name for c in full.cores}) == 3 and "l20u2_b15a" in units.design.module_name
     assert {c.design.target for c in full.cores} == {"ecp5"}
     assert acc.out != plain.out and acc.design.module_name != plain.design.module_name
     # the seeds of the Fmax cores of the other sections
@@ -56,13 +58,17 @@ def test_plan_two_cores_for_the_ecp5(planned):
 def test_multipliers_of_the_products(planned):
     from mpc_cores.target import parts
 
-    acc, plain = planned[0].cores
-    # accelerated: the lanes plus the 4 + 2 products of the extrapolation and the restart test
-    want = sum(c * parts("ecp5", a, b) for (a, b), c in zip(acc.design.products(), [acc.design.lanes, 4, 2]))
-    assert acc.mult18 == want
+    acc, plain, units = planned[0].cores
+    # accelerated: the lanes plus the 4 + 2 products of the extrapolation and the restart test, per row unit
+    for c in (acc, units):
+        d = c.design
+        want = sum(k * parts("ecp5", a, b) for (a, b), k in zip(d.products(), [d.P * d.lanes, 4 * d.P, 2 * d.P]))
+        assert c.mult18 == want
     assert plain.mult18 == plain.design.lanes * parts("ecp5", *plain.design.products()[0])
     assert acc.mult18 > plain.mult18
     assert acc.placeable == (acc.mult18 <= ECP5_85F["MULT18X18D"])
+    # 15 fraction bits: two MULT18X18D per lane, the row units' 40 lanes and their element stages fit the device
+    assert units.mult18 == 2 * 40 + 2 * (4 * 4 + 2 * 2) <= ECP5_85F["MULT18X18D"] and units.placeable
 
 
 def _with_sv(c) -> None:
@@ -93,13 +99,13 @@ def test_quick_jobs_take_the_tools_from_the_cache_only(planned, tmp_path):
     for c in quick.cores:
         c.out = tmp_path / c.role
         _with_sv(c)
-    acc, plain = quick.cores
+    acc, plain, units = quick.cores
     _cache(acc, "ecp5")
     _cache(acc, "nextpnr")
     _cache(plain, "ecp5")
     jobs = quick.jobs()
     names = [j.name for j in jobs]
-    assert sum("verilator" in n for n in names) == 2                    # both cores simulated
+    assert sum("verilator" in n for n in names) == 3                    # every core simulated
     assert f"{acc.tag} ecp5" in names and f"{plain.tag} ecp5" in names  # cached: costs nothing
     assert not any("xc7" in n for n in names)
     assert acc.place and not acc.pnr_note
