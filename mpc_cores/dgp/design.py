@@ -116,12 +116,16 @@ class DgpDesign(FixedPointDesign):
         return 2 + self.lat_mul + self.lat_add * depth + 1
 
     @property
+    def element_latency(self) -> int:
+        """from a row of pass G's sum to the test's sums that count it: plain 4; accelerated 7 + l_M (DgpParams)"""
+        return 7 + self.lat_mul if self.accelerated else 4
+
+    @property
     def gap_cycles(self) -> dict:
-        """after pass K: the row latency; after pass G: the element stage (2), the accelerated form's products,
-        the sums over the units (ceil(log2 P) registered levels) and the test's flags (1)"""
+        """after pass K: the row latency; after pass G: the row latency, the element stage and the sums over the
+        units (ceil(log2 P) registered levels)"""
         units = math.ceil(math.log2(self.P)) if self.P > 1 else 0
-        return {"K": self.row_latency,
-                "G": self.row_latency + 2 + (self.lat_mul if self.accelerated else 0) + units + 1}
+        return {"K": self.row_latency, "G": self.row_latency + self.element_latency + units}
 
     @property
     def cycles_per_iteration(self) -> int:

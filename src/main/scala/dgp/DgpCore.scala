@@ -59,9 +59,10 @@ class DgpCore(val p: DgpParams) extends Module {
   // ------------------------------------------------------------------ state
   // The vectors read row by row are, per unit, rotating FIFOs read at their head (as the FGM's, Fig. 1 of 002):
   // e and Sz (one step per row of pass K), lo, hi, y, the element stage's copy of the operand dual and Sg (one step
-  // per row of pass G, the new value entering at the tail). A pass rotates each exactly once round, so between
-  // passes unit u's element k is row k P + u. No row needs a wide multiplexer. The vectors read whole (the operand
-  // chunks of w, v and z; the output) are flat registers: row i of unit u's FIFOs is element i of them.
+  // per row of pass G, the new value entering at the tail). Each FIFO is read and rotated at one pipeline stage
+  // only, and a pass rotates it exactly once round, so between passes unit u's element k is row k P + u. No row
+  // needs a wide multiplexer. The vectors read whole (the operand chunks of w, the dual and z; the output) are
+  // flat: row i of unit u's FIFOs is element i of them.
   val wReg = Reg(Vec(nw, SInt(p.xW.W)))
   val eU   = Seq.fill(P)(Reg(Vec(rK, SInt(W.W))))
   val loU  = Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
@@ -69,16 +70,19 @@ class DgpCore(val p: DgpParams) extends Module {
   val z    = Reg(Vec(n, SInt(W.W)))
   /** the dual y = (y+, y-), upper and lower rows; it survives a solve (the warm start) */
   val yU   = Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W))))
-  /** the element stage's copy of the operand dual (accelerated: the extrapolated dual; plain: y itself) */
+  /** accelerated: the extrapolated dual, the operand of pass K (flat) and the element stage's copy (per unit);
+    * plain: y itself */
+  val wyH  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else Nil
   val wyEU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else yU
   /** accelerated: the extrapolated dual's candidate, written row by row */
   val wyc  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else Nil
-  /** the operand of pass K, v = wy+ - wy-, formed in the decision cycle (and at the start) */
-  val v    = Reg(Vec(mc, SInt(p.opW.W)))
   val szU  = if (acc) Nil else Seq.fill(P)(Reg(Vec(rK, SInt(p.sumW.W))))
   val sgU  = if (acc) Nil else Seq.fill(2, P)(Reg(Vec(rG, SInt(p.sumW.W))))
-  /** flat views: constraint row c is unit c mod P's element c / P */
+  /** flat views: row i is unit i mod P's element i / P */
   def flat(f: Seq[Vec[SInt]], len: Int): Seq[SInt] = (0 until len).map(i => f(i % P)(i / P))
+  val yFlat = yU.map(flat(_, mc))
+  /** the operand dual of pass K, flat */
+  val wyOp: Seq[Seq[SInt]] = if (acc) wyH else yFlat
   /** one step of a rotating FIFO: the head leaves, `in` enters at the tail */
   def rotate(q: Vec[SInt], in: SInt): Unit = {
     for (i <- 0 until q.length - 1) q(i) := q(i + 1)
@@ -117,24 +121,32 @@ class DgpCore(val p: DgpParams) extends Module {
   def chunksOf(ps: UInt): UInt = MuxLookup(ps, p.cF.U)(Seq(1.U -> p.cK.U, 2.U -> p.cG.U))
   def roundsOf(ps: UInt): UInt = MuxLookup(ps, (rK + rG).U)(Seq(1.U -> rK.U, 2.U -> rG.U))
 
+  /** per unit, `d` registered: a kept copy each when split, else one register for all */
+  def unitRegs[T <: Data](d: T): Seq[T] = KeepReg.copies(d, P, split)
+
   val take = st === St.idle && frameIn.io.full
   frameIn.io.take := take
   val warmNow = regs.ctrlWarm && regs.warmValid
-  val yFlat = yU.map(flat(_, mc))
+  // The start's resets and warm start act a cycle after the take, per unit from its own copies (they reach every
+  // register of the duals): the first pass reads none of them, and it takes at least one cycle
+  val startU = unitRegs(take)
+  val warmU  = unitRegs(warmNow)
   when(take) {
     wReg := frameIn.io.frame
     st := St.issue; pass := 0.U; addr := 0.U; chunk := 0.U; round := 0.U
     iter := 0.U; imax := regs.imaxReg; cycles := 0.U
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
-    violU.foreach(_ := false.B); gapU.foreach(_ := 0.S); rstU.foreach(_ := 0.S)
-    for (h <- 0 until 2; u <- 0 until P; k <- 0 until rG) {
-      when(!warmNow) { yU(h)(u)(k) := 0.S }
-      if (acc) wyEU(h)(u)(k) := Mux(warmNow, yU(h)(u)(k), 0.S)
+  }
+  for (u <- 0 until P) when(startU(u)) {
+    violU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S
+    for (h <- 0 until 2; k <- 0 until rG) {
+      when(!warmU(u)) { yU(h)(u)(k) := 0.S }
+      if (acc) wyEU(h)(u)(k) := Mux(warmU(u), yU(h)(u)(k), 0.S)
     }
-    for (c <- 0 until mc) v(c) := Mux(warmNow, yFlat(0)(c) -& yFlat(1)(c), 0.S)
-    szU.foreach(_.foreach(_ := 0.S))
-    sgU.flatten.foreach(_.foreach(_ := 0.S))
+    for (h <- 0 until 2; c <- u until mc by P) if (acc) wyH(h)(c) := Mux(warmU(u), yFlat(h)(c), 0.S)
+    szU.lift(u).foreach(_.foreach(_ := 0.S))
+    if (!acc) sgU.foreach(_(u).foreach(_ := 0.S))
   }
   // a frame's saturation belongs to its solve (the frame may arrive while the previous one runs)
   val frameSat = RegInit(false.B)
@@ -157,16 +169,20 @@ class DgpCore(val p: DgpParams) extends Module {
       }
     }
   }
+  val toDecide = st === St.gap && waitCnt === 0.U && pass === 2.U
   when(st === St.gap) {
     waitCnt := waitCnt - 1.U
     when(waitCnt === 0.U) {
       when(pass === 1.U) { st := St.issue; pass := 2.U }.otherwise { st := St.decide }
     }
   }
+  /** the decision cycle, per unit (registered from the cycle before) */
+  val decideU = unitRegs(toDecide)
 
   // ------------------------------------------------------------------ row units
-  // Issue (cycle 0): the matrix address and the operand chunk. Cycle 1: the chunk registered, the memory read.
-  // Cycle 2: the memory's output register and the chunk's copy at the unit: the tree's inputs.
+  // Issue (cycle 0): the matrix address and the operand chunk. Cycle 1: the chunk registered (pass K: the two
+  // duals' chunks, subtracted after the register), the memory read. Cycle 2: the memory's output register and the
+  // chunk's copy at the unit: the tree's inputs.
   val matRam = (0 until P).map { u =>
     val r = Module(new InitRam(s"${p.moduleName}_mat$u", p.matRows, p.lanes, p.coefW, p.matInit(u), outReg = true,
       ecp5 = p.target == Target.Ecp5 && p.matRows <= 1024))
@@ -187,14 +203,17 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the token at stage `d` (>= 1) per unit: split, a kept copy each of the token a stage earlier */
   def unitTok(d: Int): Seq[Tok] = if (split) Seq.fill(P)(KeepReg(tokAt(d - 1))) else Seq.fill(P)(tokAt(d))
 
-  // the operand chunk: w (first pass), v (K), z (G)
+  // the operand chunk: w (first pass), wy+ - wy- (K), z (G)
   def chunked(x: Seq[SInt], cs: Int): Vec[Vec[SInt]] =
     VecInit((0 until cs).map(j => VecInit((0 until p.lanes).map(l => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))))
-  val wCh = chunked(wReg, p.cF)(chunk)
-  val vCh = chunked(v, p.cK)(chunk)
-  val zCh = chunked(z, p.cG)(chunk)
-  val opR = RegNext(VecInit((0 until p.lanes).map(l => MuxLookup(pass, wCh(l))(Seq(1.U -> vCh(l), 2.U -> zCh(l))))))
-  val opU = KeepReg.copies(opR, P, split)
+  val wCh  = chunked(wReg, p.cF)(chunk)
+  val ypCh = chunked(wyOp(0), p.cK)(chunk)
+  val ymCh = chunked(wyOp(1), p.cK)(chunk)
+  val zCh  = chunked(z, p.cG)(chunk)
+  val opR  = RegNext(VecInit((0 until p.lanes).map(l => Mux(pass === 2.U, zCh(l), Mux(pass === 1.U, ypCh(l), wCh(l))))))
+  val opM  = RegNext(ymCh)
+  val op1  = VecInit((0 until p.lanes).map(l => Mux(tokAt(1).pass === 1.U, (opR(l) -& opM(l))(p.opW - 1, 0).asSInt, opR(l))))
+  val opU  = KeepReg.copies(op1, P, split)
   val tokTU = unitTok(2 + p.treeLat)
   val tokRU = unitTok(p.rowLat)
   val accR  = Seq.fill(P)(Reg(SInt(p.accW.W)))
@@ -210,10 +229,13 @@ class DgpCore(val p: DgpParams) extends Module {
   }
 
   // ------------------------------------------------------------------ per unit: row results and the element stage
-  val lo0U = (0 until P).map(u => VecInit((0 until rG).map(k => p.ofUnit(p.lo0, u, k).S(W.W))))
-  val hi0U = (0 until P).map(u => VecInit((0 until rG).map(k => p.ofUnit(p.hi0, u, k).S(W.W))))
+  // the bounds' constant parts by the first pass's round (rounds rK.. are the bounds' rows), the dual box by pass
+  // G's round
+  val lo0U = (0 until P).map(u => VecInit((0 until rK + rG).map(k => p.ofUnit(p.lo0, u, k - rK).S(W.W))))
+  val hi0U = (0 until P).map(u => VecInit((0 until rK + rG).map(k => p.ofUnit(p.hi0, u, k - rK).S(W.W))))
   val udU  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rG).map(k => p.ofUnit(p.ud.slice(h * mc, (h + 1) * mc), u, k).S(W.W))))
-  /** accelerated: per unit, its rows' gap, restart and extrapolation products, and where they land */
+  /** accelerated: per unit, the rows' restart and the extrapolated dual's writes */
+  val restartU = Wire(Vec(P, Bool()))
   for (u <- 0 until P) {
     val tokR  = tokRU(u)
     val rowOk = tokR.valid && tokR.last
@@ -221,9 +243,8 @@ class DgpCore(val p: DgpParams) extends Module {
     // first pass and pass K
     val (zNew, ofZ) = sat(a +& eU(u)(0))
     val (eNew, ofE) = sat(a)
-    val cIdx = tokR.round - rK.U
-    val (loNew, ofL) = sat(lo0U(u)(cIdx) +& a)
-    val (hiNew, ofH) = sat(hi0U(u)(cIdx) +& a)
+    val (loNew, ofL) = sat(lo0U(u)(tokR.round) +& a)
+    val (hiNew, ofH) = sat(hi0U(u)(tokR.round) +& a)
     when(rowOk && tokR.pass === 0.U) {
       // rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail
       when(tokR.round < rK.U) {
@@ -241,54 +262,90 @@ class DgpCore(val p: DgpParams) extends Module {
       szU.lift(u).foreach(s => rotate(s, s(0) + zNew))
     }
 
-    // pass G: E1: g = (s - hi, lo - s)
+    // pass G. E1: g = (s - hi, lo - s); lo and hi rotate here
     val (sNow, ofS) = sat(a)
     val (gpNow, ofGp) = sat(sNow -& hiU(u)(0))
     val (gmNow, ofGm) = sat(loU(u)(0) -& sNow)
-    when(rowOk && tokR.pass === 2.U) {
+    val rowG = rowOk && tokR.pass === 2.U
+    when(rowG) {
       rotate(loU(u), loU(u)(0)); rotate(hiU(u), hiU(u)(0))
       when(ofS || ofGp || ofGm) { ovfU(u) := true.B }
     }
-    val e1 = RegNext(rowOk && tokR.pass === 2.U, false.B)
+    val e1 = RegNext(rowG, false.B)
     val r1 = RegNext(tokR.round)
     val g1 = RegNext(VecInit(gpNow, gmNow))
-    // E2: y_new = clip(wy + g, 0, ud), dy = y_new - y; the sums of the test
-    val wy1   = wyEU.map(_(u)(0))
-    val yNew1 = (0 until 2).map(h => clip(wy1(h) +& g1(h), udU(h)(u)(r1)))
-    val dy1   = (0 until 2).map(h => (yNew1(h) -& yU(h)(u)(0))(W - 1, 0).asSInt)
-    when(e1) {
-      for (h <- 0 until 2) {
-        rotate(yU(h)(u), yNew1(h))                     // plain: also the element stage's operand dual
-        if (acc) rotate(wyEU(h)(u), wyEU(h)(u)(0))
-        if (!acc) {
-          val nv = sgU(h)(u)(0) + g1(h)
-          rotate(sgU(h)(u), nv)
-          when(nv > tThr) { violU(u) := true.B }
-        }
-      }
+    val u1 = RegNext(VecInit((0 until 2).map(h => udU(h)(u)(tokR.round))))
+    // E1b: g - ud - 1, so that E2 tests wy + g > ud from a sign (both sums in parallel)
+    val e1b = RegNext(e1, false.B)
+    val r1b = RegNext(r1)
+    val g1b = RegNext(g1)
+    val u1b = RegNext(u1)
+    val gmu = RegNext(VecInit((0 until 2).map(h => g1(h) -& u1(h) - 1.S)))
+    // E2: y_new = clip(wy + g, 0, ud) (plain: y rotates here, and Sg with the test's sum)
+    val wy2 = wyEU.map(_(u)(0))
+    val yNew = (0 until 2).map { h =>
+      val t = wy2(h) +& g1b(h)
+      val c = wy2(h) +& gmu(h)
+      Mux(t < 0.S, 0.S, Mux(c >= 0.S, u1b(h), t))(W - 1, 0).asSInt
     }
-    if (acc) when(e1 && (g1(0) > p.eg.S || g1(1) > p.eg.S)) { violU(u) := true.B }
     if (acc) {
-      val e2  = RegNext(e1, false.B)
-      val r2  = RegNext(r1)
-      val yN2 = RegNext(VecInit(yNew1))
-      val g2  = RegNext(g1)
-      val dy2 = RegNext(VecInit(dy1))
-      val wy2 = RegNext(VecInit(wy1))
+      when(e1b) { for (h <- 0 until 2) rotate(wyEU(h)(u), wyEU(h)(u)(0)) }
+      when(e1b && (g1b(0) > p.eg.S || g1b(1) > p.eg.S)) { violU(u) := true.B }
+    } else {
+      val nv = (0 until 2).map(h => sgU(h)(u)(0) + g1b(h))
+      when(e1b) { for (h <- 0 until 2) { rotate(yU(h)(u), yNew(h)); rotate(sgU(h)(u), nv(h)) } }
+      // E3: the test's sums against the threshold
+      val e3 = RegNext(e1b, false.B)
+      val nv3 = RegNext(VecInit(nv))
+      when(e3 && (nv3(0) > tThr || nv3(1) > tThr)) { violU(u) := true.B }
+    }
+    restartU(u) := false.B
+    if (acc) {
+      val e2  = RegNext(e1b, false.B)
+      val r2  = RegNext(r1b)
+      val yN2 = RegNext(VecInit(yNew))
+      val g2  = RegNext(g1b)
+      val w2  = RegNext(VecInit(wy2))
+      val u2  = RegNext(u1b)
+      // E3: y rotates, its old value kept for dy
+      val yOld = yU.map(_(u)(0))
+      when(e2) { for (h <- 0 until 2) rotate(yU(h)(u), yN2(h)) }
+      val e3 = RegNext(e2, false.B)
+      val r3 = RegNext(r2)
+      val yN3 = RegNext(yN2)
+      val yO3 = RegNext(VecInit(yOld))
+      val g3 = RegNext(g2)
+      val w3 = RegNext(w2)
+      val u3 = RegNext(u2)
+      // E4: dy = y_new - y
+      val e4  = RegNext(e3, false.B)
+      val r4  = RegNext(r3)
+      val yN4 = RegNext(yN3)
+      val dy4 = RegNext(VecInit((0 until 2).map(h => (yN3(h) -& yO3(h))(W - 1, 0).asSInt)))
+      val g4  = RegNext(g3)
+      val w4  = RegNext(w3)
+      val u4  = RegNext(u3)
       def prod(x: SInt, c: SInt): SInt = FixedOps.mulRoundPipelined(x, c, p.latMul, b, Rounding.Nearest, p.target)
-      val pGap = (0 until 2).map(h => prod(wy2(h), g2(h)))
-      val pRst = (0 until 2).map(h => prod(g2(h), dy2(h)))
-      val pExt = (0 until 2).map(h => prod(betaR, dy2(h)))
-      val e3  = ShiftRegister(e2, p.latMul, false.B, true.B)
-      val r3  = ShiftRegister(r2, p.latMul)
-      val yN3 = ShiftRegister(yN2, p.latMul)
-      val u3  = ShiftRegister(VecInit(udU.map(_(u)(r2))), p.latMul)
-      when(e3) {
-        gapU(u) := gapU(u) + pGap(0) + pGap(1)
-        rstU(u) := rstU(u) + pRst(0) + pRst(1)
-        // the extrapolated dual stays in [0, ud] (so the gap test bounds V(z) - V*)
+      val pGap = (0 until 2).map(h => prod(w4(h), g4(h)))
+      val pRst = (0 until 2).map(h => prod(g4(h), dy4(h)))
+      val pExt = (0 until 2).map(h => prod(betaR, dy4(h)))
+      // E5 (l_M later): the products' sums, and the extrapolation before its clip
+      val e5  = ShiftRegister(e4, p.latMul, false.B, true.B)
+      val r5  = ShiftRegister(r4, p.latMul)
+      val yN5 = ShiftRegister(yN4, p.latMul)
+      val u5  = ShiftRegister(u4, p.latMul)
+      val e6   = RegNext(e5, false.B)
+      val r6   = RegNext(r5)
+      val u6   = RegNext(u5)
+      val sGap = RegNext(pGap(0) +& pGap(1))
+      val sRst = RegNext(pRst(0) +& pRst(1))
+      val tExt = RegNext(VecInit((0 until 2).map(h => yN5(h) +& pExt(h))))
+      // E6: the sums, and the extrapolated dual, which stays in [0, ud] (so the gap test bounds V(z) - V*)
+      when(e6) {
+        gapU(u) := gapU(u) + sGap
+        rstU(u) := rstU(u) + sRst
         for (h <- 0 until 2; k <- 0 until p.rowsG(u))
-          when(r3 === k.U) { wyc(h)(k * P + u) := clip(yN3(h) +& pExt(h), u3(h)) }
+          when(r6 === k.U) { wyc(h)(k * P + u) := clip(tExt(h), u6(h)) }
       }
     }
   }
@@ -301,21 +358,25 @@ class DgpCore(val p: DgpParams) extends Module {
   val gapSum  = reduce[SInt](gapU, _ + _)
   val rstSum  = reduce[SInt](rstU, _ + _)
   val stop    = RegNext(!violAll && (if (acc) gapSum >= (-p.eV).S else true.B))
-  val restart = RegNext(rstSum < 0.S)
+  // the restart, per unit (it selects every dual word of the unit's rows)
+  if (acc) restartU := VecInit(unitRegs(rstSum < 0.S))
+  val restart = restartU(0)
   val finish  = stop || iter + 1.U === imax
   val outIdx  = RegInit(0.U(16.W))
+  for (u <- 0 until P) when(decideU(u)) {
+    violU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S
+    if (acc) {
+      for (h <- 0 until 2; k <- 0 until rG)
+        wyEU(h)(u)(k) := Mux(restartU(u), yU(h)(u)(k), wyc(h).lift(k * P + u).getOrElse(0.S))
+      for (h <- 0 until 2; c <- u until mc by P) wyH(h)(c) := Mux(restartU(u), yFlat(h)(c), wyc(h)(c))
+    }
+  }
   when(st === St.decide) {
-    violU.foreach(_ := false.B); gapU.foreach(_ := 0.S); rstU.foreach(_ := 0.S)
     tThr := tThr + p.eg.S
     if (acc) {
-      for (h <- 0 until 2; u <- 0 until P; k <- 0 until rG)
-        wyEU(h)(u)(k) := Mux(restart, yU(h)(u)(k), wyc(h).lift(k * P + u).getOrElse(0.S))
-      for (c <- 0 until mc) v(c) := Mux(restart, yFlat(0)(c) -& yFlat(1)(c), wyc(0)(c) -& wyc(1)(c))
       val kNew = Mux(restart, 0.U, Mux(kAcc === 255.U, 255.U, kAcc + 1.U))
       kAcc  := kNew
       betaR := betaRom(Mux(kNew === 255.U, 255.U, kNew + 1.U))
-    } else {
-      for (c <- 0 until mc) v(c) := yFlat(0)(c) -& yFlat(1)(c)
     }
     when(finish) {
       st := St.out; outIdx := 0.U
