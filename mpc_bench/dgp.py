@@ -61,6 +61,9 @@ TARGET = "ecp5"
 ROLES = ("accelerated", "plain", "units")
 ROLE_OPTIONS = {"accelerated": dict(accelerated=True), "plain": dict(accelerated=False),
                 "units": dict(accelerated=True, P=2, lanes=20, frac_bits=15)}
+# the roles nextpnr places in every run (QUICK included, with its seed): the spec's default designs at 27 fraction
+# bits fill most of the device's logic and route for hours, so only --dgp-place-all places them
+PLACED = ("units",)
 # The closed loop (mpc_cores.closedloop.reference_schedule: references held `HOLD` steps, their steady-state input
 # inside mpc_cores.dgp.control.HOLDABLE of the input box) and the random states of the cold start.
 STEPS_FULL, STEPS_QUICK, HOLD, SEED = 200, 60, 5, 1
@@ -327,6 +330,8 @@ class Section(QpSection):
 
     @staticmethod
     def add_arguments(ap: argparse.ArgumentParser) -> None:
+        ap.add_argument("--dgp-place-all", action="store_true",
+                        help="DGP: place the spec's default designs too (hours per seed), not only the row-unit core")
         ap.add_argument("--dgp-no-place", action="store_true",
                         help="DGP: Yosys resources only, no nextpnr (the accelerated masses_state core nearly "
                              "fills the LFE5U-85F and routes slowly)")
@@ -335,6 +340,7 @@ class Section(QpSection):
         super().configure(a)
         self.repeats = getattr(a, "repeats", None) or (2 if a.quick else 6)
         self.place = not (getattr(a, "no_place", False) or getattr(a, "dgp_no_place", False))
+        self.place_all = bool(getattr(a, "dgp_place_all", False))
         self.steps = STEPS_QUICK if a.quick else STEPS_FULL
         self.states = COLD_QUICK if a.quick else COLD_FULL
         self.date = self.run.info.get("date") or datetime.datetime.now(datetime.timezone.utc).strftime(
@@ -360,7 +366,8 @@ class Section(QpSection):
                 self.error(f"DGP {role}: design refused: {e}")
                 continue
             self.designs[role] = d
-            self.cores.append(DgpBenchCore(problem.name, root / "cores" / tag, d, role, place=self.place,
+            place = self.place and (role in PLACED or self.place_all)
+            self.cores.append(DgpBenchCore(problem.name, root / "cores" / tag, d, role, place=place,
                                            pnr_seeds=seeds))
         self.plan_text = (f"Cores: {problem.name} accelerated and plain, TARGET={TARGET} (Verilator, Yosys ECP5"
                           f"{', xc7' if self.xilinx else ''}, nextpnr{'' if self.place else ' off'}"
@@ -387,21 +394,25 @@ class Section(QpSection):
         test = registry.get("dgp").cycle_test
         log, out = self.run.log, []
         for c in self.cores:
-            if self.quick:
-                # QUICK: Yosys and nextpnr only where their results for this SystemVerilog are cached
+            hours = "not placed: the spec's default design routes for hours (--dgp-place-all places it)"
+            if self.quick and not (c.role in PLACED and c.place):
+                # QUICK: the row-unit core is synthesised and placed (its seed); the others' Yosys and nextpnr
+                # results only where they are cached for this SystemVerilog
+                wanted = c.place
                 c.synth, c.place = is_cached(c, "ecp5"), c.place and is_cached(c, "nextpnr")
                 if not c.synth:
                     c.pnr_note = "QUICK: no cached Yosys result for this SystemVerilog (a full run makes one)"
                 elif not c.place:
-                    c.pnr_note = "QUICK: no cached place and route for this netlist (a full run makes one)"
+                    c.pnr_note = ("QUICK: no cached place and route for this netlist (a full run makes one)" if wanted
+                                  else hours if self.place else "not placed (--dgp-no-place)")
                 if c.pnr_note:
                     log(f"{c.tag}: {c.pnr_note}")
             elif not c.place:
-                c.pnr_note = "not placed (--dgp-no-place)"
+                c.pnr_note = "not placed (--dgp-no-place)" if not self.place else hours
             out.append(Job(60, f"{c.tag} verilator", lambda c=c: measure_cycles(c, test, log)))
             if c.synth:
-                # Yosys about 260 s on the accelerated core; nextpnr over 40 min per seed (it fills 94 % of the LUT4)
-                pnr = 3600 * len(c.pnr_seeds) if c.place else 0
+                # Yosys about 260 s on the accelerated core; nextpnr over 40 min per seed on the default designs
+                pnr = (900 if c.role in PLACED else 3600) * len(c.pnr_seeds) if c.place else 0
                 out.append(Job(300 + pnr, f"{c.tag} ecp5", lambda c=c: synth_ecp5(c, log), wave=1))
                 if self.xilinx:
                     out.append(Job(600, f"{c.tag} xc7", lambda c=c: synth_xc7(c, log), wave=1))

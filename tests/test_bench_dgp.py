@@ -94,11 +94,19 @@ def _cache(c, step: str) -> None:
             kf.write_text(key)
 
 
-def test_quick_jobs_take_the_tools_from_the_cache_only(planned, tmp_path):
-    _, quick = planned
-    for c in quick.cores:
+def _quick_cores(tmp_path, **kw):
+    sec = dgp.Section(_run(REPO / "build" / "tests" / "bench_dgp", quick=True, **kw))
+    sec.plan()
+    for c in sec.cores:
         c.out = tmp_path / c.role
         _with_sv(c)
+    return sec
+
+
+def test_quick_jobs_take_the_tools_from_the_cache_only(tmp_path):
+    """QUICK: the row-unit core is synthesised and placed (its one seed); the default designs' Yosys results come
+    from the cache only, and their placements only with --dgp-place-all (they route for hours)"""
+    quick = _quick_cores(tmp_path / "a", dgp_place_all=True)
     acc, plain, units = quick.cores
     _cache(acc, "ecp5")
     _cache(acc, "nextpnr")
@@ -107,6 +115,7 @@ def test_quick_jobs_take_the_tools_from_the_cache_only(planned, tmp_path):
     names = [j.name for j in jobs]
     assert sum("verilator" in n for n in names) == 3                    # every core simulated
     assert f"{acc.tag} ecp5" in names and f"{plain.tag} ecp5" in names  # cached: costs nothing
+    assert f"{units.tag} ecp5" in names and units.place and not units.pnr_note  # placed, nothing cached
     assert not any("xc7" in n for n in names)
     assert acc.place and not acc.pnr_note
     assert not plain.place and "place and route" in plain.pnr_note
@@ -115,6 +124,13 @@ def test_quick_jobs_take_the_tools_from_the_cache_only(planned, tmp_path):
     acc.synth, acc.place, acc.pnr_note = True, True, ""
     jobs = quick.jobs()
     assert f"{acc.tag} ecp5" not in [j.name for j in jobs] and acc.pnr_note.startswith("QUICK")
+    # without --dgp-place-all a cached placement of a default design is not reported
+    quick = _quick_cores(tmp_path / "b")
+    acc, _, units = quick.cores
+    _cache(acc, "ecp5")
+    _cache(acc, "nextpnr")
+    quick.jobs()
+    assert not acc.place and "--dgp-place-all" in acc.pnr_note and units.place
 
 
 def test_full_jobs(planned, tmp_path):
@@ -127,7 +143,8 @@ def test_full_jobs(planned, tmp_path):
         mine = {j.name: j for j in jobs if j.name.startswith(c.tag + " ")}
         assert set(mine) == {f"{c.tag} verilator", f"{c.tag} ecp5", f"{c.tag} xc7"}
         assert mine[f"{c.tag} verilator"].wave < mine[f"{c.tag} ecp5"].wave
-        assert c.place and not c.pnr_note
+        # only the row-unit core is placed unless --dgp-place-all
+        assert c.place == (c.role in dgp.PLACED) and ("--dgp-place-all" in c.pnr_note) == (c.role not in dgp.PLACED)
 
 
 def test_no_place_option(tmp_path):
