@@ -117,8 +117,8 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def element_latency(self) -> int:
-        """from a row of pass G's sum to the test's sums that count it: plain 4; accelerated 7 + l_M (DgpParams)"""
-        return 7 + self.lat_mul if self.accelerated else 4
+        """from a row of pass G's sum to the test's sums that count it: plain 5; accelerated 8 + l_M (DgpParams)"""
+        return 8 + self.lat_mul if self.accelerated else 5
 
     @property
     def gap_cycles(self) -> dict:

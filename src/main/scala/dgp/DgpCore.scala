@@ -243,8 +243,14 @@ class DgpCore(val p: DgpParams) extends Module {
     // first pass and pass K
     val (zNew, ofZ) = sat(a +& eU(u)(0))
     val (eNew, ofE) = sat(a)
-    val (loNew, ofL) = sat(lo0U(u)(tokR.round) +& a)
-    val (hiNew, ofH) = sat(hi0U(u)(tokR.round) +& a)
+    // the bounds' constants read a cycle ahead, by the token of the stage before
+    val tokPre = tokAt(p.rowLat - 1)
+    val lo0R = Reg(SInt(W.W))
+    val hi0R = Reg(SInt(W.W))
+    lo0R := lo0U(u)(tokPre.round)
+    hi0R := hi0U(u)(tokPre.round)
+    val (loNew, ofL) = sat(lo0R +& a)
+    val (hiNew, ofH) = sat(hi0R +& a)
     when(rowOk && tokR.pass === 0.U) {
       // rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail
       when(tokR.round < rK.U) {
@@ -262,19 +268,29 @@ class DgpCore(val p: DgpParams) extends Module {
       szU.lift(u).foreach(s => rotate(s, s(0) + zNew))
     }
 
-    // pass G. E1: g = (s - hi, lo - s); lo and hi rotate here
+    // pass G. E0: s = sat(G z), the bounds of the row (lo and hi rotate here) and its dual box, registered
     val (sNow, ofS) = sat(a)
-    val (gpNow, ofGp) = sat(sNow -& hiU(u)(0))
-    val (gmNow, ofGm) = sat(loU(u)(0) -& sNow)
     val rowG = rowOk && tokR.pass === 2.U
     when(rowG) {
       rotate(loU(u), loU(u)(0)); rotate(hiU(u), hiU(u)(0))
-      when(ofS || ofGp || ofGm) { ovfU(u) := true.B }
+      when(ofS) { ovfU(u) := true.B }
     }
-    val e1 = RegNext(rowG, false.B)
-    val r1 = RegNext(tokR.round)
+    val e0  = RegNext(rowG, false.B)
+    val r0  = RegNext(tokR.round)
+    val s0  = Reg(SInt(W.W))
+    s0 := sNow
+    val (lo0, hi0) = (Reg(SInt(W.W)), Reg(SInt(W.W)))  // typed: RegNext leaves the width to inference
+    lo0 := loU(u)(0)
+    hi0 := hiU(u)(0)
+    val u0  = RegNext(VecInit((0 until 2).map(h => udU(h)(u)(tokR.round))))
+    // E1: g = (s - hi, lo - s)
+    val (gpNow, ofGp) = sat(s0 -& hi0)
+    val (gmNow, ofGm) = sat(lo0 -& s0)
+    when(e0 && (ofGp || ofGm)) { ovfU(u) := true.B }
+    val e1 = RegNext(e0, false.B)
+    val r1 = RegNext(r0)
     val g1 = RegNext(VecInit(gpNow, gmNow))
-    val u1 = RegNext(VecInit((0 until 2).map(h => udU(h)(u)(tokR.round))))
+    val u1 = RegNext(u0)
     // E1b: g - ud - 1, so that E2 tests wy + g > ud from a sign (both sums in parallel)
     val e1b = RegNext(e1, false.B)
     val r1b = RegNext(r1)
@@ -400,8 +416,9 @@ class DgpCore(val p: DgpParams) extends Module {
   val word = Reg(SInt(W.W))
   val wordOk = Wire(Bool())
   if (acc) {
-    // z is final from the decision cycle on: word 0 is loaded there, word i + 1 when word i leaves
-    val zc = VecInit((0 until n).map(i => clampAt(z(i), i)))
+    // z is final from the decision cycle on (its clamped copy, a cycle behind z, long before): word 0 is loaded
+    // there, word i + 1 when word i leaves
+    val zc = RegNext(VecInit((0 until n).map(i => clampAt(z(i), i))))
     val outNext = RegInit(0.U(16.W))
     when(st === St.decide && finish) { word := zc(0); outNext := 1.U }
     when(m_axis.fire) { word := zc(outNext); outNext := outNext + 1.U }
@@ -415,8 +432,10 @@ class DgpCore(val p: DgpParams) extends Module {
     div.io.x := (sz(outIdx) << 1) +& itersR.zext
     div.io.d := itersR << 1
     val q = div.io.q(W - 1, 0).asSInt
-    val qc = VecInit((0 until n).map(i => clampAt(q, i)))(outIdx)
-    when(div.io.done) { have := true.B; word := qc }
+    // the box of the word being divided, registered from its index (which holds while the divider runs)
+    val qLo = RegNext(VecInit(p.outLo.map(_.S(W.W)))(outIdx))
+    val qHi = RegNext(VecInit(p.outHi.map(_.S(W.W)))(outIdx))
+    when(div.io.done) { have := true.B; word := Mux(q < qLo, qLo, Mux(q > qHi, qHi, q)) }
     when(m_axis.fire) { have := false.B }
     wordOk := have
   }
