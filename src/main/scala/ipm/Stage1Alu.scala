@@ -4,9 +4,9 @@ import chisel3._
 import chisel3.util._
 import float._
 
-/** The units of the Stage 1 engine and its write-back. One element enters per cycle (`valid`, with the
-  * input-stream word, its index in the instruction, and its destination address; its operands a, b come a cycle
-  * ahead with `pre`, into the op's unit's own registers); the unit of `op`
+/** The units of the Stage 1 engine and its write-back. One element enters per cycle (announced a cycle ahead by
+  * `pre`, with its operands a, b, into the op's unit's own registers; then with the input-stream word, its index in
+  * the instruction, and its destination address); the unit of `op`
   * returns its result `latency(op)` cycles later (mpc_cores.ipm.isa.latency) with the destination address
   * delayed alongside, and `wen`, `wdata`, `waddr` drive the write port of the slot memory. Instructions do not
   * overlap in here (the engine starts one only after the previous one's last result), so at most one unit
@@ -29,7 +29,6 @@ class Stage1Alu(p: Stage1Params) extends Module {
   private val fmt = p.fmt
   private val w   = fmt.width
   val io = IO(new Bundle {
-    val valid  = Input(Bool())
     val op     = Input(UInt(OpW.W))
     val n      = Input(UInt(NW.W))
     val idx    = Input(UInt(NW.W))
@@ -48,7 +47,9 @@ class Stage1Alu(p: Stage1Params) extends Module {
   // op and n hold for all of an instruction's elements and from at least a cycle before its first (the engine
   // loads them at the launch, 7 cycles ahead): their decode is registered, off the operands' paths
   private val opIs = Isa.ops.indices.map(c => RegNext(io.op === c.U, false.B))
-  private def is(codes: Int*): Bool = io.valid && codes.map(opIs(_)).reduce(_ || _)
+  /** an element of `codes` is here: valid and the op's decode in one register per call, next to the unit that
+    * takes it (pre, valid a cycle ahead), so that no valid register drives every unit across the device */
+  private def is(codes: Int*): Bool = RegNext(io.pre && codes.map(c => io.op === c.U).reduce(_ || _), false.B)
   /** the operands of the units of `codes`: each unit's own registers next to it, loaded the cycle before its
     * element enters (no shared operand register fanning out to every unit) */
   private def operands(codes: Int*): (UInt, UInt) = {

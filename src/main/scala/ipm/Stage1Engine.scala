@@ -258,7 +258,6 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val aU    = RegEnable(aD, vD && curOut) // the OUT word; the units register their own operands
 
   private val alu = Module(new Stage1Alu(p))
-  alu.io.valid  := vU
   alu.io.op     := cur.op
   alu.io.n      := cur.n
   alu.io.idx    := eU.i
