@@ -61,8 +61,8 @@ TARGET = "ecp5"
 ROLES = ("accelerated", "plain", "units")
 ROLE_OPTIONS = {"accelerated": dict(accelerated=True), "plain": dict(accelerated=False),
                 "units": dict(accelerated=True, P=2, lanes=20, frac_bits=15)}
-# the roles nextpnr places in every run (QUICK included, with its seed): the spec's default designs at 27 fraction
-# bits fill most of the device's logic and route for hours, so only --dgp-place-all places them
+# the roles nextpnr places in a full run (QUICK: from the cache): the spec's default designs at 27 fraction bits
+# fill most of the device's logic and route for hours, so only --dgp-place-all places them
 PLACED = ("units",)
 # The closed loop (mpc_cores.closedloop.reference_schedule: references held `HOLD` steps, their steady-state input
 # inside mpc_cores.dgp.control.HOLDABLE of the input box) and the random states of the cold start.
@@ -395,9 +395,9 @@ class Section(QpSection):
         log, out = self.run.log, []
         for c in self.cores:
             hours = "not placed: the spec's default design routes for hours (--dgp-place-all places it)"
-            if self.quick and not (c.role in PLACED and c.place):
-                # QUICK: the row-unit core is synthesised and placed (its seed); the others' Yosys and nextpnr
-                # results only where they are cached for this SystemVerilog
+            if self.quick:
+                # QUICK: Yosys and nextpnr results only where they are cached for this SystemVerilog (the row-unit
+                # core's routing time on the LFE5U-85F is not known to fit QUICK's budget)
                 wanted = c.place
                 c.synth, c.place = is_cached(c, "ecp5"), c.place and is_cached(c, "nextpnr")
                 if not c.synth:
