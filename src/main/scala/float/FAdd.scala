@@ -7,7 +7,8 @@ import chisel3.util._
   * cycle). Steps: 0 classify and order by magnitude, 1 and 2 align the smaller operand (guard, round and sticky
   * bits; the shifter's wide levels, then its narrow ones), 3 add or subtract (one adder: a - b = a + ~b + 1),
   * then RoundPack (normalise, round, pack). A tiny sum is exact, so RoundPack's normalisation stops at the
-  * smallest normal exponent and needs no right shift (tinyExact).
+  * smallest normal exponent and needs no right shift (tinyExact). Step 0's exponent difference comes from the
+  * exponents' own subtraction, beside the full-width magnitude compare rather than after it.
   * An exact zero sum is +0, except (-0) + (-0) = -0 (IEEE 754 6.3, round to nearest): with an effective
   * subtraction the sum is zero exactly when the magnitudes are equal, which step 0 finds from the bit patterns.
   */
@@ -67,7 +68,10 @@ class FAdd(val fmt: FloatFormat, val latency: Int) extends Module {
   s0.p.isInf      := ua.isInf || ub.isInf
   s0.p.invalid    := ua.isSNaN || ub.isSNaN || infDiff
   s0.smallSig     := Mux(swap, ua.sig, ub.sig)
-  s0.diff         := Mux(swap, expF(b) - expF(a), expF(a) - expF(b))
+  // |expF(a) - expF(b)| from the exponents alone: the order of the exponent fields agrees with the magnitudes'
+  // (equal exponents give 0 either way), so the difference does not wait for the full-width compare
+  private val dAB = expF(a).pad(fmt.expW + 1) - expF(b)
+  s0.diff         := Mux(dAB(fmt.expW), expF(b) - expF(a), dAB(fmt.expW - 1, 0))
   val r0 = stages.cut(0, s0)
 
   // ---- steps 1 and 2: align the smaller significand; the bits shifted out are ORed into the sticky LSB
