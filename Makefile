@@ -8,17 +8,17 @@ SBT_JAR     := $(HOME)/.m2/repository/org/scala-sbt/sbt-launch/$(SBT_VERSION)/sb
 
 .DEFAULT_GOAL := help
 
-##v CORE: core kind: fgm, admm, ama, vucondat, minres, ipm, dgp (default fgm)
+##v CORE: core kind (kinds: fgm, admm, ama, vucondat, minres, ipm, dgp), default fgm
 ##v PROBLEM: the MPC spec (default examples/masses.yaml; the format: docs/spec.md)
 ##v P, B: row units, fraction bits (override the spec's solver: section, as the variables below)
 ##v OUT: output folder
-##v TOL: make design: a tolerance the design is certified for (fgm, dgp)
+##v TOL: make design: a tolerance the design is certified for (kinds: fgm, dgp)
 ##v TARGET, LAT_ADD, LAT_MUL: FPGA family of the multipliers (generic, ecp5, xilinx7), pipeline registers
-##v PROBLEMS: K_p problems interleaved on the row units (fgm, admm)
-##v LANES: multipliers per row unit (admm family, dgp), or fit (sized for the LFE5U-85F)
+##v PROBLEMS: K_p problems interleaved on the row units (kinds: fgm, admm, ama, vucondat)
+##v LANES: multipliers per row unit, or fit (sized for the LFE5U-85F) (kinds: admm, ama, vucondat, dgp)
 ##v EARLY_EXIT: fgm: true builds the exit test (a solve ends once z stops moving, else at IMAX)
 ##v EXIT_TOL: fgm: the exit test's tolerance in the units of u (builds the test; default 2 LSB)
-##v FORMAT, LATENCY: float cores (minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact, fast)
+##v FORMAT, LATENCY: float cores (kinds: minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact, fast)
 ##v ITER: iteration count (Imax; I_MR for ipm); without it the spec's, or the design check's choice for GAP
 ##v GAP, CYCLES, CHECK: design check: target closed-loop cost gap in percent, cycle budget per solve; CHECK=0 skips it
 ##v JOBS, PYTEST_ARGS, WAVES: make test: workers (default auto), more pytest arguments, WAVES=1 traces every simulation
@@ -88,12 +88,12 @@ setup: $(VENV)/.installed $(SBT_JAR)
 verilog: setup
 	$(MPC) verilog $(GEN_ARGS)
 
-## c: portable C99 solvers of CORE (fgm, admm) for PROBLEM into OUT, bit-exact fixed point and float (the same
+## c: portable C99 solvers of CORE (kinds: fgm, admm, ama, vucondat, dgp) for PROBLEM into OUT, bit-exact fixed point and float (the same
 ## overrides as verilog; needs the Python environment and gcc to build them, not sbt or Java)
 c: $(VENV)/.installed
 	$(MPC) c $(GEN_ARGS)
 
-## split: the heterogeneous split of CORE (admm, ama, vucondat) into OUT: the hardware block of the linear-system
+## split: the heterogeneous split of CORE (kinds: admm, ama, vucondat) into OUT: the hardware block of the linear-system
 ## step s = M11 v (<module>_linstep.sv, linstep.json) and the C solvers, whose _solve_split calls it
 split: setup
 	$(MPC) split $(GEN_ARGS)
@@ -111,7 +111,8 @@ test: setup
 test-slow: setup
 	$(PY) -m pytest tests -q -s -m slow $(PYTEST_ARGS)
 
-## demo: generate CORE (fgm, admm, ipm) for PROBLEM and run it in a closed loop with the Verilator model (OUT: build/demo)
+## demo: generate CORE (kinds: fgm, admm, ama, vucondat, ipm, dgp) for PROBLEM and run it in a closed loop with the
+## Verilator model (OUT: build/demo)
 demo: setup
 	$(MPC) demo $(GEN_ARGS)
 
@@ -123,12 +124,11 @@ table2: setup
 ## methods: comparison of the splitting family (ADMM, AMA, Vu-Condat; plain/accelerated, with/without the power-of-two
 ## preconditioner) and the DGP in float64 into build/reports/methods.md and methods.json (METHODS_ARGS, e.g. --quick)
 methods: $(VENV)/.installed
-	$(PY) -m mpc_cores.methods_table --out build/reports $(METHODS_ARGS)
+	$(MPC) methods --out build/reports $(METHODS_ARGS)
 
-## bench: benchmark report of the FGM, ADMM and MINRES cores into BENCH (cycles, Yosys resources, nextpnr Fmax,
-## latency against 002/001, OSQP, scipy and numpy on this CPU); QUICK=1 for the short sweep (FGM P = 1, b = 16,
-## also pipelined; ADMM masses P = 1 in Verilator, small problem pipelined P = 1; MINRES P = 1 in Verilator; no
-## Xilinx synthesis); BENCH_ARGS for more (e.g. --jobs 1, --cores admm)
+## bench: benchmark report of every kind's cores into BENCH (cycles, Yosys resources, nextpnr Fmax on the LFE5U-85F,
+## latency against the papers and the CPU solvers DAQP, OSQP, TinyMPC by their own timers); QUICK=1 for the short
+## run (one Fmax seed, no Xilinx synthesis); BENCH_ARGS for more (e.g. --jobs 1, --cores admm, --no-xilinx)
 BENCH ?= build/bench
 $(VENV)/.bench-installed: requirements-bench.txt $(VENV)/.installed
 	$(PY) -m pip install -q -r requirements-bench.txt

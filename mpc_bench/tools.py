@@ -161,7 +161,9 @@ class ToolResults:
 
     @property
     def lpf(self) -> Path:
-        return CONSTRAINTS / f"{self.kind}_core.lpf"
+        from mpc_cores import registry
+
+        return REPO / registry.get(self.kind).lpf
 
     @property
     def sv(self) -> Path:

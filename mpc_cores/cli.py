@@ -214,6 +214,11 @@ def cmd_test(rest: list[str]) -> None:
 def main(argv=None) -> None:
     argv = list(sys.argv[1:] if argv is None else argv)
     kinds = registry.names()
+
+    def who(opt: str) -> str:
+        """the kinds that take override `opt`"""
+        return ", ".join(n for n, k in registry.kinds().items() if opt in k.overrides)
+
     ap = _Parser(prog="mpc-cores", description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     for name, what in (("design", "design report (with --tol: certified design)"),
@@ -230,18 +235,19 @@ def main(argv=None) -> None:
         s.add_argument("--lat-mul", dest="lat_mul")
         s.add_argument("--rounding", help="truncate or nearest")
         s.add_argument("--iterations")
-        s.add_argument("--format", help="float format (MINRES, ipm): binary32, binary16 or e<E>m<M>, e.g. e8m17")
-        s.add_argument("--latency", help="float operator latencies (MINRES, ipm): compact (fewest cycles) or fast "
-                                         "(150 MHz on the LFE5U-85F)")
-        s.add_argument("--target", help="FPGA family: generic, ecp5 or xilinx7 (fgm, admm: the multipliers; minres, "
-                       "ipm: ecp5 builds the memories from DP16KD with their output register)")
-        s.add_argument("--problems", help="K_p, problems interleaved on the row units (fgm, admm): 1 to 16")
-        s.add_argument("--lanes", help="multipliers per row unit (admm family, P = 1): a row's dot product in "
-                                       "ceil(n_A / lanes) chunks, a power of two; 'fit': the fewest chunks whose "
-                                       "products fit the LFE5U-85F's 156 MULT18X18D")
-        s.add_argument("--early-exit", dest="early_exit", help="fgm: build the exit test (true or false): a solve "
+        s.add_argument("--format", help=f"float format ({who('format')}): binary32, binary16 or e<E>m<M>, e.g. "
+                                        "e8m17")
+        s.add_argument("--latency", help=f"float operator latencies ({who('latency')}): compact (fewest cycles) or "
+                                         "fast (150 MHz on the LFE5U-85F)")
+        s.add_argument("--target", help=f"FPGA family ({who('target')}): generic, ecp5 or xilinx7 (the fixed-point "
+                       "cores' multipliers; the float cores' memories from DP16KD with their output register)")
+        s.add_argument("--problems", help=f"K_p, problems interleaved on the row units ({who('problems')}): 1 to 16")
+        s.add_argument("--lanes", help=f"multipliers per row unit ({who('lanes')}): a row's dot product in "
+                                       "ceil(columns / lanes) chunks; 'fit': the fewest chunks whose products fit "
+                                       "the LFE5U-85F's 156 MULT18X18D")
+        s.add_argument("--early-exit", dest="early_exit", help=f"{who('early_exit')}: build the exit test (true or false): a solve "
                        "ends when two iterations in a row move no word of z by EXIT_TOL or more, else at IMAX")
-        s.add_argument("--exit-tol", dest="exit_tol", help="fgm: the exit test's tolerance in the units of u "
+        s.add_argument("--exit-tol", dest="exit_tol", help=f"{who('exit_tol')}: the exit test's tolerance in the units of u "
                        "(EXIT_TOL's reset value; builds the test)")
         s.add_argument("--out")
         s.add_argument("--gap", help="design check target: closed-loop cost at most this many percent above the "
@@ -252,22 +258,24 @@ def main(argv=None) -> None:
         if name == "design":
             s.add_argument("--tol", help="target ||z_fixed - z*||_2 over the state box")
         if name == "demo":
-            s.add_argument("--steps", type=int, default=None, help="closed-loop steps (default: the kind's, 60; "
-                                                                   "ipm 20)")
-            s.add_argument("--hold", type=int, default=None, help="steps a reference holds (default 20; ipm 5)")
+            steps = ", ".join(f"{n} {k.demo_steps[0]}" for n, k in registry.kinds().items() if k.has_demo)
+            hold = ", ".join(f"{n} {k.demo_steps[1]}" for n, k in registry.kinds().items() if k.has_demo)
+            s.add_argument("--steps", type=int, default=None, help=f"closed-loop steps (default: the kind's: {steps})")
+            s.add_argument("--hold", type=int, default=None, help=f"steps a reference holds (default: {hold})")
             s.add_argument("--seed", type=int, default=0)
     for name, what in (("table2", "closed-loop cost tables (options: see `mpc-cores table2 --help`)"),
                        ("bench", "benchmark report (options: see `mpc-cores bench --help`)"),
                        ("soak", "random configurations against the golden model (see `mpc-cores soak --help`)"),
                        ("gallery", "every kind on every plant of examples/ into docs/gallery.md (see --help)"),
+                       ("methods", "the methods of 004 compared in float64 (see `mpc-cores methods --help`)"),
                        ("test", "the verification suite (pytest options follow)")):
         sub.add_parser(name, help=what, add_help=False)
-    if argv and argv[0] in ("table2", "bench", "soak", "gallery", "test"):
+    if argv and argv[0] in ("table2", "bench", "soak", "gallery", "methods", "test"):
         cmd, rest = argv[0], argv[1:]
         if cmd == "test":
             return cmd_test(rest)
         return _forward({"table2": "mpc_bench.tables", "bench": "mpc_bench.bench", "soak": "mpc_cores.soak.run",
-                         "gallery": "mpc_bench.gallery"}[cmd], rest)
+                         "gallery": "mpc_bench.gallery", "methods": "mpc_cores.methods_table"}[cmd], rest)
     a = ap.parse_args(argv)
     if a.cmd == "demo" and not a.out:
         a.out = "build/demo"

@@ -5,6 +5,8 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
 
   name, title          CORE=<name> and a one-line description
   spec_section         the keys of the spec's `solver:` section it reads (documentation and refusals)
+  spec_rules           the rules of its own `solver:` keys, those no other kind reads (the shared ones are
+                       mpc_cores.schema.SHARED_SOLVER); the schema is assembled from them
   overrides            the command-line overrides it accepts (P, frac_bits, lat_add, ...)
   generator_main       the Scala object sbt runs: `<main> <config.json> <outDir> [...]`, writing the SV, hw.json
                        and the SystemRDL register description
@@ -14,6 +16,12 @@ A core kind provides, in its own subpackage mpc_cores/<kind>/ and its Scala pack
   golden_model(cfg)    the bit-exact model of a generated core, from its config.json
   testbench            the cocotb module of verif/ with its scenarios, `cycle_test` among them (the cycle contract)
   bench                the module of mpc_bench with its section of the benchmark
+  small                its small core (mpc_cores.small.SmallCore), for the per-kind protocol suites (fuzz,
+                       registers, assertions) and a case of its RTL suite; mpc_cores.<name>.kind:small by default
+  docs_page, lpf       its reference page (docs/<name>.md) and the clock constraints of the core as a top level
+                       (constraints/<name>_core.lpf), by default
+  fuzz                 its protocol-fuzz family (verif.fuzz.kinds.Family: adapter, testbench class, the protocol
+                       violations forced into it), verif.<name>.fuzz:FAMILY by default
   soak                 its random configurations and testbench knobs for `make soak` (mpc_cores.soak.space.SoakSpace)
   constraints          the spec's constraint sections it enforces (of SECTIONS); a spec with any other is refused
   facts(d)             report module's facts(d): iterations, cycles per solve, multipliers, words (mpc_cores.check)
@@ -37,7 +45,7 @@ imports the testbenches or the benchmark.
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from mpc_cores.errors import DesignError
 
@@ -68,7 +76,12 @@ class CoreKind:
     testbench: str = ""            # cocotb test module
     bench: str = ""                # benchmark section module
     soak: str = ""                 # "module:attribute", the SoakSpace of `make soak`
+    fuzz: str = ""                 # "module:attribute", the protocol fuzz's Family (verif.fuzz.kinds)
+    small: str = ""                # "module:function() -> mpc_cores.small.SmallCore", the per-kind suites' core
+    docs_page: str = ""            # its reference page (docs/verification.md's template)
+    lpf: str = ""                  # the nextpnr clock constraints of the core as a top level (make bench)
     spec_section: tuple[str, ...] = ()
+    spec_rules: dict = field(default_factory=dict, hash=False, compare=False)  # key -> mpc_cores.schema rule
     overrides: tuple[str, ...] = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "target")
     controllers_fn: str | None = None  # "module:function(design) -> (optimal, golden, holdable)" for the demo
     tol_fn: str | None = None      # "module:function(kind, spec_path, tol, overrides, out)": `make design TOL=...`
@@ -88,7 +101,9 @@ class CoreKind:
         for attr, default in (("generator_main", f"{n}.{n.capitalize()}Main"),
                               ("design_fn", f"mpc_cores.{n}.design:design_{n}"),
                               ("report_module", f"mpc_cores.{n}.report"), ("testbench", f"verif.{n}.tb"),
-                              ("bench", f"mpc_bench.{n}"), ("soak", f"mpc_cores.{n}.soak:SOAK")):
+                              ("bench", f"mpc_bench.{n}"), ("soak", f"mpc_cores.{n}.soak:SOAK"),
+                              ("fuzz", f"verif.{n}.fuzz:FAMILY"), ("small", f"mpc_cores.{n}.kind:small"),
+                              ("docs_page", f"docs/{n}.md"), ("lpf", f"constraints/{n}_core.lpf")):
             if not getattr(self, attr):
                 object.__setattr__(self, attr, default)
 
@@ -104,6 +119,10 @@ class CoreKind:
 
     def design_report(self, design, core: dict | None = None) -> str:
         return load(self.report_module).design_report(design, core)
+
+    def small_core(self):
+        """Its small core (mpc_cores.small.SmallCore)."""
+        return load(self.small)()
 
     def golden_model(self, cfg: dict):
         return load(self.model_fn)(cfg)

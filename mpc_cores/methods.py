@@ -33,7 +33,7 @@ of (20) of 003 is the output) and accelerated (Nesterov, beta_k = k/(k+3), gradi
 is a Ruiz equilibration of the dual Hessian G Q^-1 G' (rows of the constraints scaled by powers of two), followed
 by the uniform scaling to L = 1 of mpc_cores.dgp.problem; a scaling of z would leave the dual problem unchanged.
 
-The study and the tables are in mpc_cores.methods_table; `python -m mpc_cores.methods_table --out build/reports`.
+The study and the tables are in mpc_cores.methods_table; `mpc-cores methods --out build/reports`.
 """
 from __future__ import annotations
 

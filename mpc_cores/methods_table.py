@@ -328,7 +328,7 @@ def write(res: dict, out: Path) -> tuple[Path, Path]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mpc_cores.methods_table", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="mpc-cores methods", description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="build/reports", help="output folder (methods.md, methods.json)")
     ap.add_argument("--quick", action="store_true", help="5 states, cap 1000, 20 closed-loop steps")
     ap.add_argument("--examples", nargs="+", default=list(EXAMPLES), help="spec files")

@@ -1,8 +1,9 @@
 """The schema of the problem spec and of the command-line overrides, checked before any numerics.
 
-One table for the spec's structure (`SPEC`: sections, their keys, the required ones), one for the `solver:`
-section (`SOLVER`: every key some core kind reads, with its type and range; each kind lists the keys it reads in
-its `spec_section`), and the size limits. Shapes, symmetry and definiteness of the matrices are the parser's
+One table for the spec's structure (`spec_schema()`: sections, their keys, the required ones), one for the
+`solver:` section (`solver_rules()`: every key some core kind reads, with its type and range: the keys several
+kinds share here, each kind's own in its CoreKind.spec_rules; each kind lists the keys it reads in its
+`spec_section`), and the size limits. Shapes, symmetry and definiteness of the matrices are the parser's
 (mpc_cores.problem); the design flows refuse what depends on the numbers (Assumptions 1 and 2 of 002, word
 widths). Every violation is a SpecError naming the rule and the values; docs/spec.md lists the rules.
 
@@ -21,6 +22,7 @@ not fit sixteen of them, before it builds anything:
 from __future__ import annotations
 
 import difflib
+import functools
 import math
 import numbers
 from dataclasses import dataclass
@@ -187,9 +189,8 @@ def unknown_key(fld: str, key, valid) -> str:
 
 
 _ITER = " (a 16-bit register)"
-# every key of `solver:` that a core kind reads (the union of the kinds' spec_section)
-SOLVER = {
-    # fgm and admm (mpc_cores.design_base.run_options)
+# the `solver:` keys that more than one kind reads; a kind's own keys are its CoreKind.spec_rules
+SHARED_SOLVER = {
     "frac_bits": Int(1, 30, " (the word of 1.0 takes frac_bits + 2 bits, within the 32-bit AXI4-Lite word)"),
     "iterations": Int(1, 65535, _ITER),
     "P": Int(1, None, " (row units)"),
@@ -200,41 +201,10 @@ SOLVER = {
     "output_all": Bool(),
     "target": Choice(TARGETS),
     "problems": Int(1, 16, " (problems interleaved on the row units)"),
-    # fgm
-    "c": Num(1, strict=False, why=" (Assumption 1 of 002)"),
     "int_bits": IntBits(),
-    "stream_width": StreamWidth(),
     "tol": Num(0),
-    "early_exit": Bool(),
-    "exit_tol": Num(0, why=" (in the units of u)"),
-    # admm (powers of two are checked by its design)
-    "rho": Num(0),
-    "soft_scale": Num(0),
-    "du_scale": Num(0),
-    "safety": Num(1, strict=False, why=" (it multiplies the simulated magnitudes)"),
-    "sizing_seed": Int(0),
-    "sizing_solves": Int(1, 100000),
-    "method": Choice(("admm", "ama", "vucondat")),
-    "precondition": Bool(),
-    "lanes": Lanes(),
-    # minres
-    "minres_P": Int(0, 64, " (0: eq. (15) of 001)"),
-    "minres_iterations": Int(0, 65535, " (0: the default N)"),
-    "minres_format": FloatFormat(),
-    "minres_latency": Choice(LATENCY_PRESETS),
-    # ipm
-    "ipm_P": Int(0, 64, " (0: eq. (15) of 001)"),
-    "ipm_newton": Int(1, 65535, " (I_NW)"),
-    "ipm_minres": Int(0, 65535, " (I_MR; 0: the default)"),
-    "ipm_format": FloatFormat(),
-    "ipm_latency": Choice(LATENCY_PRESETS),
-    "ipm_mu_tol": Num(0),
-    "ipm_res_tol": Num(0),
-    # dgp
-    "eps_g": Num(0),
-    "eps_V": Num(0),
     "accelerated": Bool(),
-    "dual_margin": Num(1, strict=False, why=" (d_i >= max(y*_i, 1), (14) of 003)"),
+    "lanes": Lanes(),
 }
 
 # the design check (mpc_cores.check): its closed-loop scenario, sample count, target and budget; GAP= and CYCLES=
@@ -245,29 +215,52 @@ CHECK = {"x0": None, "steps": Int(1, 100000), "hold": Int(1, 100000), "seed": In
          "cycles": Int(1, None, " (cycles per solve)")}
 
 _BOX = Section({"min": None, "max": None}, frozenset({"min", "max"}))
-SPEC = Section({
-    "name": Text(),
-    "description": None,
-    "model": Section({"A": None, "B": None, "Ac": None, "Bc": None, "Ts": Num(0, why=" (seconds)")}),
-    "cost": Section({"Q": None, "R": None, "QN": None}, frozenset({"Q", "R"})),
-    "horizon": Int(1),
-    "inputs": _BOX,
-    "states": _BOX,
-    "tracking": Section({"C": None, "outputs": None, "min": None, "max": None}, frozenset({"min", "max"})),
-    "solver": Section(SOLVER),
-    "input_rate": Section({"min": None, "max": None, "weight": None}, frozenset({"min", "max"})),
-    # sigma2 > 0: Remark 1 of 002, the quadratic slack penalty the fixed-point analysis relies on
-    "soft_states": Section({"indices": None, "min": None, "max": None, "sigma1": Num(0),
-                            "sigma2": Num(0, why=" (Remark 1 of 002)")},
-                           frozenset({"indices", "min", "max", "sigma1", "sigma2"})),
-    "hard_states": Section(dict.fromkeys(("indices", "min", "max")), frozenset({"indices", "min", "max"})),
-    "check": Section(CHECK),
-}, frozenset({"model", "cost", "horizon", "inputs", "states"}))
+
+
+@functools.cache
+def solver_rules() -> dict:
+    """Every key of `solver:` some kind reads, with its rule: the shared ones and each registry kind's own
+    (CoreKind.spec_rules). A key two kinds define must be one rule; a kind's own key may not shadow a shared one."""
+    from mpc_cores import registry
+
+    out = dict(SHARED_SOLVER)
+    owner: dict[str, str] = {}
+    for kind in registry.kinds().values():
+        for key, rule in kind.spec_rules.items():
+            if key in SHARED_SOLVER:
+                raise ValueError(f"CORE={kind.name}: spec key {key!r} is a shared one (schema.SHARED_SOLVER)")
+            if key in out and out[key] is not rule:
+                raise ValueError(f"CORE={kind.name}: spec key {key!r} has another rule in CORE={owner[key]}")
+            out[key], owner[key] = rule, owner.get(key, kind.name)
+    return out
+
+
+@functools.cache
+def spec_schema() -> Section:
+    """The spec's structure, with the `solver:` keys of solver_rules()."""
+    return Section({
+        "name": Text(),
+        "description": None,
+        "model": Section({"A": None, "B": None, "Ac": None, "Bc": None, "Ts": Num(0, why=" (seconds)")}),
+        "cost": Section({"Q": None, "R": None, "QN": None}, frozenset({"Q", "R"})),
+        "horizon": Int(1),
+        "inputs": _BOX,
+        "states": _BOX,
+        "tracking": Section({"C": None, "outputs": None, "min": None, "max": None}, frozenset({"min", "max"})),
+        "solver": Section(solver_rules()),
+        "input_rate": Section({"min": None, "max": None, "weight": None}, frozenset({"min", "max"})),
+        # sigma2 > 0: Remark 1 of 002, the quadratic slack penalty the fixed-point analysis relies on
+        "soft_states": Section({"indices": None, "min": None, "max": None, "sigma1": Num(0),
+                                "sigma2": Num(0, why=" (Remark 1 of 002)")},
+                               frozenset({"indices", "min", "max", "sigma1", "sigma2"})),
+        "hard_states": Section(dict.fromkeys(("indices", "min", "max")), frozenset({"indices", "min", "max"})),
+        "check": Section(CHECK),
+    }, frozenset({"model", "cost", "horizon", "inputs", "states"}))
 
 
 def check_spec(d) -> dict:
     """The spec's structure, the types and ranges of its scalars and of the `solver:` keys."""
-    return SPEC.check(d, "spec")
+    return spec_schema().check(d, "spec")
 
 
 def check_size(N: int, nx: int, nu: int, ny: int = 0, ns: int = 0, rate: bool = False,
@@ -298,9 +291,10 @@ def override_rule(kind, name: str):
     """The rule of override `name` for a core kind: that of the kind's own spec key `<kind>_<name>` when it
     reads one (minres_P, ipm_format, ...), else that of the shared key."""
     own = f"{kind.name}_{name}"
-    if own in kind.spec_section and own in SOLVER:
-        return SOLVER[own]
-    return SOLVER[name] if name in SOLVER else CHECK[name]
+    rules = solver_rules()
+    if own in kind.spec_section and own in rules:
+        return rules[own]
+    return rules[name] if name in rules else CHECK[name]
 
 
 def _from_text(s):

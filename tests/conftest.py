@@ -10,6 +10,7 @@ from mpc_cores.admm.design import design_admm  # noqa: E402
 from mpc_cores.fgm.design import design_fgm  # noqa: E402
 from mpc_cores.flow import REPO, generate_admm, generate_fgm, generate_minres  # noqa: E402
 from mpc_cores.problem import load_spec, problem_from_dict  # noqa: E402
+from mpc_cores.small import random_spec  # noqa: E402,F401  (tests import it from here)
 
 BUILD = REPO / "build" / "tests" / "fgm"
 
@@ -42,24 +43,13 @@ def random_problem(name: str, nx: int, nu: int, N: int, ny: int, seed: int, **ex
     return problem_from_dict(random_spec(name, nx, nu, N, ny, seed, **extra), name)
 
 
-def random_spec(name: str, nx: int, nu: int, N: int, ny: int, seed: int, **extra) -> dict:
-    """random_problem's spec as a dict (what a spec file holds)."""
-    rng = np.random.default_rng(seed)
-    A = rng.standard_normal((nx, nx))
-    A *= 0.95 / max(abs(np.linalg.eigvals(A)))
-    B = rng.standard_normal((nx, nu))
-    d = {
-        "name": name,
-        "model": {"A": A.tolist(), "B": B.tolist()},
-        "cost": {"Q": 1.0, "R": 0.5},
-        "horizon": N,
-        "inputs": {"min": -1.0, "max": 0.8},
-        "states": {"min": -3.0, "max": 3.0},
-    }
-    if ny:
-        d["tracking"] = {"outputs": list(range(ny)), "min": -1.0, "max": 1.0}
-    d.update(extra)
-    return d
+def small_case(kind: str, rounds: int) -> dict:
+    """{case id: (problem factory, design overrides, rounds)}: the kind's small core (CoreKind.small) as a case of
+    its RTL suite's table, so that the per-kind suites (small_cores) and the RTL suite share its build."""
+    from mpc_cores import registry
+
+    s = registry.get(kind).small_core()
+    return {s.id: (s.problem, dict(s.overrides), rounds)}
 
 
 def _soak_config(seed: int):
@@ -80,7 +70,7 @@ CASES = {
     # ECP5 target: every product on MULT18X18D models (their three registers, then the partial products summed)
     "afm_p2_b16_ecp5": (lambda: load_spec(REPO / "examples/afm_like.yaml"),
                         dict(P=2, frac_bits=16, target="ecp5", lat_mul=4), 25),
-    "rand_n4_p4_b10": (lambda: random_problem("r4", 3, 1, 4, 1, 1), dict(P=4, frac_bits=10), 40),
+    **small_case("fgm", 40),
     # 7-series target: 25 x 18 partial products between the DSP48E1's register stages
     "rand_n7_p2_b14_nearest_x7": (lambda: random_problem("r7", 4, 1, 7, 2, 2),
                                   dict(P=2, frac_bits=14, rounding="nearest", target="xilinx7", lat_mul=4), 40),
@@ -167,8 +157,7 @@ ADMM_CASES = {
     # the plain sparse form (no input_rate: decision inputs u_k, w = (x, r), u_0 out) on masses, n_A = 128
     "masses_norate_p1_b16": (lambda: load_spec(REPO / "examples/masses.yaml"), dict(P=1, iterations=6), 12),
     # no soft states (box projection only), P = 5 does not divide n_A = 19
-    "rand_rate_n19_p5": (lambda: random_problem("rr19", 3, 1, 4, 1, 7, input_rate=RATE),
-                         dict(P=5, frac_bits=15), 40),
+    **small_case("admm", 40),
     # interleaving: K_p = 3 problems with soft pairs (a pair's two rows in one turn), idle cycles ending each round
     "rand_soft_n19_p3_k3": (lambda: random_problem("rk19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
                             dict(P=3, frac_bits=16, problems=3), 10),
@@ -177,8 +166,7 @@ ADMM_CASES = {
                                  dict(P=2, frac_bits=15, problems=2, target="ecp5"), 10),
     # the splitting family of 004 on the same datapath: Vu-Condat (the last y kept per component, v = sigma (y + z)
     # - nu) with soft pairs and K_p = 2; AMA (v = -nu, the unaugmented KKT matrix) on the ECP5 target
-    "rand_soft_n19_p3_k2_vucondat": (lambda: random_problem("rv19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
-                                     dict(P=3, frac_bits=16, problems=2, method="vucondat"), 10),
+    **small_case("vucondat", 10),
     # fast AMA (accelerated: momentum lanes, gradient restart) with soft pairs, both momentum lanes in use
     "rand_soft_n19_p3_ama_acc": (lambda: random_problem("rma19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
                                  dict(P=3, frac_bits=16, method="ama", accelerated=True, iterations=30), 12),
@@ -190,8 +178,7 @@ ADMM_CASES = {
     "rand_soft_n19_p3_vucondat_acc": (lambda: random_problem("rma19", 2, 1, 3, 1, 5, input_rate=RATE,
                                                              soft_states=SOFT1),
                                       dict(P=3, frac_bits=16, method="vucondat", accelerated=True, iterations=30), 12),
-    "rand_rate_n19_p2_ecp5_ama": (lambda: random_problem("rm19", 3, 1, 4, 1, 7, input_rate=RATE),
-                                  dict(P=2, frac_bits=15, target="ecp5", method="ama"), 12),
+    **small_case("ama", 12),
     # time-multiplexed lanes: 5 multipliers take each row of 19 columns in 4 chunks (accumulated, then saturated),
     # soft pairs (the previous row's values held across the chunks' cycles), deeper pipeline, ECP5 target
     "rand_soft_n19_c4_l24_ecp5": (lambda: random_problem("rc19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
@@ -218,31 +205,24 @@ def suite_kinds(suite: str) -> list[str]:
 
 @pytest.fixture(scope="session")
 def small_cores(cores, admm_cores):
-    """A small generated core of each kind, as (out_dir, core.json): ones of the RTL suites (their Verilator models
-    are shared with them; the MINRES one is case n2_m1_t3_pauto of tests/test_minres_rtl.py)."""
+    """The small core of each registry kind (CoreKind.small), as kind -> (out_dir, core.json). Each is a case of its
+    kind's RTL suite (conftest.small_case): the FGM and ADMM ones come from those suites' fixtures; the others are
+    generated here into their RTL suites' folders, with the same configuration, so the builds are shared."""
     import json
 
-    from mpc_cores.minres.design import design_minres
-
+    from mpc_cores import registry
     from mpc_cores.flow import generate
-    from mpc_cores.ipm.design import design_ipm
 
-    out = REPO / "build" / "tests" / "minres" / "n2_m1_t3_pauto"
-    generate_minres([(design_minres(random_problem("ra", 2, 1, 3, 0, 5), P=0, iterations=8), out)])
-    # the interior-point one is case n2_m1_t3_p1 of tests/test_ipm_rtl.py
-    ipm = REPO / "build" / "tests" / "ipm" / "n2_m1_t3_p1"
-    hard = {"hard_states": {"indices": [0], "min": -1.0, "max": 1.0}}
-    generate("ipm", [(design_ipm(random_problem("ia", 2, 1, 3, 1, 5, **hard), P=1, iterations=6, newton=3), ipm)])
-    # the DGP one is case small_accel of tests/test_dgp_rtl.py
-    from mpc_cores.dgp.design import design_dgp
-
-    dgp = REPO / "build" / "tests" / "dgp" / "small_accel"
-    generate("dgp", [(design_dgp(random_problem("dg5", 2, 1, 4, 0, 5, states={"min": -0.5, "max": 0.5},
-                                                hard_states={"indices": [0], "min": -1.0, "max": 1.0}),
-                                 lanes=2, iterations=60), dgp)])
-    dirs = {"fgm": cores["rand_n4_p4_b10"], "admm": admm_cores["rand_rate_n19_p5"], "minres": out, "ipm": ipm,
-            "dgp": dgp, "ama": admm_cores["rand_rate_n19_p2_ecp5_ama"],
-            "vucondat": admm_cores["rand_soft_n19_p3_k2_vucondat"]}
+    ready = {**{f"fgm/{c}": d for c, d in cores.items()}, **{f"admm/{c}": d for c, d in admm_cores.items()}}
+    dirs, jobs = {}, {}
+    for name, kind in registry.kinds().items():
+        s = kind.small_core()
+        dirs[name] = ready.get(s.case, REPO / "build" / "tests" / s.case)
+        if s.case not in ready:
+            jobs.setdefault(kind.generator_main, (kind, []))[1].append((kind.design(s.problem(), **s.overrides),
+                                                                        dirs[name]))
+    for kind, js in jobs.values():
+        generate(kind, js)
     return {k: (d, json.loads((d / "core.json").read_text())) for k, d in dirs.items()}
 
 

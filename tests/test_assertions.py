@@ -14,7 +14,7 @@ from verif.fuzz import kinds
 from verif.fuzz.violations import MESSAGES
 
 KINDS = suite_kinds("assertions")
-# (kind, a violation forced into its small core): those its family declares (verif/fuzz/kinds.py FAMILIES)
+# (kind, a violation forced into its small core): those its family declares (CoreKind.fuzz)
 VIOLATIONS = [(k, v) for k in KINDS for v in kinds.violations(k)]
 GUARDED = re.compile(r"`ifndef SYNTHESIS\n.*?`endif // not def SYNTHESIS\n", re.S)
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import random_problem
+from conftest import random_problem, small_case
 from mpc_cores.dgp.design import design_dgp
 from mpc_cores.dgp.report import design_report
 from mpc_cores.flow import REPO, generate
@@ -36,7 +36,7 @@ def _dgp_soak_config(seed: int):
 
 # id -> (problem factory, design overrides, random solves)
 CASES = {
-    "small_accel": (lambda: _small(5), dict(lanes=2, iterations=60), 6),
+    **small_case("dgp", 6),
     # plain form: averaged primal through the serial divider; lanes not dividing the rows; l_A = 2; an input box
     # narrow enough that the averaged primal leaves it (the output words clamped to it)
     "small_plain_l3": (lambda: _small(6, inputs={"min": -0.15, "max": 0.1}), dict(lanes=3, iterations=400, accelerated=False, lat_add=2), 5),

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import random_problem
+from conftest import random_problem, small_case
 from mpc_cores.flow import REPO, generate
 from mpc_cores.ipm.design import design_ipm
 from mpc_cores.ipm.timing import simulate
@@ -21,7 +21,7 @@ HARD = {"hard_states": {"indices": [0], "min": -1.0, "max": 1.0}}
 # id -> (problem factory, design overrides, rounds)
 RTL_CASES = {
     # P = 1: two problems in flight; tracking one output, a state box
-    "n2_m1_t3_p1": (lambda: random_problem("ia", 2, 1, 3, 1, 5, **HARD), dict(P=1, iterations=6, newton=3), 4),
+    **small_case("ipm", 4),
     # P = 2: four problems in flight, two inputs
     "n2_m2_t2_p2": (lambda: random_problem("ib", 2, 2, 2, 0, 6), dict(P=2, iterations=5, newton=2), 3),
     # the narrow format e8m17 (one MULT18X18D per product) in both stages; n = m = 1, T = 3: the answer with the

@@ -94,7 +94,9 @@ def test_product_does_not_import_tests_or_bench():
 @pytest.mark.parametrize("name", registry.names())
 def test_core_kind_provides_its_parts(name):
     """Every reference of a registered kind resolves: design, report, golden model, testbench (with its cycle-contract
-    scenario), benchmark section, generator main (a Scala source of that object)."""
+    scenario), benchmark section, generator main (a Scala source of that object), soak space, protocol-fuzz family,
+    small core (its design flow accepts it, in a folder of its kind's RTL suite), docs page, clock constraints, and
+    its own spec rules among the keys it reads."""
     k = registry.get(name)
     from mpc_cores.kind import load
 
@@ -110,6 +112,20 @@ def test_core_kind_provides_its_parts(name):
     pkg, obj = k.generator_main.rsplit(".", 1)
     scala = REPO / "src/main/scala" / pkg.replace(".", "/")
     assert any(f"object {obj}" in f.read_text() for f in scala.glob("*.scala")), f"no Scala object {k.generator_main}"
+    from mpc_cores.soak.space import SoakSpace
+    from mpc_cores.small import SmallCore
+    from verif.fuzz.kinds import Family, Kind
+
+    assert isinstance(load(k.soak), SoakSpace), k.soak
+    fam = load(k.fuzz)
+    assert isinstance(fam, Family) and issubclass(fam.adapter, Kind) and fam.violations, k.fuzz
+    assert isinstance(load(fam.tb), type), fam.tb
+    s = k.small_core()
+    assert isinstance(s, SmallCore) and s.case.count("/") == 1, s
+    assert k.design(s.problem(), **s.overrides).name
+    for f in (k.docs_page, k.lpf):
+        assert (REPO / f).is_file(), f"CORE={name}: no {f}"
+    assert set(k.spec_rules) <= set(k.spec_section), f"CORE={name}: own spec rules it does not read"
 
 
 # Cross-kind studies of 004 (the methods compared on one problem): they import the kinds' packages by design.
@@ -135,3 +151,30 @@ def test_shared_modules_do_not_import_a_kinds_package():
 def kind_pkgs_of_registry() -> set[str]:
     """the packages of the registry's kinds (mpc_cores/<package>/kind.py)"""
     return {registry.get(n).model_fn.split(".")[1] for n in registry.names()}
+
+
+# Makefile help lines that name kinds, "(kinds: a, b, ...)": the registry's kinds with that part
+MAKE_KIND_LISTS = {
+    "##v CORE:": lambda k: True,
+    "##v TOL:": lambda k: k.tol_fn is not None,
+    "##v PROBLEMS:": lambda k: "problems" in k.overrides,
+    "##v LANES:": lambda k: "lanes" in k.overrides,
+    "##v FORMAT, LATENCY:": lambda k: "format" in k.overrides,
+    "## c:": lambda k: k.c_fn is not None,
+    "## split:": lambda k: k.split_fn is not None,
+    "## demo:": lambda k: k.has_demo,
+}
+
+
+def test_makefile_help_names_the_registry_kinds():
+    """Every kind list in `make help` is the registry's kinds with that part, in registry order."""
+    import re
+
+    text = (REPO / "Makefile").read_text()
+    for head, has in MAKE_KIND_LISTS.items():
+        line = next((ln for ln in text.splitlines() if ln.startswith(head)), None)
+        assert line is not None, f"Makefile: no help line {head}"
+        m = re.search(r"\(kinds: ([a-z0-9, ]+)\)", line)
+        assert m, f"Makefile: {head} names no (kinds: ...)"
+        want = [n for n, k in registry.kinds().items() if has(k)]
+        assert m[1].split(", ") == want, f"Makefile {head} lists {m[1]}; the registry: {', '.join(want)}"

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import random_problem
+from conftest import random_problem, small_case
 from mpc_cores.flow import REPO, GeneratorError, generate_minres, run_generator
 from mpc_cores.minres.design import design_minres
 from mpc_cores.problem import load_spec
@@ -24,7 +24,7 @@ SCENARIOS = 3  # cocotb tests in verif/minres/tb.py
 
 # id -> (problem factory, design overrides, random problems); P = 0: eq. (15)
 RTL_CASES = {
-    "n2_m1_t3_pauto": (lambda: random_problem("ra", 2, 1, 3, 0, 5), dict(P=0, iterations=8), 24),
+    **small_case("minres", 24),
     "n1_m2_t4_p2_l21": (lambda: random_problem("rb", 1, 2, 4, 0, 6), dict(P=2, iterations=6, lat_add=2, lat_mul=1), 10),
     # one problem per batch, slots stretched far beyond N (S = 175, N = 19): a pass of the previous batch is still
     # counting its idle end when the next batch starts

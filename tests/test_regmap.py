@@ -16,6 +16,7 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from conftest import suite_kinds
+from mpc_cores import registry
 from mpc_cores.flow import REPO
 from mpc_cores.regmap import Regmap
 from mpc_cores.sim import run_cocotb
@@ -169,8 +170,8 @@ def test_readback_over_axi(generated):
     assert failed == 0, f"{failed} of {tests} scenarios failed: see {out / 'sim' / 'sim.log'}"
 
 
-# the docs page of each kind with a page of its own (ama and vucondat share admm's)
-PAGES = {"fgm": "fgm.md", "admm": "admm.md", "dgp": "dgp.md", "minres": "minres.md", "ipm": "ipm.md"}
+# the docs page of each kind with a page of its own (CoreKind.docs_page; ama and vucondat share admm's)
+PAGES = {n: k.docs_page.removeprefix("docs/") for n, k in registry.kinds().items() if k.docs_page == f"docs/{n}.md"}
 TEMPLATE = ["What it solves", "Theory of operation", "Ports", "Registers", "Programmer's guide", "Latency and resources",
             "Verification"]
 

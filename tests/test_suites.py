@@ -1,7 +1,7 @@
 """No kind of the registry is left out of the per-kind protocol suites: tests/test_fuzz.py, tests/test_regmap.py and
 tests/test_assertions.py run every kind of mpc_cores.registry, or the kind is excluded from that suite with a reason
-(conftest.SUITE_EXCLUSIONS); the fuzz and the assertion tests find its adapter (verif/fuzz/kinds.py, by its
-testbench), and each kind has a violation forced into it. Cheap: no core is generated."""
+(conftest.SUITE_EXCLUSIONS); the fuzz and the assertion tests find its adapter (CoreKind.fuzz,
+verif/<kind>/fuzz.py), and each kind has a violation forced into it. Cheap: no core is generated."""
 from __future__ import annotations
 
 import re

@@ -1,5 +1,6 @@
 """The DGP core kind (registry entry)."""
 from mpc_cores.kind import CoreKind
+from mpc_cores.schema import Num
 
 KIND = CoreKind(
     name="dgp",
@@ -14,4 +15,18 @@ KIND = CoreKind(
     tol_fn="mpc_cores.dgp.design:write_tol_spec",
     driver=True,
     answer_status_word=True,
+    spec_rules={
+        "eps_g": Num(0),
+        "eps_V": Num(0),
+        "dual_margin": Num(1, strict=False, why=" (d_i >= max(y*_i, 1), (14) of 003)"),
+    },
 )
+
+
+def small():
+    """The per-kind suites' core: case small_accel of tests/test_dgp_rtl.py (accelerated, 2 lanes)."""
+    from mpc_cores.small import SmallCore, random_spec
+
+    return SmallCore("dgp/small_accel", random_spec("dg5", 2, 1, 4, 0, 5, states={"min": -0.5, "max": 0.5},
+                                                    hard_states={"indices": [0], "min": -1.0, "max": 1.0}),
+                     dict(lanes=2, iterations=60))

@@ -1,5 +1,6 @@
 """The FGM core kind (registry entry)."""
 from mpc_cores.kind import CoreKind
+from mpc_cores.schema import Bool, Num, StreamWidth
 
 KIND = CoreKind(
     name="fgm",
@@ -14,7 +15,20 @@ KIND = CoreKind(
     tol_fn="mpc_cores.fgm.certify:write_certified_spec",
     certificate_fn="mpc_cores.fgm.certify:certificate_text",
     driver=True,
+    spec_rules={
+        "c": Num(1, strict=False, why=" (Assumption 1 of 002)"),
+        "stream_width": StreamWidth(),
+        "early_exit": Bool(),
+        "exit_tol": Num(0, why=" (in the units of u)"),
+    },
 )
+
+
+def small():
+    """The per-kind suites' core: case rand_n4_p4_b10 of the FGM RTL suite (tests/conftest.py CASES)."""
+    from mpc_cores.small import SmallCore, random_spec
+
+    return SmallCore("fgm/rand_n4_p4_b10", random_spec("r4", 3, 1, 4, 1, 1), dict(P=4, frac_bits=10))
 
 
 def controllers(d):

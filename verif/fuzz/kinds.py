@@ -4,9 +4,9 @@ ADMM family, verif/minres/tb.py, verif/ipm/tb.py, verif/dgp/tb.py), how an answe
 model's view of the registers it reads, and the kind's facts the suites need (short solves, solves completed while
 the output is held, its queues' assertions, where a violation can be forced into it).
 
-The adapter of a registry kind is found from its testbench (CoreKind.testbench, FAMILIES): the ADMM method kinds
-share the ADMM one, and a new kind with a testbench of its own has none until FAMILIES names it (tests/test_suites.py
-fails until then).
+Each kind's adapter and scenarios are its `Family`, at CoreKind.fuzz (verif/<kind>/fuzz.py: FAMILY): the ADMM
+method kinds share the ADMM one. This module holds the base adapter and FixedKind, the adapter of the cores driven
+through the shared fixed-point testbench (mpc_cores.driver.TB).
 
 `Job.expect` is the whole output frame as stream words; `care` the indices compared (None: all; a flagged
 MINRES or interior-point answer compares its id and status only, as the kinds' testbenches do).
@@ -73,6 +73,9 @@ class Kind:
     def held_solves(self, dut, jobs: list[Job]) -> int:
         """Of `jobs` sent with the output held, the solves SOLVES may count before any answer leaves."""
         return 0
+
+    def before_held_round(self):
+        """Before a round of frames sent with the output held (the AXI4-Lite fuzz)."""
 
     @staticmethod
     def queue_checks(core: dict) -> set[str]:
@@ -146,103 +149,6 @@ class FixedKind(Kind):
             dut.seq.outAtEnd.value = 1   # the last-word flag (tlast) is a register of its own
 
 
-class DgpKind(FixedKind):
-    """DGP (src/main/scala/dgp/DgpCore.scala): frames w (nw words); the answer u0 (or z with CTRL.OUT_ALL) then a
-    status word with tlast (iterations, test met, saturated, overflow: verif/dgp/tb.py's expect), in order. The
-    output is held in the core's own `out` state, not a queue; its solve counts in SOLVES at its decision cycle,
-    before the answer leaves, while the next frame waits in the input buffer."""
-    short = {"IMAX": 2}
-
-    def held_solves(self, dut, jobs):
-        return min(1, len(jobs))
-
-    @staticmethod
-    def queue_checks(core):
-        return {"input frame"}
-
-    def force_valid_drop(self, dut):
-        dut.st.value = 0          # St.idle: m_axis.tvalid is st === St.out && ...
-
-    def force_payload_change(self, dut):
-        dut.outIdx.value = self.tb.n   # the status word now: tdata changes, tlast rises
-
-
-class MinresKind(Kind):
-    """MINRES: frames (id, diag, b), answers matched by id."""
-    ordered = False
-    short = {"IMAX": 2}
-
-    def __init__(self, tb):
-        super().__init__(tb)
-        self.hold_frames = tb.P
-        self.next_id = tb.rng.getrandbits(20) << 8
-
-    def job(self) -> Job:
-        tb = self.tb
-        self.next_id = (self.next_id + 1 + tb.rng.randrange(5)) & 0x7FFFFFFF
-        data = tb.random_problem()
-        r, res = tb.expect(*data)
-        return Job(tb.frame(self.next_id, *data), tb.answer(self.next_id, r, res), key=self.next_id,
-                   care={0} if r.flag else None, flags={"NONFINITE"} if r.flag else set())
-
-    def key_of(self, answer):
-        return answer[0] & 0x7FFFFFFF
-
-    @staticmethod
-    def queue_checks(core):
-        return {"output queue", "load bank"}
-
-
-class IpmKind(Kind):
-    """Interior point: frames (channel, tag, x, r), answers matched by tag; each channel keeps its warm start."""
-    ordered = False
-    short = {"IMAX": 1, "INW": 1}
-
-    def __init__(self, tb):
-        super().__init__(tb)
-        self.hold_frames = tb.C
-        self.tag = tb.rng.randrange(1 << 20)
-        self.channels: list[int] | None = None   # channels to use in turn (None: random)
-
-    def job(self, ch: int | None = None) -> Job:
-        tb = self.tb
-        if ch is None:
-            ch = self.channels.pop(0) if self.channels else tb.rng.randrange(tb.C)
-        self.tag = (self.tag + 1) & 0xFFFFFF
-        data = tb.words(*tb.state())
-        e = tb.model.solve(ch % tb.C, None, x_words=data, warm=tb.warm, out_all=tb.out_all)
-        flags = {f for f, on in (("NONFINITE", e.status & 1), ("NOT_CONVERGED", e.status & 2),
-                                 ("CHANNEL", ch >= tb.C)) if on}
-        expect = tb.frame(ch, self.tag, e.words + [e.status])
-        return Job(tb.frame(ch, self.tag, data), expect, key=self.tag,
-                   care={0, len(expect) - 1} if e.nonfinite else None, flags=flags)
-
-    def key_of(self, answer):
-        return answer[0] & 0xFFFFFF
-
-    def after_reset(self):
-        self.tb.model.reset()
-        self.tb.warm = bool(self.tb.rm.reset("CTRL", "WARM_START"))
-        self.tb.out_all = bool(self.tb.rm.reset("CTRL", "OUT_ALL"))
-
-    def applied(self, reg, fields):
-        m = self.tb.model
-        if reg == "IMAX":
-            m.i_mr = fields["IMAX"]
-        elif reg == "INW":
-            m.i_nw = fields["INW"]
-        elif reg == "MU_TOL":
-            m.mu_tol = fields["VALUE"]
-        elif reg == "RES_TOL":
-            m.res_tol = fields["VALUE"]
-        elif reg == "CTRL":
-            self.tb.warm, self.tb.out_all = bool(fields["WARM_START"]), bool(fields["OUT_ALL"])
-
-    @staticmethod
-    def queue_checks(core):
-        return {"output buffer", "batch order", "group"}
-
-
 @dataclass(frozen=True)
 class Family:
     """The cores of one testbench: the adapter, the testbench class ("module:class", constructed as cls(dut, seed,
@@ -253,29 +159,25 @@ class Family:
     violations: tuple[str, ...] = ("axil_response_dropped",)
 
 
-# CoreKind.testbench -> its family
-FAMILIES = {
-    "verif.fgm.tb": Family(FixedKind, "mpc_cores.driver:TB", ("stream_valid_dropped", "stream_data_changed")),
-    "verif.admm.tb": Family(FixedKind, "mpc_cores.driver:TB"),
-    "verif.minres.tb": Family(MinresKind, "verif.minres.tb:MinresTB", ("queue_overflow",)),
-    "verif.ipm.tb": Family(IpmKind, "verif.ipm.tb:IpmTB"),
-    "verif.dgp.tb": Family(DgpKind, "verif.dgp.tb:DgpTB", ("stream_valid_dropped", "stream_data_changed")),
-}
-
-
 def family(kind: str) -> Family:
-    """The family of the registry kind `kind` (by its testbench)."""
-    tb = registry.get(kind).testbench
-    if tb not in FAMILIES:
-        raise KeyError(f"CORE={kind}: its testbench {tb} has no protocol-fuzz adapter (verif/fuzz/kinds.py FAMILIES)")
-    return FAMILIES[tb]
+    """The family of the registry kind `kind`: its CoreKind.fuzz."""
+    ref = registry.get(kind).fuzz
+    try:
+        f = load(ref)
+    except (ImportError, AttributeError) as e:
+        raise KeyError(f"CORE={kind}: no protocol-fuzz family at {ref} ({e})") from None
+    if not isinstance(f, Family):
+        raise KeyError(f"CORE={kind}: {ref} is not a verif.fuzz.kinds.Family")
+    return f
 
 
 def violations(kind: str) -> tuple[str, ...]:
     """The violation scenarios of the kind's family; none without a family (so that collecting the suites does not
     fail: tests/test_suites.py does)."""
-    f = FAMILIES.get(registry.get(kind).testbench)
-    return f.violations if f else ()
+    try:
+        return family(kind).violations
+    except KeyError:
+        return ()
 
 
 def make(dut, kind: str, seed: int, **kw) -> Kind:

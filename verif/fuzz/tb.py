@@ -117,8 +117,7 @@ async def axil_fuzz(dut):
         await fz.phase(addrs, False, _dynamic(ex, False, ex.answered, 0))
         await _configure(fz)
         tb.sink.pause = True
-        if isinstance(k, kinds.IpmKind):
-            k.channels = tb.rng.sample(range(tb.C), tb.C)
+        k.before_held_round()
         jobs = [k.job() for _ in range(tb.rng.randint(1, k.hold_frames))]
         racy = set().union(*(j.flags for j in jobs))
         before = ex.answered
