@@ -183,26 +183,47 @@ def test_slots_are_independent(masses):
     assert words(ua) == words(ub)
 
 
-def test_parallel_multiplexed_mpc_regulation(masses):
-    """Algorithm 2 (parallel multiplexed MPC) on masses from a displaced state: each sample re-optimises one input
-    channel (the best of m copies); the closed loop stays within 0.5 % of conventional MPC (0.11 % measured) and
-    more than one channel gets chosen."""
+def _mmpc_gap(p, x0, refs, **kw):
+    """Closed-loop cost of parallel multiplexed MPC over conventional MPC (OSQP), and the controller."""
     from mpc_cores.closedloop import Controller, OsqpController, run_closed_loop
     from mpc_cores.ipm.multiplexed import ParallelMmpc
 
-    p = masses
-    m = ParallelMmpc(p)
+    m = ParallelMmpc(p, **kw)
 
     class Ctrl(Controller):
         async def step(self, x, r):
             return m.step(x, r)
 
-    refs = np.zeros((40, p.ny))
-    x0 = np.array([1.0, -0.5, 0.8, 0.2, 0, 0, 0, 0])
     J0 = run_closed_loop(p, OsqpController(p), x0, refs).cost
-    J = run_closed_loop(p, Ctrl(), x0, refs).cost
-    assert 0 <= J / J0 - 1 < 5e-3, J / J0 - 1
-    assert len(set(m.chosen[1:])) > 1
+    return run_closed_loop(p, Ctrl(), x0, refs).cost / J0 - 1, m
+
+
+def test_parallel_multiplexed_mpc_regulation(masses):
+    """Algorithm 2 (parallel multiplexed MPC) on masses from a displaced state: each sample re-optimises one input
+    channel (the best of m copies, or a blend of their moves); the closed loop stays within 1 % of conventional MPC
+    (0.03 % measured; 0.11 % for Algorithm 2 as stated) and more than one channel gets chosen."""
+    x0 = np.array([1.0, -0.5, 0.8, 0.2, 0, 0, 0, 0])
+    refs = np.zeros((40, masses.ny))
+    gap, m = _mmpc_gap(masses, x0, refs)
+    assert 0 <= gap < 1e-2, gap
+    assert len({c for c in m.chosen[1:] if c >= 0}) > 1
+    assert m.copies == 39 * masses.nu   # no reference change: one round per sample
+
+
+def test_parallel_multiplexed_mpc_tracking(masses):
+    """Tracking the closed loop's reference changes (60 steps, three references): the stored plan follows the new
+    steady state and a sample whose reference changed runs the copies 4 rounds, so the loop stays within 5 % of
+    conventional MPC (1.1 % measured); Algorithm 2 as 001 states it is 133 % above on the same references."""
+    from mpc_cores.closedloop import reference_schedule
+
+    refs = reference_schedule(masses, 60, 20, 0, 0.9)
+    x0 = np.zeros(masses.nx)
+    gap, m = _mmpc_gap(masses, x0, refs)
+    assert 0 <= gap < 5e-2, gap
+    changes = int(np.sum(np.any(refs[1:] != refs[:-1], axis=1)))
+    assert changes == 2 and m.copies == masses.nu * (59 + 3 * changes)
+    plain, _ = _mmpc_gap(masses, x0, refs, shift=False, rounds=1, blends=())
+    assert plain > 1.0, plain   # the failure the additions fix
 
 
 @pytest.mark.parametrize("precondition", [True, False])

@@ -33,14 +33,29 @@ def _cost(p: MpcProblem, dx0, dU) -> float:
 
 
 class ParallelMmpc:
-    """Algorithm 2: `step(x, r)` returns u_0 and keeps the plan; `copies` QPs per sample (m, one per channel)."""
+    """Algorithm 2: `step(x, r)` returns u_0 and keeps the plan; `copies` QPs per sample (m, one per channel).
 
-    def __init__(self, p: MpcProblem, iterations: int = 20):
+    Two additions for tracking (a reference change moves the steady state (x_s, u_s) that the plan's deviation
+    variables are taken from):
+    - `shift`: the stored plan moves with u_s (plan += u_s,new - u_s,old), so the channels that are not chosen
+      follow the new steady state instead of holding the old one;
+    - `rounds`: in a sample whose reference changed, the m copies run `rounds` times, each round from the plan the
+      previous one chose (block-coordinate descent on the full QP); otherwise once;
+    - `blends`: besides the m copies, the candidates include the plan with every channel's new moves applied at
+      once, scaled by each blend factor (Jacobi steps); the cheapest candidate by predicted cost is applied.
+    `shift=False, rounds=1, blends=()` is Algorithm 2 as 001 states it. `chosen` records the copy per round (-1:
+    the full solve of the first sample, -2: a blend)."""
+
+    def __init__(self, p: MpcProblem, iterations: int = 20, shift: bool = True, rounds: int = 4,
+                 blends: tuple[float, ...] = (0.5, 1.0)):
         self.p, self.it = p, iterations
+        self.shift, self.rounds, self.blends = shift, rounds, tuple(blends)
         self.full = sparse_mpc(p)
         self.chan = [sparse_mpc(_channel(p, i)) for i in range(p.nu)]
         self.plan = None     # T x m planned inputs (absolute)
+        self.us = None       # the steady-state input of the last sample
         self.chosen: list[int] = []
+        self.copies = 0      # single-input QPs solved so far
 
     def _solve_full(self, x, r):
         s = self.full
@@ -51,15 +66,27 @@ class ParallelMmpc:
 
     def step(self, x, r=None) -> np.ndarray:
         p = self.p
+        xs, us = _targets(p, r)
         if self.plan is None:
-            self.plan = self._solve_full(x, r)
+            self.plan, self.us = self._solve_full(x, r), us
             self.chosen.append(-1)
             return self.plan[0]
+        changed = not np.array_equal(us, self.us)
+        if self.shift:
+            self.plan = self.plan + (us - self.us)
+        self.us = us
         self.plan = np.vstack([self.plan[1:], self.plan[-1:]])
-        xs, us = _targets(p, r)
         dx0 = np.asarray(x, float) - xs
+        for _ in range(self.rounds if changed else 1):
+            self._round(dx0, us)
+        return self.plan[0]
+
+    def _round(self, dx0, us) -> None:
+        """The m copies from the stored plan; the cheapest candidate becomes the plan."""
+        p = self.p
         dplan = self.plan - us
-        best, best_J = None, np.inf
+        new = dplan.copy()
+        cands = []
         for i, s in enumerate(self.chan):
             others = [j for j in range(p.nu) if j != i]
             smp = sample(s, dx0)
@@ -67,14 +94,15 @@ class ParallelMmpc:
             for k in range(p.N):
                 row = s.L.lam(k + 1)
                 f[row: row + p.nx] = -(p.B[:, others] @ dplan[k, others])
-            bound_shift = us[i]
-            smp = replace(smp, f=f, lo=smp.lo - bound_shift, hi=smp.hi - bound_shift)
+            smp = replace(smp, f=f, lo=smp.lo - us[i], hi=smp.hi - us[i])
             it, _ = pdip(s, smp, self.it)
+            self.copies += 1
             dU = dplan.copy()
-            dU[:, i] = [it.z[s.L.u(k)] for k in range(p.N)]
-            J = _cost(p, dx0, dU)
-            if J < best_J:
-                best, best_J = (i, dU + us), J
-        self.chosen.append(best[0])
-        self.plan = best[1]
-        return self.plan[0]
+            dU[:, i] = new[:, i] = [it.z[s.L.u(k)] for k in range(p.N)]
+            cands.append((_cost(p, dx0, dU), i, dU))
+        for w in self.blends:
+            dU = dplan + w * (new - dplan)
+            cands.append((_cost(p, dx0, dU), -2, dU))
+        _, i, dU = min(cands, key=lambda c: c[0])
+        self.chosen.append(i)
+        self.plan = dU + us
