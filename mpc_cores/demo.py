@@ -67,7 +67,8 @@ def run_demo(kind, d, spec: Path, out: Path, steps: int, hold: int, seed: int) -
         # at the clocks of the core's paper (002: 400 and 230 MHz; core.json may name others)
         clocks = core.get("reference_clocks_mhz", [400, 230])
         lines.append(f"latency: {cps} cycles per solve{per_it} = " +
-                     ", ".join(f"{cps / f:.3f} us at {f} MHz" for f in clocks))
+                     ", ".join(f"{cps / f:.3f} us at {f} MHz" for f in clocks) +
+                     " (the clocks of the core's paper; the Fmax this build places at is the bench's: docs/bench/)")
         its = getattr(golden, "iterations", None)
         if core.get("early_exit") and its:   # the exit test: the iterations the loop's solves ran
             cyc = [core["solve_overhead_cycles"] + i * core["cycles_per_iteration"] for i in its]
