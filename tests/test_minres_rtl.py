@@ -26,7 +26,7 @@ SCENARIOS = 3  # cocotb tests in verif/minres/tb.py
 RTL_CASES = {
     **small_case("minres", 24),
     "n1_m2_t4_p2_l21": (lambda: random_problem("rb", 1, 2, 4, 0, 6), dict(P=2, iterations=6, lat_add=2, lat_mul=1), 10),
-    # one problem per batch, slots stretched far beyond N (S = 175, N = 19): a pass of the previous batch is still
+    # one problem per batch, slots stretched far beyond N (S = 192, N = 19): a pass of the previous batch is still
     # counting its idle end when the next batch starts
     "n2_m1_t3_p1": (lambda: random_problem("rc", 2, 1, 3, 0, 7), dict(P=1, iterations=6), 16),
     # the reduced format e8m17 (26-bit words, an 18-bit significand: one MULT18X18D per product), its default
