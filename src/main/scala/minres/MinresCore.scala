@@ -223,16 +223,17 @@ class MinresCore(val p: MinresParams) extends Module {
     if (t == 0) go else RegNext(active(curBank) && g(curBank) === (t - 1).U, false.B)
   /** the batch's I_MR, latched at its start decision */
   private val imaxS = RegEnable(imaxIn, startBatch)
+  private val imaxSZero = RegEnable(imaxIn === 0.U, startBatch)
 
   // The memories' words arrive RL cycles after their address: passes B and C count RL + 1 cycles ahead
   // (counters pbA and pcA; their addresses a cycle later, registered) and their words and control meet at the
   // offsets tB and tC (bc, cc). The feed's words enter the shift register RL cycles after its count (tRow counts
   // them).
   private val RL = VecRam.ReadLatency
-  val feed = new PassCounter(p); feed.tick(startAt(0), imaxS, curBank)
-  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - RL - 1), feed.imax, curBank)
-  val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, curBank)
-  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - RL - 1), feed.imax, curBank)
+  val feed = new PassCounter(p); feed.tick(startAt(0), imaxS, curBank, Some(imaxSZero))
+  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - RL - 1), feed.imax, curBank, Some(feed.imaxZero))
+  val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, curBank, Some(feed.imaxZero))
+  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - RL - 1), feed.imax, curBank, Some(feed.imaxZero))
   /** a pass's address phase, a cycle behind its counter (which starts a cycle earlier): the counter's word and its
     * read addresses (in a slot's vector; in a bank's slot's vector) registered, so no adder meets a memory */
   private def addressPhase(pc: PassCounter): (MinresCtl, UInt, UInt) =

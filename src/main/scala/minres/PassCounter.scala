@@ -30,17 +30,23 @@ class MinresOutWord extends Bundle {
   * so each pass starts the next batch on or after its own last cycle of the previous one.
   */
 class PassCounter(p: MinresParams) {
+  require(p.S * p.P >= 2, s"a pass needs at least 2 elements (S P): got S=${p.S}, P=${p.P}")
   val run  = RegInit(false.B)
   val c    = RegInit(0.U.asTypeOf(new MinresCtl(p)))
   // the count's next value (tick assigns it): what elementAdr loads at a slot's start
   private val nxt = WireDefault(c)
   c := nxt
   val imax = RegInit(0.U(16.W))
+  /** imax === 0, beside it */
+  val imaxZero = RegInit(false.B)
   // the count's last element, last slot and last iteration as flags beside it, set a cycle ahead, so that the
   // counter's decisions are registers
   private val lastE    = RegInit(false.B)
   private val lastSlot = RegInit(false.B)
   private val lastJ    = RegInit(false.B)
+  // c.j + 1 === imax, registered: c.j and imax change at most once per pass of S P >= 2 cycles, and the flag is
+  // read at a pass's last element, so it is current there; no compare lies between the count and lastJ
+  private val jLast    = RegNext(c.j + 1.U === imax, false.B)
   /** an element of the matrix order is processed this cycle */
   def valid: Bool = run && c.e < p.N.U
   /** element 0 of a slot is processed this cycle (valid && c.e === 0): a register of its own, set a cycle ahead */
@@ -59,17 +65,20 @@ class PassCounter(p: MinresParams) {
       .elsewhen(run) { a := a + 1.U }
     a
   }
-  def tick(start: Bool, imaxIn: UInt, bank: UInt): Unit = {
+  /** `imaxInZero`: imaxIn === 0, when the caller has it as a register (else it is decoded here) */
+  def tick(start: Bool, imaxIn: UInt, bank: UInt, imaxInZero: Option[Bool] = None): Unit = {
+    val zero = imaxInZero.getOrElse(imaxIn === 0.U)
     started := start
     when(start) {
       run      := true.B
       nxt      := 0.U.asTypeOf(c)
       nxt.bank := bank
       imax     := imaxIn
+      imaxZero := zero
       first    := true.B
       lastE    := (p.S == 1).B
       lastSlot := (p.P == 1).B
-      lastJ    := imaxIn === 0.U
+      lastJ    := zero
     }.elsewhen(run) {
       first := lastE && !(lastSlot && lastJ) // run stays on after this cycle
       lastE := (if (p.S == 1) true.B else !lastE && c.e === (p.S - 2).U)
@@ -85,7 +94,7 @@ class PassCounter(p: MinresParams) {
         lastSlot := (if (p.P == 1) true.B else !lastSlot && c.slot === (p.P - 2).U)
         when(lastSlot) {
           nxt.j := c.j + 1.U
-          lastJ := c.j + 1.U === imax
+          lastJ := jLast
           when(lastJ) { run := false.B }
         }
       }
