@@ -200,12 +200,12 @@ def _mmpc_gap(p, x0, refs, **kw):
 
 def test_parallel_multiplexed_mpc_regulation(masses):
     """Algorithm 2 (parallel multiplexed MPC) on masses from a displaced state: each sample re-optimises one input
-    channel (the best of m copies, or a blend of their moves); the closed loop stays within 1 % of conventional MPC
+    channel (the best of m copies, or a blend of their moves); the closed loop stays within 0.5 % of conventional MPC
     (0.03 % measured; 0.11 % for Algorithm 2 as stated) and more than one channel gets chosen."""
     x0 = np.array([1.0, -0.5, 0.8, 0.2, 0, 0, 0, 0])
     refs = np.zeros((40, masses.ny))
     gap, m = _mmpc_gap(masses, x0, refs)
-    assert 0 <= gap < 1e-2, gap
+    assert 0 <= gap < 5e-3, gap
     assert len({c for c in m.chosen[1:] if c >= 0}) > 1
     assert m.copies == 39 * masses.nu   # no reference change: one round per sample
 

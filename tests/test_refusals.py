@@ -236,10 +236,8 @@ def test_solver_keys_are_the_kinds():
     kinds = registry.kinds().values()
     read = {k for kind in kinds for k in kind.spec_section}
     assert set(schema.solver_rules()) == read
-    rules_of = {}
     for kind in kinds:
         assert set(kind.spec_rules) <= set(kind.spec_section), kind.name
-        rules_of.setdefault(id(kind.spec_rules), (kind, set(kind.spec_rules)))
     for key in schema.SHARED_SOLVER:
         readers = {id(k.spec_rules) for k in kinds if key in k.spec_section}
         assert len(readers) >= 2, f"shared key {key} is read by one kind only: it belongs in its spec_rules"
