@@ -137,7 +137,7 @@ def cores():
 
 
 ADMM_BUILD = REPO / "build" / "tests" / "admm"
-RATE = {"min": -0.3, "max": 0.3, "weight": 0.1}
+from mpc_cores.admm.kind import RATE  # noqa: E402  (the rate limit of the ADMM small cores)
 SOFT1 = {"indices": [0], "min": -0.5, "max": 0.5, "sigma1": 8, "sigma2": 1}
 SOFT2 = {"indices": [0, 1], "min": -0.8, "max": 0.6, "sigma1": 8, "sigma2": 2}
 MASSES_SOFT = REPO / "examples/masses_rate_soft.yaml"
