@@ -50,20 +50,22 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   private val pW     = math.max(fmt.expW + 2, log2Ceil(fmt.bias + m + 1) + 1)
   private val tzW    = log2Ceil(2 * w + 1)
   private val lowW   = 2 * w - winW          // product bits below the window
-  /** Trailing zeros of a significand, counted in its two halves at classification and combined in the first
-    * normalisation step (a count over all w bits is too deep beside the operand unpacking). */
-  private val loW = w / 2
+  /** Trailing zeros of a significand, counted on its fraction field in two halves at classification and combined in
+    * the first normalisation step (a count over all bits is too deep beside the operand register). The hidden bit
+    * is left out, so that no exponent decode comes first: a zero fraction counts manW, the trailing zeros of a
+    * normal significand, and a zero operand's count is never used (its product is a special zero, without flags). */
+  private val loW = (m + 1) / 2
+  private val hiW = m - loW
   class Tz extends Bundle {
-    val loZero = Bool()                             // the low half is zero
-    val lo     = UInt(log2Ceil(loW).W)              // its trailing zeros when not
-    val hi     = UInt(log2Ceil(w - loW + 1).W)      // the high half's (w - loW when zero)
+    val loZero = Bool()                      // the low half is zero
+    val lo     = UInt(log2Ceil(loW).W)       // its trailing zeros when not
+    val hi     = UInt(log2Ceil(hiW + 1).W)   // the high half's (hiW when zero)
   }
-  private def tzCount(v: UInt): Tz = {
-    val t  = Wire(new Tz)
-    val hi = v(w - 1, loW)
-    t.loZero := v(loW - 1, 0) === 0.U
-    t.lo     := PriorityEncoder(v(loW - 1, 0))
-    t.hi     := Mux(hi === 0.U, (w - loW).U, PriorityEncoder(hi))
+  private def tzCount(frac: UInt): Tz = {
+    val t = Wire(new Tz)
+    t.loZero := frac(loW - 1, 0) === 0.U
+    t.lo     := PriorityEncoder(frac(loW - 1, 0))
+    t.hi     := (if (hiW == 0) 0.U else { val hi = frac(m - 1, loW); Mux(hi === 0.U, hiW.U, PriorityEncoder(hi)) })
     t
   }
   private def tzOf(t: Tz): UInt = Mux(t.loZero, loW.U +& t.hi, t.lo.pad(tzW))
@@ -95,7 +97,9 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   class Norm extends Bundle {
     val x    = new Unpack.NormSig(fmt) // the operand being normalised
     val y    = UInt(w.W)
-    val eSum = SInt(pW.W) // beP + lz
+    val eSum = SInt(pW.W) // beP + lz; at classification the sum of the exponent fields, made beP + lz by the first
+                          // normalisation step from eZero
+    val eZero = Vec(2, Bool()) // a's and b's exponent field is zero (a subnormal or zero operand: field 1)
     val tzA  = new Tz      // the operands' trailing zeros, until the first normalisation step sums them into tz
     val tzB  = new Tz
     val tz   = UInt(tzW.W) // their sum (the normalisation adds lz)
@@ -104,25 +108,38 @@ class FMul(val fmt: FloatFormat, val latency: Int, val target: Target = Target.G
   private val ua   = Unpack(fmt, a)
   private val ub   = Unpack(fmt, b)
   private val aSub = !ua.sig(m)
-  private def expField(u: UInt) = { val e = u(fmt.width - 2, m); Mux(e === 0.U, 1.U, e) } // subnormal: 1
+  private def expBits(u: UInt) = u(fmt.width - 2, m)
   private val zeroTimesInf = (ua.isZero && ub.isInf) || (ua.isInf && ub.isZero)
   val s0 = Wire(new Norm)
   s0.x           := Unpack.startNormalise(fmt, Mux(aSub, ua.sig, ub.sig))
   s0.y           := Mux(aSub, ub.sig, ua.sig)
-  s0.eSum        := ((expField(a) +& expField(b)).zext.pad(pW) - (fmt.bias - 1).S)(pW - 1, 0).asSInt
-  s0.tzA         := tzCount(ua.sig)
-  s0.tzB         := tzCount(ub.sig)
+  s0.eSum        := (expBits(a) +& expBits(b)).pad(pW).asSInt
+  s0.eZero(0)    := expBits(a) === 0.U
+  s0.eZero(1)    := expBits(b) === 0.U
+  s0.tzA         := tzCount(a(m - 1, 0))
+  s0.tzB         := tzCount(b(m - 1, 0))
   s0.tz          := 0.U
   s0.spc.sign    := ua.sign ^ ub.sign
   s0.spc.isNaN   := ua.isNaN || ub.isNaN || zeroTimesInf
   s0.spc.isInf   := ua.isInf || ub.isInf
   s0.spc.isZero  := ua.isZero || ub.isZero
   s0.spc.invalid := ua.isSNaN || ub.isSNaN || zeroTimesInf
+  require(Unpack.normaliseSteps(fmt).nonEmpty, s"FMul: ${fmt.name} has no normalisation step to sum the exponents in")
   private val norm = Unpack.normaliseSteps(fmt).zipWithIndex.foldLeft(cut(s0)) { case (r, (ks, i)) =>
     val s = Wire(new Norm)
     s   := r
     s.x := Unpack.normaliseStep(fmt, r.x, ks)
-    if (i == 0) { s.tz := tzOf(r.tzA) + tzOf(r.tzB); s.tzA := 0.U.asTypeOf(new Tz); s.tzB := 0.U.asTypeOf(new Tz) }
+    if (i == 0) {
+      s.tz    := tzOf(r.tzA) + tzOf(r.tzB)
+      s.tzA   := 0.U.asTypeOf(new Tz)
+      s.tzB   := 0.U.asTypeOf(new Tz)
+      // a field of zero counts 1 (subnormal): beP + lz = field(a) + field(b) - (bias - 1), the constant chosen by
+      // the two flags so that one adder follows their register
+      val k = (c: Int) => ((BigInt(c - (fmt.bias - 1)) % (BigInt(1) << pW) + (BigInt(1) << pW)) % (BigInt(1) << pW)).U(pW.W)
+      val z = r.eZero
+      s.eSum  := (r.eSum.asUInt + Mux(z(0) && z(1), k(2), Mux(z(0) || z(1), k(1), k(0))))(pW - 1, 0).asSInt
+      s.eZero := 0.U.asTypeOf(s.eZero)
+    }
     cut(s)
   }
 
