@@ -41,16 +41,42 @@ def test_report_records_what_it_ran(tmp_path):
     assert staleness(tmp_path, ["fgm"])["fgm"].startswith("no digest recorded")
 
 
-def test_kind_sources_are_its_package_its_imports_and_the_shared_blocks():
-    """A kind's digest covers its Scala package, the kinds' packages it imports and every shared package, and no
-    other kind's package: ama and vucondat share admm's sources, ipm includes minres (its linear solver)."""
-    def pkgs(kind):
-        return {f.parent.name for f in kind_sources(kind) if f.suffix == ".scala"}
-    shared = pkgs("fgm") - {"fgm"}
-    assert {"bus", "shell", "mem", "fixed"} <= shared and not shared & {"admm", "dgp", "minres", "ipm"}
-    assert pkgs("admm") == shared | {"admm"} and kind_sources("ama") == kind_sources("admm")
-    assert pkgs("ipm") == shared | {"ipm", "minres"} and pkgs("dgp") == shared | {"dgp"}
+def test_kind_sources_are_its_package_and_the_blocks_it_names():
+    """A kind's digest covers its Scala package and, transitively, the files defining the classes and objects its
+    files name, and no others: the fixed-point kinds leave out the floating-point units and the other kinds'
+    packages; ama and vucondat share admm's sources; ipm takes minres (its linear solver) and the float units."""
+    from mpc_cores.soak.report import SCALA
+
+    def rel(kind):
+        return {f.relative_to(SCALA).as_posix() for f in kind_sources(kind) if f.suffix == ".scala"}
+    every = {f.relative_to(SCALA).as_posix() for f in SCALA.rglob("*.scala")}
+    for kind, pkg in (("fgm", "fgm"), ("admm", "admm"), ("dgp", "dgp"), ("minres", "minres"), ("ipm", "ipm")):
+        own = {f for f in every if f.startswith(pkg + "/")}
+        assert own <= rel(kind) and "shell/SolverRegs.scala" in rel(kind) and "gen/Emit.scala" in rel(kind)
+    for kind in ("fgm", "admm", "dgp"):
+        assert not {f.split("/")[0] for f in rel(kind)} & {"float", "minres", "ipm"}, kind
+        assert {"fixed/FixedOps.scala", "linalg/DotProductTree.scala"} <= rel(kind)
+    assert not {f.split("/")[0] for f in rel("fgm")} & {"admm", "dgp"}
+    assert {"float/FMul.scala", "float/FAdd.scala", "linalg/FDotProduct.scala"} <= rel("minres")
+    assert rel("minres") < rel("ipm") and not {f for f in rel("minres") if f.startswith("ipm/")}
+    assert kind_sources("ama") == kind_sources("admm") and kind_sources("fgm")[-1].name == "build.sbt"
     assert kind_digest("ama") == kind_digest("vucondat") != kind_digest("fgm")
+
+
+def test_kind_sources_skip_names_in_comments(tmp_path, monkeypatch):
+    """A name in a comment does not pull its file in; a name in code does, and what that file names in turn."""
+    import mpc_cores.soak.report as report
+    pkg = tmp_path / report.registry.kinds()["fgm"].generator_main.split(".")[0]
+    other = tmp_path / "blk"
+    pkg.mkdir()
+    other.mkdir()
+    (pkg / "Core.scala").write_text("package fgm\n// Unused is only mentioned\nclass Core { val a = Used(1) }\n")
+    (other / "Used.scala").write_text("package blk\n/* Unused */\ncase class Used(x: Int) { val d = Deep }\n")
+    (other / "Deep.scala").write_text("package blk\nobject Deep\n")
+    (other / "Unused.scala").write_text("package blk\nclass Unused\n")
+    monkeypatch.setattr(report, "SCALA", tmp_path)
+    got = {f.name for f in report.kind_sources("fgm")}
+    assert got == {"Core.scala", "Used.scala", "Deep.scala", "build.sbt"}
 
 
 def test_soak_all_runs_every_kind_in_turn(monkeypatch, tmp_path, capsys):

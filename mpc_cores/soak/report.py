@@ -26,22 +26,30 @@ def _git(*args: str) -> str:
 SCALA = REPO / "src" / "main" / "scala"
 
 
+_TOP = re.compile(r"^(?:(?:final|sealed|abstract|case|private|implicit)\s+)*(?:class|object|trait)\s+(\w+)", re.M)
+
+
 def kind_sources(kind: str) -> list[Path]:
-    """The generator sources a kind's RTL comes from: its Scala package, the packages of other kinds it imports
-    (transitively) and every shared package (those that are no kind's), with build.sbt. A change to another
-    kind's package leaves the kind's soak current."""
-    owner = {n: k.generator_main.split(".")[0] for n, k in registry.kinds().items()}
-    kind_pkgs = set(owner.values())
-    todo, used = [owner[kind]], set()
+    """The generator sources a kind's RTL comes from, with build.sbt: its Scala package's files and, transitively,
+    every file that defines a top-level class, object or trait whose name appears in one of them (imported, or
+    named in its own package). A name defined in several files takes them all, so the set errs on the side of
+    more. A change to a block the kind does not use (another kind's package, a floating-point unit in a
+    fixed-point core) leaves its soak current. Comments are left out: a name in a comment is no use."""
+    files = sorted(SCALA.rglob("*.scala"))
+    text = {f: re.sub(r"//[^\n]*", "", re.sub(r"/\*.*?\*/", "", f.read_text(), flags=re.S)) for f in files}
+    where: dict[str, list[Path]] = {}
+    for f in files:
+        for name in _TOP.findall(text[f]):
+            where.setdefault(name, []).append(f)
+    todo = list((SCALA / registry.kinds()[kind].generator_main.split(".")[0]).glob("*.scala"))
+    used: set[Path] = set()
     while todo:
-        pkg = todo.pop()
-        if pkg in used:
+        f = todo.pop()
+        if f in used:
             continue
-        used.add(pkg)
-        for f in (SCALA / pkg).glob("*.scala"):
-            todo += [m for m in re.findall(r"^import\s+(\w+)\.", f.read_text(), re.M) if m in kind_pkgs]
-    pkgs = [d for d in sorted(SCALA.iterdir()) if d.is_dir() and (d.name not in kind_pkgs or d.name in used)]
-    return sorted(f for d in pkgs for f in d.rglob("*.scala")) + [REPO / "build.sbt"]
+        used.add(f)
+        todo += [g for tok in set(re.findall(r"\w+", text[f])) for g in where.get(tok, ())]
+    return sorted(used) + [REPO / "build.sbt"]
 
 
 def kind_digest(kind: str) -> str:
