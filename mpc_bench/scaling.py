@@ -1,4 +1,4 @@
-"""How the FGM core's cost grows with the problem, against DAQP and OSQP on the same QPs (`make scaling`; also
+"""How the FGM and DGP cores' cost grows with the problem, against DAQP and OSQP on the same QPs (`make scaling`; also
 `python -m mpc_bench.scaling [--quick] [--out build/bench] [--clock-mhz F]`).
 
 The plants: a chain of M masses between two walls (examples/masses.yaml for M = 4: nx = 2M, nu = M, the M positions
@@ -15,9 +15,12 @@ tracked), horizon N, so n = N M variables. For every (M, N) of the grid:
   software    DAQP (hot start) and OSQP (tuned) on the same condensed QPs, single-threaded on one pinned CPU: median,
               p99 and max per solve by their own timers (C level), and the error of u0 against OSQP at eps 1e-9
 
-Writes scaling.csv, scaling.png and scaling.md into --out, and with --docs DIR a dated copy of scaling.md there.
-The state-constrained core (DGP) is not in the sweep: its one row unit runs hundreds of cycles per iteration
-(docs/dgp.md), far from DAQP on these sizes.
+The state-constrained rows (mpc_bench.scaling_dgp): the same chains with hard position limits at every stage, the
+DGP core against DAQP and OSQP on the state-constrained QPs; no DGP core is placed, so its us are at the FGM
+section's clock as well (an estimate the report names).
+
+Writes scaling.csv (a `core` column: fgm or dgp), scaling.png and scaling.md into --out, and with --docs DIR a dated
+copy of scaling.md there.
 """
 from __future__ import annotations
 
@@ -29,25 +32,14 @@ from pathlib import Path
 
 import numpy as np
 
+from mpc_bench.chains import chain
+
 GRID_FULL = ((2, 4, 6, 8), (5, 10, 20, 30))      # masses M, horizons N
 GRID_QUICK = ((2, 4), (5, 10))
 STEPS_FULL, STEPS_QUICK, HOLD = 200, 60, 30
 FMAX_DESIGN = dict(frac_bits=15, lat_add=1, lat_mul=5, target="ecp5", early_exit=True)
 DSP_85F, BRAM_85F = 156, 208
 TARGET_GAP = 1.0
-
-
-def chain(M: int, N: int):
-    """M masses of 1 kg between two walls, springs of 1 N/m, one force per mass (masses.yaml generalised)"""
-    from mpc_cores.problem import problem_from_dict
-
-    K = -2 * np.eye(M) + np.eye(M, k=1) + np.eye(M, k=-1)
-    Ac = np.block([[np.zeros((M, M)), np.eye(M)], [K, np.zeros((M, M))]])
-    Bc = np.vstack([np.zeros((M, M)), np.eye(M)])
-    return problem_from_dict({
-        "name": f"chain{M}_N{N}", "model": {"Ac": Ac.tolist(), "Bc": Bc.tolist(), "Ts": 0.5},
-        "cost": {"Q": 1.0, "R": 1.0, "QN": "dare"}, "horizon": N, "inputs": {"min": -0.5, "max": 0.5},
-        "states": {"min": -2.0, "max": 2.0}, "tracking": {"outputs": list(range(M)), "min": -1.0, "max": 1.0}})
 
 
 def fitting_design(problem, log):
@@ -99,7 +91,7 @@ def measure(M: int, N: int, steps: int, clock: float, repeats: int, log) -> dict
 
     p = chain(M, N)
     qp = condense(p)
-    r = {"M": M, "N": N, "nx": p.nx, "nu": p.nu, "n": qp.n}
+    r = {"core": "fgm", "M": M, "N": N, "nx": p.nx, "nu": p.nu, "n": qp.n}
     d, res, P = fitting_design(p, log)
     r["P"] = P
     if d is None:
@@ -162,31 +154,48 @@ def table(rows: list[dict], clock_text: str) -> list[str]:
 
 
 def plot(rows: list[dict], path: Path, clock_text: str) -> None:
+    """Latency against n: the FGM core on the input box (left), the DGP core with state constraints (right), each
+    beside DAQP's own timer on the same QPs"""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5))
-    for M in sorted({r["M"] for r in rows}):
-        rr = [r for r in rows if r["M"] == M and "core_us_median" in r]
-        if not rr:
-            continue
-        n = [r["n"] for r in rr]
-        line, = ax.plot(n, [r["core_us_median"] for r in rr], "o-", label=f"FGM core, M = {M} (median)")
-        ax.plot(n, [r["core_us_max"] for r in rr], "o:", color=line.get_color(), label=f"FGM core, M = {M} (max)")
-        if all("daqp_own_median_us" in r for r in rr):
-            ax.plot(n, [r["daqp_own_median_us"] for r in rr], "s--", color=line.get_color(), alpha=0.6,
-                    label=f"DAQP own timer, M = {M} (median)")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("decision variables n = N M")
-    ax.set_ylabel("latency per solve, us")
-    ax.set_title(f"FGM core ({clock_text}) against DAQP on a chain of M masses, horizon N")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5), sharey=True)
+    for ax, core, what in zip(axes, ("fgm", "dgp"), ("input box", "input box and hard position limits")):
+        for M in sorted({r["M"] for r in rows}):
+            rr = [r for r in rows if r["M"] == M and r.get("core", "fgm") == core and "core_us_median" in r]
+            if not rr:
+                continue
+            n = [r["n"] for r in rr]
+            line, = ax.plot(n, [r["core_us_median"] for r in rr], "o-", label=f"{core.upper()} core, M = {M} (median)")
+            ax.plot(n, [r["core_us_max"] for r in rr], "o:", color=line.get_color(),
+                    label=f"{core.upper()} core, M = {M} (max)")
+            if all("daqp_own_median_us" in r for r in rr):
+                ax.plot(n, [r["daqp_own_median_us"] for r in rr], "s--", color=line.get_color(), alpha=0.6,
+                        label=f"DAQP own timer, M = {M} (median)")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("decision variables n = N M")
+        ax.set_title(f"{core.upper()} core ({clock_text}), {what}", fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
+    axes[0].set_ylabel("latency per solve, us")
+    fig.suptitle("Chains of M masses, horizon N, against DAQP on the same QPs")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def _verdict(rows: list[dict]) -> list[str]:
+    """Where the core is ahead of DAQP's own timer (median and maximum), and the largest instance that fits"""
+    fits = [r for r in rows if "core_us_median" in r]
+    wins = [r for r in fits if (r.get("daqp_own_median_over_core") or 0) >= 1
+            and (r.get("daqp_own_max_over_core") or 0) >= 1]
+    return ["Where the core is ahead of DAQP at the median and at the maximum: "
+            + (", ".join(f"M = {r['M']}, N = {r['N']} (n = {r['n']})" for r in wins) or "none") + ".",
+            "Largest instance that fits the LFE5U-85F: " + (f"n = {max(r['n'] for r in fits)}" if fits else "none")
+            + "."]
 
 
 def placed_clock(out: Path) -> float | None:
@@ -219,33 +228,45 @@ def main(argv=None) -> None:
     clock_text = (f"at {clock:.1f} MHz" + (" (given)" if a.clock_mhz else " (the placed Fmax of the FGM section's "
                   "masses core, P = 1, in fgm.csv: an estimate for these cores, not placed)" if placed else
                   " (the constraint: no placed FGM core in this folder)"))
+    from mpc_bench import scaling_dgp
+
     rows, notes = [], []
-    for M, N in tqdm([(M, N) for M in Ms for N in Ns], desc="scaling", unit="instance", disable=None):
-        rows.append(measure(M, N, steps, clock, a.repeats, notes.append))
-    keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in ("M", "N", "n", "P"), k))
+    grid = [(core, M, N) for core in ("fgm", "dgp") for M in Ms for N in Ns]
+    for core, M, N in tqdm(grid, desc="scaling", unit="instance", disable=None):
+        rows.append(measure(M, N, steps, clock, a.repeats, notes.append) if core == "fgm" else
+                    scaling_dgp.measure(M, N, steps, HOLD, clock, a.repeats, TARGET_GAP, notes.append))
+    keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in ("core", "M", "N", "n", "P"), k))
     with (out / "scaling.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
         w.writerows(rows)
     plot(rows, out / "scaling.png", f"{clock:g} MHz")
-    fits = [r for r in rows if "core_us_median" in r]
-    wins = [r for r in fits if (r.get("daqp_own_median_over_core") or 0) >= 1 and (r.get("daqp_own_max_over_core")
-                                                                                   or 0) >= 1]
     when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    lines = [f"# FGM core against DAQP as the problem grows ({'QUICK' if a.quick else 'full'})", "",
+    fgm = [r for r in rows if r["core"] == "fgm"]
+    dgp = [r for r in rows if r["core"] == "dgp"]
+    lines = [f"# FGM and DGP cores against DAQP as the problem grows ({'QUICK' if a.quick else 'full'})", "",
              f"{when}; `python -m mpc_bench.scaling{' --quick' if a.quick else ''}`; {steps} closed-loop steps per "
-             f"instance, references held {HOLD} steps; the core {clock_text}; design: TARGET=ecp5, b = 15, "
-             f"l_A = 1, l_M = 5, the exit test, Imax and EXIT_TOL from the design check at {TARGET_GAP:g} %, P the "
-             "largest power of two whose MULT18X18D and DP16KD estimates fit the LFE5U-85F.", "",
-             *table(rows, clock_text), "",
+             f"instance, references held {HOLD} steps; the cores {clock_text}.", "",
+             "## Input box: the FGM core", "",
+             f"Design: TARGET=ecp5, b = 15, l_A = 1, l_M = 5, the exit test, Imax and EXIT_TOL from the design check "
+             f"at {TARGET_GAP:g} %, P the largest power of two whose MULT18X18D and DP16KD estimates fit the "
+             "LFE5U-85F.", "",
+             *table(fgm, clock_text), "",
              "Core us: overhead + I L_F cycles (core.json's contract) per loop step, I the iterations the golden "
              "model ran. DAQP and OSQP: their own solve timers (C level), hot-started / warm-started on the same "
              "QPs, one pinned CPU. DAQP / core: above 1x the core is ahead. Error: max over the loop of |u0 - u0*|, "
-             "u0* from OSQP at eps 1e-9.", "",
-             f"Where the core is ahead of DAQP at the median and at the maximum: "
-             + (", ".join(f"M = {r['M']}, N = {r['N']} (n = {r['n']})" for r in wins) or "none") + ".",
-             "Largest instance that fits the LFE5U-85F: "
-             + (f"n = {max(r['n'] for r in fits)}" if fits else "none") + ".", "", "Design choices: " + "; ".join(notes) + ".", "", "Plot: scaling.png."]
+             "u0* from OSQP at eps 1e-9.", "", *_verdict(fgm), "",
+             "## Input box and hard position limits: the DGP core", "",
+             f"The same chains with |p_i| <= {scaling_dgp.POSITION_LIMIT} at stages 1..N (examples/masses_state.yaml "
+             f"generalised). Design: TARGET=ecp5, accelerated, b = 15, P = 2 row units, `lanes: fit` (the most "
+             f"multipliers per unit that fit the LFE5U-85F), Imax from the design check at {TARGET_GAP:g} %, the "
+             "stopping test (32c) at eps_g = eps_V = 1e-3. No DGP core is placed: its us are at the clock above, "
+             "an estimate.", "",
+             *scaling_dgp.table(dgp), "",
+             "Core us: overhead + I x cycles per iteration (core.json's contract), I the iterations the golden model "
+             "ran (warm start). DAQP: every row a general constraint, hot start; OSQP: warm start; their own timers "
+             "on the same QPs.", "", *_verdict(dgp), "",
+             "Design choices: " + "; ".join(notes) + ".", "", "Plot: scaling.png."]
     (out / "scaling.md").write_text("\n".join(lines) + "\n")
     if a.docs:
         dest = Path(a.docs) / f"{datetime.date.today().isoformat()}-scaling{'-quick' if a.quick else ''}.md"

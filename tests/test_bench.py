@@ -462,15 +462,20 @@ def test_fgm_fmax_core_list():
 
 
 def test_scaling_sweep_parts(tmp_path):
-    """mpc_bench.scaling: the chain of 4 masses at N = 10 is examples/masses.yaml's plant and QP; the report's
-    table and plot from canned rows (an instance that does not fit says so); the clock from a placed core's CSV."""
-    from mpc_bench import scaling
+    """mpc_bench.scaling: the chain of 4 masses at N = 10 is examples/masses.yaml's plant and QP, and with the hard
+    position limits examples/masses_state.yaml's state-constrained QP; the report's tables, verdicts and plot from
+    canned rows (an instance that does not fit says so); the clock from a placed core's CSV."""
+    from mpc_bench import scaling, scaling_dgp
+    from mpc_cores.dgp.problem import dgp_qp
     from mpc_cores.problem import condense, load_spec
 
     from mpc_cores.flow import REPO
 
     a, b = condense(scaling.chain(4, 10)), condense(load_spec(REPO / "examples/masses.yaml"))
     assert np.allclose(a.H, b.H) and np.allclose(a.Phi, b.Phi) and np.allclose(a.lb, b.lb)
+    s, t = dgp_qp(scaling_dgp.chain_state(4, 10)), dgp_qp(load_spec(REPO / "examples/masses_state.yaml"))
+    for f in ("Q", "Phi", "G", "lo0", "hi0", "Lw"):
+        assert np.allclose(getattr(s, f), getattr(t, f)), f
     row = {"M": 2, "N": 5, "n": 10, "P": 8, "mult18x18d": 96, "dp16kd_est": 96, "imax": 4, "cycles_per_iteration": 20,
            "core_error_max": 0.03, "daqp_error_max": 1e-10}
     for q, v in (("median", 1), ("p99", 3), ("max", 4)):
@@ -482,5 +487,14 @@ def test_scaling_sweep_parts(tmp_path):
     assert "does not fit at P = 1" in text
     scaling.plot([row, far], tmp_path / "s.png", "200 MHz")
     assert (tmp_path / "s.png").stat().st_size > 1000
+    drow = dict(row, core="dgp", P=2, lanes=29, mc=80, imax=1, cycles_per_iteration=178)
+    for q, v in (("median", 0.5), ("p99", 2.0), ("max", 0.5)):
+        drow[f"daqp_own_{q}_over_core"] = v
+    text = "\n".join(scaling_dgp.table([drow, dict(far, core="dgp")]))
+    assert "| 2 | 5 | 10 | 2 x 29 | 96 / 96, 80 rows, Imax 1, 178 cycles / iteration | 1 / 3 / 4 |" in text
+    assert scaling._verdict([drow])[0].endswith("none.") and scaling._verdict([row])[0].endswith("(n = 10).")
+    assert scaling._verdict([drow, far])[1] == "Largest instance that fits the LFE5U-85F: n = 10."
+    scaling.plot([row, far, drow], tmp_path / "s2.png", "200 MHz")
+    assert (tmp_path / "s2.png").stat().st_size > (tmp_path / "s.png").stat().st_size
     (tmp_path / "fgm.csv").write_text("role,early_exit,fmax_mhz\nsweep,False,90.5\nfmax,True,217.7\n")
     assert scaling.placed_clock(tmp_path) == 217.7 and scaling.placed_clock(tmp_path / "none") is None
