@@ -230,10 +230,19 @@ class MinresCore(val p: MinresParams) extends Module {
   // offsets tB and tC (bc, cc). The feed's words enter the shift register RL cycles after its count (tRow counts
   // them).
   private val RL = VecRam.ReadLatency
-  val feed = new PassCounter(p); feed.tick(startAt(0), imaxS, curBank, Some(imaxSZero))
-  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - RL - 1), feed.imax, curBank, Some(feed.imaxZero))
-  val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, curBank, Some(feed.imaxZero))
-  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - RL - 1), feed.imax, curBank, Some(feed.imaxZero))
+  /** curBank as a pass counter takes it at its start: on an FPGA target a kept copy per counter (mem.KeepReg, the
+    * same value: set with curBank), so that the register the batch logic reads across the core does not also drive
+    * the counters' address adders */
+  private def bankCopy(): UInt = if (p.target == dsp.Target.Generic) curBank else {
+    val d = Wire(UInt(1.W))
+    val q = mem.KeepReg(d)
+    d := Mux(reset.asBool, 0.U, Mux(startBatch, nextBank, q))
+    q
+  }
+  val feed = new PassCounter(p); feed.tick(startAt(0), imaxS, bankCopy(), Some(imaxSZero))
+  val pbA  = new PassCounter(p); pbA.tick(startAt(p.tB - RL - 1), feed.imax, bankCopy(), Some(feed.imaxZero))
+  val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, bankCopy(), Some(feed.imaxZero))
+  val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - RL - 1), feed.imax, bankCopy(), Some(feed.imaxZero))
   /** a pass's address phase, a cycle behind its counter (which starts a cycle earlier): the counter's word and its
     * read addresses (in a slot's vector; in a bank's slot's vector) registered, so no adder meets a memory */
   private def addressPhase(pc: PassCounter): (MinresCtl, UInt, UInt) =
