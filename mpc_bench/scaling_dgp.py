@@ -66,6 +66,7 @@ def measure(M: int, N: int, steps: int, hold: int, clock: float, repeats: int, t
         r[f"core_cycles_{q}"] = v
         r[f"core_us_{q}"] = v / clock
     r["core_met_fraction"] = float(np.mean(loop.met["units"]))
+    r["active_input_fraction"], r["active_state_fraction"] = active_fractions(d.qp, loop.W)
     r["core_error_max"] = loop.core_err["units"][0]
     sq = StateQp(d.qp)
     with pinned(), c_output_silenced():
@@ -83,6 +84,20 @@ def measure(M: int, N: int, steps: int, hold: int, clock: float, repeats: int, t
     return r
 
 
+def active_fractions(qp, W: np.ndarray, tol: float = 1e-6) -> tuple[float, float]:
+    """The fractions of the loop's QPs whose optimum (OSQP at eps 1e-9) has an input row, and a hard state row, at
+    a bound (within tol of the row's range): how often the constraints shape the answer"""
+    from mpc_cores.dgp.problem import solve_osqp
+
+    hits = np.zeros((len(W), 2), dtype=bool)
+    for k, w in enumerate(W):
+        z = solve_osqp(qp, w, eps=1e-9)[0]
+        lo, hi = qp.bounds(w)
+        at = np.minimum(qp.G @ z - lo, hi - qp.G @ z) <= tol * (hi - lo)
+        hits[k] = at[: qp.n_input_rows].any(), at[qp.n_input_rows:].any()
+    return float(hits[:, 0].mean()), float(hits[:, 1].mean())
+
+
 def table(rows: list[dict]) -> list[str]:
     from mpc_bench.report import _f, _table
 
@@ -90,11 +105,12 @@ def table(rows: list[dict]) -> list[str]:
     body = []
     for r in rows:
         if "core_us_median" not in r:
-            body.append([str(r["M"]), str(r["N"]), str(r["n"]), "-", r.get("note", "")[:90]] + ["-"] * 6)
+            body.append([str(r["M"]), str(r["N"]), str(r["n"]), "-", r.get("note", "")[:90]] + ["-"] * 7)
             continue
         body.append([str(r["M"]), str(r["N"]), str(r["n"]), f"{r['P']} x {r['lanes']}",
                      f"{r['mult18x18d']} / {r['dp16kd_est']}, {r['mc']} rows, Imax {r['imax']}, "
                      f"{r['cycles_per_iteration']} cycles / iteration",
+                     f"{100 * r['active_input_fraction']:.0f} % / {100 * r['active_state_fraction']:.0f} %",
                      " / ".join(f"{r[f'core_iter_{q}']:g}" for q in q3),
                      " / ".join(f"{r[f'core_us_{q}']:.2f}" for q in q3),
                      " / ".join(_f(r.get(f"daqp_own_{q}_us"), "{:.2f}") for q in q3),
@@ -102,5 +118,6 @@ def table(rows: list[dict]) -> list[str]:
                      " / ".join(_f(r.get(f"osqp_own_{q}_us"), "{:.1f}") for q in q3),
                      f"{r['core_error_max']:.1e} / {_f(r.get('daqp_error_max'), '{:.0e}')}"])
     return _table(["M", "N", "n", "P x lanes", "MULT18X18D / DP16KD (est.), rows, Imax, L",
-                   "core iterations med / p99 / max", "core us med / p99 / max", "DAQP own us med / p99 / max",
+                   "QPs with an input / state row active", "core iterations med / p99 / max", "core us med / p99 / max",
+                   "DAQP own us med / p99 / max",
                    "DAQP / core med / p99 / max", "OSQP own us med / p99 / max", "error max core / DAQP"], body)

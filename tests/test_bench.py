@@ -487,11 +487,12 @@ def test_scaling_sweep_parts(tmp_path):
     assert "does not fit at P = 1" in text
     scaling.plot([row, far], tmp_path / "s.png", "200 MHz")
     assert (tmp_path / "s.png").stat().st_size > 1000
-    drow = dict(row, core="dgp", P=2, lanes=29, mc=80, imax=1, cycles_per_iteration=178)
+    drow = dict(row, core="dgp", P=2, lanes=29, mc=80, imax=1, cycles_per_iteration=178, active_input_fraction=0.25,
+                active_state_fraction=0.0)
     for q, v in (("median", 0.5), ("p99", 2.0), ("max", 0.5)):
         drow[f"daqp_own_{q}_over_core"] = v
     text = "\n".join(scaling_dgp.table([drow, dict(far, core="dgp")]))
-    assert "| 2 | 5 | 10 | 2 x 29 | 96 / 96, 80 rows, Imax 1, 178 cycles / iteration | 1 / 3 / 4 |" in text
+    assert "| 2 | 5 | 10 | 2 x 29 | 96 / 96, 80 rows, Imax 1, 178 cycles / iteration | 25 % / 0 % | 1 / 3 / 4 |" in text
     assert scaling._verdict([drow])[0].endswith("none.") and scaling._verdict([row])[0].endswith("(n = 10).")
     assert scaling._verdict([drow, far])[1] == "Largest instance that fits the LFE5U-85F: n = 10."
     scaling.plot([row, far, drow], tmp_path / "s2.png", "200 MHz")
