@@ -194,8 +194,8 @@ def _verdict(rows: list[dict]) -> list[str]:
             and (r.get("daqp_own_max_over_core") or 0) >= 1]
     return ["Where the core is ahead of DAQP at the median and at the maximum: "
             + (", ".join(f"M = {r['M']}, N = {r['N']} (n = {r['n']})" for r in wins) or "none") + ".",
-            "Largest instance that fits the LFE5U-85F: " + (f"n = {max(r['n'] for r in fits)}" if fits else "none")
-            + "."]
+            "Largest instance of the grid that fits the LFE5U-85F: "
+            + (f"n = {max(r['n'] for r in fits)}" if fits else "none") + "."]
 
 
 def placed_clock(out: Path) -> float | None:

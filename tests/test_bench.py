@@ -494,7 +494,7 @@ def test_scaling_sweep_parts(tmp_path):
     text = "\n".join(scaling_dgp.table([drow, dict(far, core="dgp")]))
     assert "| 2 | 5 | 10 | 2 x 29 | 96 / 96, 80 rows, Imax 1, 178 cycles / iteration | 25 % / 0 % | 1 / 3 / 4 |" in text
     assert scaling._verdict([drow])[0].endswith("none.") and scaling._verdict([row])[0].endswith("(n = 10).")
-    assert scaling._verdict([drow, far])[1] == "Largest instance that fits the LFE5U-85F: n = 10."
+    assert scaling._verdict([drow, far])[1] == "Largest instance of the grid that fits the LFE5U-85F: n = 10."
     scaling.plot([row, far, drow], tmp_path / "s2.png", "200 MHz")
     assert (tmp_path / "s2.png").stat().st_size > (tmp_path / "s.png").stat().st_size
     (tmp_path / "fgm.csv").write_text("role,early_exit,fmax_mhz\nsweep,False,90.5\nfmax,True,217.7\n")
