@@ -40,8 +40,8 @@ def fitting_design(problem, target_gap: float, log):
 
 
 def measure(M: int, N: int, steps: int, hold: int, clock: float, repeats: int, target_gap: float, log) -> dict:
-    from mpc_bench.baselines import pinned
-    from mpc_bench.baselines import _time_solver
+    """One row of the DGP section: the design, the loop's iterations, cycles and us at `clock`, DAQP and OSQP"""
+    from mpc_bench.baselines import _time_solver, pinned
     from mpc_bench.dgp import DaqpState, OsqpState, StateQp, closed_loop
     from mpc_bench.dgp_report import stats as quantiles
     from mpc_cores import registry
