@@ -499,3 +499,18 @@ def test_scaling_sweep_parts(tmp_path):
     assert (tmp_path / "s2.png").stat().st_size > (tmp_path / "s.png").stat().st_size
     (tmp_path / "fgm.csv").write_text("role,early_exit,fmax_mhz\nsweep,False,90.5\nfmax,True,217.7\n")
     assert scaling.placed_clock(tmp_path) == 217.7 and scaling.placed_clock(tmp_path / "none") is None
+
+
+def test_scaling_instance_without_a_holdable_reference():
+    """A chain whose references cannot be held inside the input box (8 masses: the steady-state forces outgrow it)
+    is a row with a note (chains.NoLoop), not a crash of the sweep; other errors pass through."""
+    from mpc_bench import chains
+    from mpc_cores.closedloop import reference_schedule
+
+    with pytest.raises(chains.NoLoop, match="can be held within 90% of the input box"):
+        with chains.references_held():
+            reference_schedule(chains.chain(8, 5), 200, 30, 0)
+    with pytest.raises(ValueError, match="other") as e:
+        with chains.references_held():
+            raise ValueError("other")
+    assert not isinstance(e.value, chains.NoLoop)
