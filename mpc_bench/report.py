@@ -46,6 +46,18 @@ def _table(header: list[str], body: list[list[str]]) -> list[str]:
     return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)] + ["| " + " | ".join(r) + " |" for r in body]
 
 
+def loop_cells(r: dict, osqp: str, ratio_fmt: str) -> list[str]:
+    """The scaling sweep's loop columns of a row (median / p99 / max each): the core's iterations and us, DAQP's own
+    us and its ratio to the core's, the OSQP variant `osqp`'s own us, and the errors of the core and DAQP"""
+    q3 = ("median", "p99", "max")
+    return [" / ".join(f"{r[f'core_iter_{q}']:g}" for q in q3),
+            " / ".join(f"{r[f'core_us_{q}']:.2f}" for q in q3),
+            " / ".join(_f(r.get(f"daqp_own_{q}_us"), "{:.2f}") for q in q3),
+            " / ".join(_f(r.get(f"daqp_own_{q}_over_core"), ratio_fmt) for q in q3),
+            " / ".join(_f(r.get(f"{osqp}_own_{q}_us"), "{:.1f}") for q in q3),
+            f"{r['core_error_max']:.1e} / {_f(r.get('daqp_error_max'), '{:.0e}')}"]
+
+
 def _tool_columns(c, r: dict) -> None:
     """Yosys counts, nextpnr results and the critical path of a core (mpc_bench.tools.ToolResults), into its
     record."""

@@ -133,22 +133,16 @@ def measure(M: int, N: int, steps: int, clock: float, repeats: int, log) -> dict
 
 
 def table(rows: list[dict], clock_text: str) -> list[str]:
-    from mpc_bench.report import _f, _table
+    from mpc_bench.report import _table, loop_cells
 
     body = []
     for r in rows:
         if "core_us_median" not in r:
             body.append([str(r["M"]), str(r["N"]), str(r["n"]), "-", r.get("note", "")[:90]] + ["-"] * 6)
             continue
-        q3 = ("median", "p99", "max")
         body.append([str(r["M"]), str(r["N"]), str(r["n"]), str(r["P"]),
                      f"{r['mult18x18d']} / {r['dp16kd_est']}, Imax {r['imax']}, L_F {r['cycles_per_iteration']}",
-                     " / ".join(f"{r[f'core_iter_{q}']:g}" for q in q3),
-                     " / ".join(f"{r[f'core_us_{q}']:.2f}" for q in q3),
-                     " / ".join(_f(r.get(f"daqp_own_{q}_us"), "{:.2f}") for q in q3),
-                     " / ".join(_f(r.get(f"daqp_own_{q}_over_core"), "{:.1f}x") for q in q3),
-                     " / ".join(_f(r.get(f"osqp_tuned_own_{q}_us"), "{:.1f}") for q in q3),
-                     f"{r['core_error_max']:.1e} / {_f(r.get('daqp_error_max'), '{:.0e}')}"])
+                     *loop_cells(r, "osqp_tuned", "{:.1f}x")])
     return _table(["M", "N", "n", "P", "MULT18X18D / DP16KD (est.), Imax, L_F", "core iterations med / p99 / max",
                    "core us med / p99 / max", "DAQP own us med / p99 / max",
                    "DAQP / core med / p99 / max", "OSQP tuned own us med / p99 / max", "error max core / DAQP"], body)

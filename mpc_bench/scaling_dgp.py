@@ -100,9 +100,8 @@ def active_fractions(qp, W: np.ndarray, tol: float = 1e-6) -> tuple[float, float
 
 
 def table(rows: list[dict]) -> list[str]:
-    from mpc_bench.report import _f, _table
+    from mpc_bench.report import _table, loop_cells
 
-    q3 = Q3
     body = []
     for r in rows:
         if "core_us_median" not in r:
@@ -112,12 +111,7 @@ def table(rows: list[dict]) -> list[str]:
                      f"{r['mult18x18d']} / {r['dp16kd_est']}, {r['mc']} rows, Imax {r['imax']}, "
                      f"{r['cycles_per_iteration']} cycles / iteration",
                      f"{100 * r['active_input_fraction']:.0f} % / {100 * r['active_state_fraction']:.0f} %",
-                     " / ".join(f"{r[f'core_iter_{q}']:g}" for q in q3),
-                     " / ".join(f"{r[f'core_us_{q}']:.2f}" for q in q3),
-                     " / ".join(_f(r.get(f"daqp_own_{q}_us"), "{:.2f}") for q in q3),
-                     " / ".join(_f(r.get(f"daqp_own_{q}_over_core"), "{:.2f}x") for q in q3),
-                     " / ".join(_f(r.get(f"osqp_own_{q}_us"), "{:.1f}") for q in q3),
-                     f"{r['core_error_max']:.1e} / {_f(r.get('daqp_error_max'), '{:.0e}')}"])
+                     *loop_cells(r, "osqp", "{:.2f}x")])
     return _table(["M", "N", "n", "P x lanes", "MULT18X18D / DP16KD (est.), rows, Imax, L",
                    "QPs with an input / state row active", "core iterations med / p99 / max", "core us med / p99 / max",
                    "DAQP own us med / p99 / max",
