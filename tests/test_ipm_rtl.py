@@ -30,6 +30,10 @@ RTL_CASES = {
     # memories' DP16KD primitives, simulated through their behavioural model)
     "n1_m1_t3_p2_e8m17": (lambda: random_problem("ic", 1, 1, 3, 1, 7, **HARD),
                           dict(P=2, iterations=6, newton=3, format="e8m17", target="ecp5"), 2),
+    # multiplexed (Algorithm 2 of 001): two inputs, each channel the single-input problem of input c mod 2 (its
+    # Stage 1 constant bank and MINRES table), frames with x^, (x_s, u_s,i) and F, answers with the plan; a state box
+    "n2_m2_t3_p2_mux": (lambda: random_problem("id", 2, 2, 3, 0, 8, **HARD),
+                        dict(P=2, iterations=5, newton=2, multiplexed=True), 2),
 }
 
 

@@ -148,7 +148,7 @@ def test_word_arithmetic_equals_float32_path():
     slow = MinresCoreModel(n, m, T, rom, lat_add=3)
     slow.ops = WordOps(Format(8, 23))
     slow.rom = slow.ops.value(rom)
-    slow.coef = slow.ops.value(fast.coef)
+    slow.coefs = [slow.ops.value(c) for c in fast.coefs]
     for k in range(3):
         b = rng.standard_normal(fast.N)
         assert fast.solve(diag, b, 4 + 3 * k).words == slow.solve(diag, b, 4 + 3 * k).words

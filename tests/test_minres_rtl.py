@@ -37,6 +37,11 @@ RTL_CASES = {
     # the interior-point core's form: warm start at z0, equilibration d, ||r_0|| after x, iterations and the
     # closing of partial batches on ports
     "n2_m1_t3_warm": (lambda: random_problem("re", 2, 1, 3, 0, 9), dict(P=2, iterations=7, warm=True), 16),
+    # the multiplexed interior-point core's form: two matrices of one layout (two random plants), each problem
+    # multiplying by the one its id chooses (random ids)
+    "n2_m1_t3_tables": (lambda: random_problem("rf", 2, 1, 3, 0, 10),
+                        dict(P=3, iterations=7, warm=True,
+                             channels=[random_problem(f"rf{k}", 2, 1, 3, 0, 12 + k) for k in range(2)]), 12),
 }
 OTHER = {
     "masses_p4": (lambda: load_spec(REPO / "examples/masses.yaml"), dict(P=4)),

@@ -3,7 +3,10 @@ built with on the interpreter (mpc_cores.ipm.stage1_config.machine, 2P slots) an
 (MinresCoreModel.solve_warm), in the core's order: per sample sample, cold or warm, I_NW times (linearise, MINRES,
 update), output. The answer is what the core streams: u0 (m words), mu, with CTRL.OUT_ALL the whole iterate z (N
 words, deviations from the steady state) and the steady state (x_s, u_s) (n + m words), then ||r_0|| of the last
-Newton system and the status word (bit 0 non-finite, bit 1 not converged, bits 31:16 the Newton iterations)."""
+Newton system and the status word (bit 0 non-finite, bit 1 not converged, bits 31:16 the Newton iterations).
+
+Multiplexed (config `multiplexed`): channel c solves input c mod `inputs` (its Stage 1 constant bank and MINRES
+table); `solve_copy` sends x^, (x_s, u_s,i) and F, and the answer carries the T planned moves after u0 and mu."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -47,6 +50,8 @@ class IpmCoreModel:
         self.N, self.npr = self.mr.N, len(self.mr.primal)
         self.W = self.mr.fmt.width
         self.started = [False] * self.slots
+        self.multiplexed = bool(cfg.get("multiplexed", False))
+        self.T = cfg["minres"]["T"]
 
     def reset(self) -> None:
         self.__init__(self.cfg, self.slots // 2 if self.slots < 64 else None)
@@ -78,7 +83,8 @@ class IpmCoreModel:
             out = M.take()
             npr, N = self.npr, self.N
             diag, d, bh, z0 = out[:npr], out[npr:npr + N], out[npr + N:npr + 2 * N], out[npr + 2 * N:]
-            r_, res = self.mr.solve_warm(*(o.to_float(v) for v in (diag, d, bh, z0)), self.i_mr)
+            r_, res = self.mr.solve_warm(*(o.to_float(v) for v in (diag, d, bh, z0)), self.i_mr,
+                                         table=self.mr.table_of(slot))
             bad = bad or r_.flag
             M.inq.extend(np.atleast_1d(o.from_words(r_.words)).tolist())
             self._run("receive", slot)
@@ -92,3 +98,14 @@ class IpmCoreModel:
             self.started[slot] = False
         status = (self.i_nw << 16) | (0 if conv else 2) | int(bad)
         return Answer(words, status, o.to_float(out[: self.m]))
+
+    def solve_copy(self, slot: int, x, ss, F, warm: bool = True) -> Answer:
+        """Multiplexed: one copy on channel `slot` (input slot mod inputs): x^ (n), the steady state (x_s, u_s,i)
+        (n + 1) and the known term F (T x n, stage by stage) as float values."""
+        assert self.multiplexed, "solve_copy needs a multiplexed core"
+        data = np.concatenate([np.ravel(x), np.ravel(ss), np.ravel(F)])
+        return self.solve(slot, None, warm=warm, x_words=self.mr.to_words(data))
+
+    def plan(self, a: Answer) -> np.ndarray:
+        """Multiplexed: the T planned moves of an answer (deviations from u_s,i), float values"""
+        return self.ops.to_float(self.ops.from_words(a.words[self.m + 1: self.m + 1 + self.T]))

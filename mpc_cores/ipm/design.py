@@ -7,7 +7,13 @@ docs/ipm.md) and the smallest I_MR at which Stage 1 hides behind MINRES (a Newto
 takes two MINRES batches back to back, mpc_cores.ipm.timing), so that the added iterations cost no latency; P from
 eq. (15) of 001 (the MINRES core's form); the float operators' latencies from a preset, compact (the float
 library's defaults) or fast (150 MHz on the LFE5U-85F). Spec keys (solver section): ipm_P, ipm_newton, ipm_minres,
-ipm_format, ipm_latency, ipm_mu_tol, ipm_res_tol.
+ipm_format, ipm_latency, ipm_mu_tol, ipm_res_tol, ipm_multiplexed.
+
+Multiplexed (ipm_multiplexed: true; parallel multiplexed MPC, Algorithm 2 of 001): the core solves the m
+single-input problems of mpc_cores.ipm.multiplexed.channel_problem, channel c the problem of input c mod m, each
+with its own Stage 1 constant bank and MINRES coefficient table (the programs and the layout are one: every
+channel's problem has the same sizes); the closed loop around the core keeps the plan and picks the copy
+(mpc_cores.ipm.mux_loop).
 """
 from __future__ import annotations
 
@@ -44,6 +50,11 @@ class IpmDesign:
     mu_tol: float
     res_tol: float
     lat_cmp: int = 1
+    banks: list = None     # multiplexed: per input, its channel problem's Stage1 (constants); st1 is banks[0]
+
+    @property
+    def multiplexed(self) -> bool:
+        return bool(self.banks)
 
     @property
     def P(self) -> int:
@@ -78,11 +89,13 @@ class IpmDesign:
     def config(self) -> dict:
         p = self.problem
         st1 = stage1_config.config(self.st1, self.name, slots=2, lat=self.lat, exp_w=self.fmt.expW,
-                                   man_w=self.fmt.manW, target=self.md.target)
-        return {"core": "ipm", "name": self.name, "n": p.nx, "m": p.nu, "ny": p.ny, "i_nw": self.i_nw,
+                                   man_w=self.fmt.manW, target=self.md.target, banks=self.banks)
+        mux = {"multiplexed": True, "inputs": p.nu} if self.multiplexed else {}
+        return {"core": "ipm", "name": self.name, "n": p.nx, "m": 1 if self.multiplexed else p.nu,
+                "ny": 0 if self.multiplexed else p.ny, "i_nw": self.i_nw,
                 "mu_tol": self.word(self.mu_tol), "res_tol": self.word(self.res_tol),
                 "sigma": SIGMA, "tau": TAU, "hard_states": p.hard_states is not None, "stage1": st1,
-                "minres": self.md.config()}
+                "minres": self.md.config(), **mux}
 
     def write_config(self, path) -> None:
         Path(path).write_text(json.dumps(self.config()))
@@ -91,7 +104,7 @@ class IpmDesign:
 def design_ipm(problem, P: int | None = None, iterations: int | None = None, newton: int | None = None,
                lat_add: int | None = None, lat_mul: int | None = None, format: str | None = None,
                name: str | None = None, latency: str | None = None, target: str | None = None,
-               **_ignored) -> IpmDesign:
+               multiplexed: bool | None = None, **_ignored) -> IpmDesign:
     from mpc_cores.ipm.kind import KIND
 
     refuse_sections(problem, KIND.name, KIND.constraints)
@@ -104,11 +117,28 @@ def design_ipm(problem, P: int | None = None, iterations: int | None = None, new
     if not 1 <= i_nw <= 65535:
         raise DesignError(f"I_NW (newton) must be in [1, 65535]: got {i_nw}")
     P = P if P is not None else solver.get("ipm_P", 0)
-    md = design_minres(problem, P=P, iterations=1, lat_add=lat_add, lat_mul=lat_mul, format=fmt, name=name,
-                       warm=True, latency=latency or solver.get("ipm_latency", LATENCY), target=target)
-    st1 = build(s, SIGMA, TAU, True, START, FLOOR)
+    mux = multiplexed if multiplexed is not None else solver.get("ipm_multiplexed", False)
+    if not isinstance(mux, bool):
+        raise DesignError(f"ipm_multiplexed must be true or false: got {mux!r}")
+    chans, banks = None, None
+    if mux:
+        if problem.nu < 2:
+            raise DesignError(f"multiplexed MPC needs at least two inputs (one channel per input): got m={problem.nu}")
+        from mpc_cores.ipm.multiplexed import channel_problem
+        chans = [channel_problem(problem, i) for i in range(problem.nu)]
+        banks = [build(sparse_mpc(c), SIGMA, TAU, True, START, FLOOR, multiplexed=True) for c in chans]
+        if any(b.programs != banks[0].programs for b in banks):   # the MAX of the preconditioner in every bank
+            banks = [build(sparse_mpc(c), SIGMA, TAU, True, START, FLOOR, multiplexed=True, force_max=True)
+                     for c in chans]
+        s = sparse_mpc(chans[0])
+    md = design_minres(chans[0] if mux else problem, P=P, iterations=1, lat_add=lat_add, lat_mul=lat_mul,
+                       format=fmt, name=name, warm=True, latency=latency or solver.get("ipm_latency", LATENCY),
+                       target=target, channels=chans)
+    st1 = banks[0] if mux else build(s, SIGMA, TAU, True, START, FLOOR)
     d = IpmDesign(name or problem.name, problem, s, st1, md, i_nw, float(solver.get("ipm_mu_tol", MU_TOL)),
-                  float(solver.get("ipm_res_tol", RES_TOL)))
+                  float(solver.get("ipm_res_tol", RES_TOL)), banks=banks)
+    if mux and md.P == 0:   # every input's copy in one MINRES batch: P at least m (eq. (15) otherwise)
+        md.P = max(planned_core(d, 1)["P"], problem.nu)
     i_mr = iterations or solver.get("ipm_minres") or max(I_MR_ACCURACY, hiding_imr(d))
     if not 1 <= int(i_mr) <= 65535:
         raise DesignError(f"I_MR (iterations) must be in [1, 65535]: got {i_mr}")

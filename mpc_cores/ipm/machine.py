@@ -36,10 +36,12 @@ def words(x) -> list[int]:
 class Machine:
     """One Stage 1 engine: `slots` private regions of `slot_words` words, the constant region (`const`: float
     values, rounded to the format) and the tables; `fmt` the float format (None: binary32); `ops` (optional) the
-    arithmetic instead of ops_for(fmt), e.g. WordOps(binary32) to check the float32 path against raw words."""
+    arithmetic instead of ops_for(fmt), e.g. WordOps(binary32) to check the float32 path against raw words.
+    `const_banks` (the multiplexed core): the constant region is that many banks of one layout, slot s reading bank
+    s mod const_banks."""
 
     def __init__(self, slots: int, slot_words: int, const: np.ndarray, tables: list[np.ndarray], lat_add: int,
-                 fmt: Format | None = None, ops=None):
+                 fmt: Format | None = None, ops=None, const_banks: int = 1):
         self.ops = ops or ops_for(fmt)
         self.fmt = self.ops.fmt
         self.binary32 = isinstance(self.ops, F32Ops)
@@ -47,6 +49,7 @@ class Machine:
         self.const = self.ops.value(np.asarray(const, dtype=f32) if self.binary32 else const)
         self.tables = [np.asarray(t, dtype=np.int64) for t in tables]
         self.lat_add = lat_add
+        self.const_banks = int(const_banks)
         self.inq: deque = deque()
         self.outq: list = []
         self.nan = self.ops.value(np.nan)      # the canonical quiet NaN
@@ -91,7 +94,11 @@ class Machine:
 
     # ---- memory
     def _space(self, o: Operand, slot: int) -> np.ndarray:
-        return self.mem[slot] if o.space == "slot" else self.const
+        if o.space == "slot":
+            return self.mem[slot]
+        size = len(self.const) // self.const_banks
+        bank = slot % self.const_banks
+        return self.const[bank * size: (bank + 1) * size]
 
     def read(self, o: Operand, n: int, slot: int) -> np.ndarray:
         m = self._space(o, slot)

@@ -18,6 +18,12 @@ th - lo) = h - G th, RG = (rGu, rGl), WT = (wu, wl), TT = (tu, tl). Programs:
 A sample runs: sample, cold (the first sample of a slot, or on request) or warm, then I_NW times (linearise, MINRES,
 receive, update), then output.
 
+Multiplexed (a channel's copy of parallel multiplexed MPC, Algorithm 2 of 001; the problem is the single-input
+problem of one channel): sample takes IN x^ (n), the steady state ss = (x_s, u_s,i) (n + 1) and the known term F
+(n T: the rows of the dynamics at stages 1..T, F_k = -B_{-i} du_{-i,k} from the stored plan) instead of r; cold
+and warm end by writing bh = d F on those rows (after cold's zeros); output adds the T planned moves du_i,k
+(deviations from u_s,i, unclamped) after u0 and mu.
+
 Persistent words. Only the boxed rows of the frame change between Newton iterations: the variable column of the
 free primal rows (H_ii), d of every row but the boxed ones (1/sqrt(max(off_i, H_ii)) and 1/sqrt(off_i) on the
 equality rows, float64 constants; 1 without the preconditioner) and bh = 0 on the free primal rows and on the
@@ -79,7 +85,7 @@ class Stage1:
 
 
 def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_value: float = 1.0,
-          warm_floor: float = 1e-2) -> Stage1:
+          warm_floor: float = 1e-2, multiplexed: bool = False, force_max: bool = False) -> Stage1:
     p = s.problem
     n, m, ny, N = p.nx, p.nu, p.ny, s.N
     L = s.L
@@ -96,7 +102,7 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
     dfix = 1.0 / np.sqrt(np.where(np.isin(np.arange(N), s.primal), np.maximum(off, Hd), off))
     dinit = dfix.copy() if precondition else np.ones(N)
     dinit[brow] = 1.0                               # written by every linearise
-    need_max = not bool(np.all(Hd[brow] >= off[brow]))
+    need_max = force_max or not bool(np.all(Hd[brow] >= off[brow]))
 
     # ---- constant region
     ca = Alloc()
@@ -120,6 +126,8 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
     const("dx0", dfix[x0: x0 + n])
     const("lo", s.lo)
     const("hi", s.hi)              # right after lo
+    if multiplexed:                # d of the dynamics rows of stages 1..T, in the order of F
+        const("dlam", np.concatenate([dinit[L.lam(k + 1): L.lam(k + 1) + n] for k in range(L.T)]))
     Mxu = np.vstack([s.Mx, s.Mu]) if ny else np.zeros((n + m, 0))
     for j in range(ny):
         const(f"Mxu{j}", Mxu[:, j])
@@ -138,7 +146,8 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
                        ("LS", 2 * nb), ("WT", 2 * nb), ("A", 2 * nb), ("B", nb), ("C", nb), ("bt", nb), ("mt", nb),
                        ("diag", npr), ("d", N), ("bh", N),
                        ("xin", n), ("r", max(ny, 1)), ("ss", n + m), ("ts", n + m), ("fx", n),
-                       ("u", m), ("mu", 1), ("acc", 1), ("smu", 1), ("rmin", 1), ("rmin1", 1), ("alpha", 1)):
+                       ("u", m), ("mu", 1), ("acc", 1), ("smu", 1), ("rmin", 1), ("rmin1", 1), ("alpha", 1),
+                       *((("F", n * L.T),) if multiplexed else ())):
         sa(name, size)
     a = {k: v for k, (v, _) in sa.names.items()}
     nb2, nb4 = 2 * nb, 4 * nb
@@ -163,8 +172,16 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
     dth = S(a["dz"], "gather", T_BROW)
     s_ = S(V + nb2)                           # (su, sl)
 
-    sample = [I("IN", n + ny, d=S(a["xin"]), note="x^, r")]
-    if ny:
+    if multiplexed:
+        if ny:
+            raise ValueError("a multiplexed channel's problem takes its steady state, not a reference")
+        sample = [I("IN", n, d=S(a["xin"]), note="x^"), I("IN", n + m, d=S(a["ss"]), note="(x_s, u_s,i)"),
+                  I("IN", n * L.T, d=S(a["F"]), note="F: the other channels' planned moves, -B_{-i} du_{-i,k}")]
+    else:
+        sample = [I("IN", n + ny, d=S(a["xin"]), note="x^, r")]
+    if multiplexed:
+        pass
+    elif ny:
         sample += [I("MUL", n + m, d=S(a["ss"]), a=C(c["Mxu0"]), b=S(a["r"], "scalar"))]
         for j in range(1, ny):
             sample += [I("MUL", n + m, d=S(a["ts"]), a=C(c[f"Mxu{j}"]), b=S(a["r"] + j, "scalar")),
@@ -187,6 +204,13 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
     if precondition:
         cold += [I("MOV", nb, d=S(a["ones"]), a=C(c["one"], "scalar"), note="persistent: numerators of d")]
     warm = [I("MAX", nb4, d=S(V), a=S(V), b=C(c["floor"], "scalar"), note="warm start: (lambda, s) >= floor")]
+    if multiplexed:                # bh = d F on the dynamics rows of stages 1..T (cold's zeros come first)
+        fk = [I("MUL", n, d=S(a["bh"] + L.lam(k + 1)), a=C(c["dlam"] + k * n), b=S(a["F"] + k * n),
+                note="bh = d F" if k == 0 else "") if precondition else
+              I("MOV", n, d=S(a["bh"] + L.lam(k + 1)), a=S(a["F"] + k * n), note="bh = F" if k == 0 else "")
+              for k in range(L.T)]
+        cold += fk
+        warm += fk
 
     lin = [I("MUL", nb2, d=S(a["LS"]), a=S(V), b=s_, note="(lu su, ll sl)"),
            I("ACC", nb2, d=S(a["acc"]), a=S(a["LS"])),
@@ -241,6 +265,9 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
            I("ADD", m, d=S(a["u"]), a=S(a["u"]), b=S(a["ss"] + n), note="u0 = clamp(du0) + u_s"),
            I("MUL", 1, d=S(a["mu"]), a=S(a["acc"]), b=C(c["inv_ineq"]), note="mu (7) of the last linearise"),
            I("OUT", m + 1, a=S(a["u"]), note="u0, mu")]
+    if multiplexed:
+        out += [I("OUT", 1, a=S(a["z"] + L.u(k)), note="the planned moves du_i,k" if k == 0 else "")
+                for k in range(L.T)]
     out_all = out + [I("OUT", N, a=S(a["z"]), note="z, deviations from the steady state"),
                      I("OUT", n + m, a=S(a["ss"]), note="the steady state (x_s, u_s)")]
 

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from mpc_cores.ipm.design import stage1_cycles
-from mpc_cores.ipm.timing import timing
+from mpc_cores.ipm.timing import simulate, timing
 
 
 def core_json(d, hw: dict) -> dict:
@@ -31,6 +31,17 @@ def core_json(d, hw: dict) -> dict:
                           "stage1_slots": st1["slot_words"] * st1["slots"], "stage1_const": st1["const_words"]}
     c.update(timing(c))
     c["reference_clocks_mhz"] = [150]  # 001's Virtex-6 clock
+    c["multiplexed"] = bool(hw.get("multiplexed", False))
+    if c["multiplexed"]:
+        # the core's problems are single-input: m = 1 per channel, no reference; a round of Algorithm 2 is the m
+        # copies on channels 0 .. m - 1 (input c mod m), in one MINRES batch when P >= m
+        chans = list(range(p.nu))
+        rnd = simulate(c, chans, warm=set(chans))
+        c.update({"m": 1, "ny": 0, "inputs": p.nu, "channels_used": p.nu, "plan_words": hw["plan_words"],
+                  "latency_cycles_per_sample": max(v["latency"] for v in rnd.values()),
+                  "latency_per_sample_note": "one round of the m copies on channels 0 .. m - 1, warm (a sample "
+                                             "whose reference changed runs rounds of them, the first sample more: "
+                                             "mpc_cores.ipm.mux_loop)"})
     return c
 
 

@@ -60,20 +60,31 @@ def check(programs: dict, tables, lat: dict) -> None:
 
 
 def config(st1, name: str, slots: int = 1, lat: dict | None = None, exp_w: int = 8, man_w: int = 23,
-           debug: bool = False, target: str = "generic") -> dict:
+           debug: bool = False, target: str = "generic", banks=None) -> dict:
     """config.json of an engine running the programs of `st1` (mpc_cores.ipm.program.Stage1, or anything with
     programs, const_words, tables and slot_words) on `slots` problem slots; `debug` adds the load and dump
     programs; `target` the FPGA family (mpc_cores.target: ecp5 builds the slot memory from DP16KD primitives with
-    their output register)."""
+    their output register). `banks`: Stage1s of the same programs and layouts whose constant regions become the
+    engine's banks (the multiplexed core's channels; slot s reads bank s mod len(banks))."""
     lat = dict(DEFAULT_LAT, **(lat or {}))
     programs = dict(st1.programs)
     if debug:
         programs.update(debug_programs(st1.slot_words))
     tables = [[int(t) for t in tab] for tab in st1.tables]
     check(programs, tables, lat)
+    const = const_words(st1.const_words, exp_w, man_w)
+    extra = {}
+    if banks and len(banks) > 1:
+        for b in banks:
+            same_tables = len(b.tables) == len(st1.tables) and all(
+                np.array_equal(x, y) for x, y in zip(b.tables, st1.tables))
+            if b.programs != st1.programs or b.const != st1.const or b.slot != st1.slot or not same_tables:
+                raise ValueError("the constant banks need one layout, one set of programs and tables")
+        const = [w for b in banks for w in const_words(b.const_words, exp_w, man_w)]
+        extra = {"const_banks": len(banks)}
     return {
         "core": "ipm_stage1", "name": name, "exp_w": exp_w, "man_w": man_w, "slots": slots,
-        "slot_words": int(st1.slot_words), "const": const_words(st1.const_words, exp_w, man_w), "tables": tables,
+        "slot_words": int(st1.slot_words), "const": const, "tables": tables, **extra,
         "programs": [{"name": k, "code": [hex(isa.encode(i)) for i in v]} for k, v in programs.items()],
         "lat_add": lat["add"], "lat_mul": lat["mul"], "lat_div": lat["div"], "lat_sqrt": lat["sqrt"],
         "lat_cmp": lat["cmp"], "target": target,
@@ -128,6 +139,6 @@ def machine(cfg: dict):
 
     fmt = fmt_of(cfg["exp_w"], cfg["man_w"])
     m = Machine(cfg["slots"], cfg["slot_words"], np.zeros(0), [np.asarray(t, dtype=np.int64) for t in cfg["tables"]],
-                cfg["lat_add"], fmt)
+                cfg["lat_add"], fmt, const_banks=cfg.get("const_banks", 1))
     m.set_const_words(cfg["const"])
     return m

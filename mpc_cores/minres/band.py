@@ -101,45 +101,57 @@ class BandPattern:
 def band_pattern(n: int, m: int, T: int, rom: np.ndarray) -> BandPattern:
     """The sparse rows of the KKT matrix whose constant part is `rom` (values of the format: a coefficient that
     rounds to zero is no product). Checks that the pattern reproduces every entry of the band."""
+    return band_patterns(n, m, T, [rom])[0]
+
+
+def band_patterns(n: int, m: int, T: int, roms) -> list[BandPattern]:
+    """One pattern for several matrices of the same layout (the multiplexed interior-point core's channels, one
+    B column each): the slots and offsets are those of the union of their nonzeros, so one window and one tree
+    serve them all, and each matrix has its own coefficients (0 where its entry is zero: a product of 0). With one
+    matrix this is `band_pattern`."""
     L = Layout(n, m, T)
     N, M, per = L.N, L.M, L.period
-    C = const_cds(n, m, T, rom)
+    Cs = [const_cds(n, m, T, r) for r in roms]
     primal = np.zeros(N, dtype=bool)
     primal[L.primal_rows()] = True
     nkeys = per + 2 * n
-    found: list[dict[int, float]] = [dict() for _ in range(nkeys)]
+    found: list[list[dict[int, float]]] = [[dict() for _ in range(nkeys)] for _ in Cs]
 
-    def note(q, o, v):
-        prev = found[q].setdefault(o, v)
+    def note(c, q, o, v):
+        prev = found[c][q].setdefault(o, v)
         assert prev == v, f"key {q}, offset {o}: coefficients {prev} and {v} differ between rows"
 
-    for i in range(N):
-        q = row_key(L, i)
-        if primal[i]:
-            note(q, 0, 0.0)
-        for o in range(1, M):
-            if i + o < N and C[i, o] != 0:
-                note(q, o, C[i, o])
-            if i - o >= 0 and C[i - o, o] != 0:
-                note(q, -o, C[i - o, o])
-    K = max(len(f) for f in found)
+    for c, C in enumerate(Cs):
+        for i in range(N):
+            q = row_key(L, i)
+            if primal[i]:
+                note(c, q, 0, 0.0)
+            for o in range(1, M):
+                if i + o < N and C[i, o] != 0:
+                    note(c, q, o, C[i, o])
+                if i - o >= 0 and C[i - o, o] != 0:
+                    note(c, q, -o, C[i - o, o])
+    union = [set().union(*(f[q] for f in found)) for q in range(nkeys)]
+    K = max(len(u) for u in union)
     # greedy: the largest keys first, each offset into a free slot that already takes it, else into the free
     # slot with the fewest offsets so far
     cand: list[set[int]] = [set() for _ in range(K)]
     offsets: list[list] = [[None] * K for _ in range(nkeys)]
-    coefs = np.zeros((nkeys, K))
-    for q in sorted(range(nkeys), key=lambda q: (-len(found[q]), q)):
+    coefs = np.zeros((len(Cs), nkeys, K))
+    for q in sorted(range(nkeys), key=lambda q: (-len(union[q]), q)):
         free = list(range(K))
-        for o in sorted(found[q]):
+        for o in sorted(union[q]):
             hit = [s for s in free if o in cand[s]]
             s = hit[0] if hit else min(free, key=lambda s: (len(cand[s]), s))
             cand[s].add(o)
             free.remove(s)
             offsets[q][s] = o
-            coefs[q, s] = found[q][o]
-    pat = BandPattern(n, m, T, tuple(tuple(o) for o in offsets), coefs)
-    _check(pat, C, primal)
-    return pat
+            for c in range(len(Cs)):
+                coefs[c, q, s] = found[c][q].get(o, 0.0)
+    pats = [BandPattern(n, m, T, tuple(tuple(o) for o in offsets), coefs[c]) for c in range(len(Cs))]
+    for pat, C in zip(pats, Cs):
+        _check(pat, C, primal)
+    return pats
 
 
 def _check(pat: BandPattern, C: np.ndarray, primal: np.ndarray) -> None:

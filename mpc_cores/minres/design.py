@@ -13,7 +13,7 @@ from mpc_cores.float import vector as fv
 from mpc_cores.float.latency import LAT, format_latencies, min_lat_mul
 from mpc_cores.float.format import NAMES, STREAM_BITS, format_name, parse_format  # noqa: F401  (this module's API)
 from mpc_cores.float.model import Format
-from mpc_cores.minres.band import BandPattern, band_pattern
+from mpc_cores.minres.band import BandPattern, band_patterns
 from mpc_cores.minres.kkt import Layout, const_rom, kkt_matrix, problem_matrices
 from mpc_cores.target import check_target
 
@@ -35,6 +35,9 @@ class MinresDesign:
     warm: bool = False     # the interior-point core's form (MinresParams.warm)
     latency: str = "compact"  # the operator latency preset (mpc_cores.float.latency)
     target: str = "generic"   # FPGA family (mpc_cores.target): ecp5 builds the memories from DP16KD with OUTREG
+    tables: list = None    # several matrices of one layout (the multiplexed interior-point core), each a ROM as
+                           # `rom` (which is tables[0]): a problem takes the table its id chooses
+                           # (MinresCoreModel.table_of)
 
     @property
     def layout(self) -> Layout:
@@ -51,12 +54,28 @@ class MinresDesign:
                 "format": self.format, "exp_width": self.fmt.expW, "man_width": self.fmt.manW,
                 "h_diag": [float(v) for v in self.h_diag], "rom": rom.tolist(), "warm": self.warm,
                 "target": self.target,
-                **self.pattern.config(lambda v: fv.encode(self.fmt, v).astype(np.int64))}
+                **self.pattern.config(self._encode), **self._tables_config()}
+
+    def _encode(self, v):
+        return fv.encode(self.fmt, np.asarray(v, dtype=np.float64)).astype(np.int64)
+
+    def _tables_config(self) -> dict:
+        """band_tables (matrices x keys x K raw words) and roms, with more than one matrix"""
+        if not self.tables or len(self.tables) == 1:
+            return {}
+        return {"band_tables": [pat.config(self._encode)["band_coefs"] for pat in self.patterns],
+                "roms": [self._encode(r).tolist() for r in self.tables]}
+
+    @property
+    def patterns(self) -> list[BandPattern]:
+        """The pattern per matrix (one slot and offset assignment for all of them)."""
+        roms = self.tables or [self.rom]
+        return band_patterns(self.n, self.m, self.T, [np.asarray(r, dtype=np.float64) for r in roms])
 
     @property
     def pattern(self) -> BandPattern:
         """The sparse rows of the band the core multiplies by (mpc_cores.minres.band)."""
-        return band_pattern(self.n, self.m, self.T, np.asarray(self.rom, dtype=np.float64))
+        return self.patterns[0]
 
     def write_config(self, path) -> None:
         Path(path).write_text(json.dumps(self.config()))
@@ -65,7 +84,9 @@ class MinresDesign:
 def design_minres(problem, P: int | None = None, iterations: int | None = None, lat_add: int | None = None,
                   lat_mul: int | None = None, name: str | None = None, format: str | None = None,
                   warm: bool = False, latency: str | None = None, target: str | None = None,
-                  **_ignored) -> MinresDesign:
+                  channels=None, **_ignored) -> MinresDesign:
+    """`channels`: problems of the same sizes whose KKT matrices the core holds (MinresDesign.tables; a problem's id
+    chooses one, MinresCoreModel.table_of); `problem` gives the rest of the design."""
     A, B, Q, R, QN, T = problem_matrices(problem)
     n, m = problem.nx, problem.nu
     solver = problem.solver or {}
@@ -86,9 +107,18 @@ def design_minres(problem, P: int | None = None, iterations: int | None = None, 
     if lat["lat_add"] < 1:
         raise DesignError(f"lat_add must be >= 1 (the streaming accumulator): got {lat['lat_add']}")
     it = int(iterations or solver.get("minres_iterations", 0) or Layout(n, m, T).N)
-    rom = const_rom(A, B, Q, R, QN, T)
     # the constant columns rounded to the format (float32 values in binary32)
-    rom = rom.astype(np.float32) if fmt == NAMES["binary32"] else fv.decode(fmt, fv.encode(fmt, rom))
+    def rounded(rom):
+        return rom.astype(np.float32) if fmt == NAMES["binary32"] else fv.decode(fmt, fv.encode(fmt, rom))
+    rom = rounded(const_rom(A, B, Q, R, QN, T))
+    tables = None
+    if channels:
+        mats = [problem_matrices(c) for c in channels]
+        sizes = sorted({(c.nx, c.nu, mt[5]) for c, mt in zip(channels, mats)})
+        if sizes != [(n, m, T)]:
+            raise DesignError(f"channels must share the problem's sizes (n, m, T) = {(n, m, T)}: got {sizes}")
+        tables = [rounded(const_rom(*mt)) for mt in mats]
+        rom = tables[0]
     h = np.diagonal(kkt_matrix(A, B, Q, R, QN, T))[Layout(n, m, T).primal_rows()]
     return MinresDesign(name or problem.name, n, m, T, P, min(it, 65535), lat, rom=rom, h_diag=h, problem=problem,
-                        fmt=fmt, warm=warm, latency=preset, target=tgt)
+                        fmt=fmt, warm=warm, latency=preset, target=tgt, tables=tables)

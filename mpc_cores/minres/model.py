@@ -36,12 +36,13 @@ import numpy as np
 
 from mpc_cores.float import vector as fv
 from mpc_cores.float.model import Format
-from mpc_cores.minres.band import band_pattern
+from mpc_cores.minres.band import band_patterns
 from mpc_cores.minres.kkt import Layout
 
 f32 = np.float32
 QNAN32 = 0x7FC00000
 BINARY32 = Format(8, 23)
+TABLE_ID_BITS = 7   # the id bits that choose a problem's coefficient table (MinresParams.TableIdBits)
 
 
 class F32Ops:
@@ -186,47 +187,57 @@ def format_of(cfg: dict) -> Format:
 
 class MinresCoreModel:
     """Bit-exact model of the core for one problem size and float format (default binary32). `rom`: the constant
-    columns (kkt.const_rom), any float type (rounded to the format here, as the design flow does)."""
+    columns (kkt.const_rom), any float type (rounded to the format here, as the design flow does). `tables`:
+    several such ROMs of the same layout (MinresDesign.tables; `rom` is the first), a problem multiplying by table
+    `table_of(id)` of its id word: `table` of band, matrix, solve and solve_warm chooses one."""
 
     @classmethod
     def from_config(cls, cfg: dict) -> "MinresCoreModel":
         """The model of a generated core, from its config.json (the ROM as raw words of the format)."""
         n, m, T = int(cfg["n"]), int(cfg["m"]), int(cfg["T"])
         ops = ops_for(format_of(cfg))
-        rom = ops.to_float(ops.from_words(cfg["rom"])).reshape(2 * n + m, Layout(n, m, T).M - 1)
-        return cls(n, m, T, rom, int(cfg["lat_add"]), format_of(cfg))
+        shape = (2 * n + m, Layout(n, m, T).M - 1)
+        roms = [ops.to_float(ops.from_words(r)).reshape(shape) for r in cfg.get("roms", [cfg["rom"]])]
+        return cls(n, m, T, roms[0], int(cfg["lat_add"]), format_of(cfg), tables=roms)
 
-    def __init__(self, n: int, m: int, T: int, rom: np.ndarray, lat_add: int, fmt: Format | None = None):
+    def __init__(self, n: int, m: int, T: int, rom: np.ndarray, lat_add: int, fmt: Format | None = None,
+                 tables=None):
         self.ops = o = ops_for(fmt)
         self.fmt = o.fmt
         self.L = Layout(n, m, T)
         self.n, self.m, self.T = n, m, T
         self.N, self.M = self.L.N, self.L.M
         self.lat_add = lat_add
-        self.rom = o.value(rom)
-        assert self.rom.shape == (2 * n + m, self.M - 1)
+        roms = [o.value(r) for r in (tables if tables is not None and len(tables) else [rom])]
+        self.rom = roms[0]
+        assert all(r.shape == (2 * n + m, self.M - 1) for r in roms)
         # the sparse rows (mpc_cores.minres.band): per row i and slot s the column, whether the product is taken,
-        # the constant coefficient and whether it is the variable diagonal
-        self.pattern = band_pattern(n, m, T, o.to_float(self.rom))
-        self.cols, self.inrange, coef, isdiag = self.pattern.rows()
-        self.coef = o.value(coef)
+        # the constant coefficient (per table) and whether it is the variable diagonal
+        pats = band_patterns(n, m, T, [o.to_float(r) for r in roms])
+        self.pattern = pats[0]
+        self.cols, self.inrange, _, isdiag = self.pattern.rows()
+        self.coefs = [o.value(pat.rows()[2]) for pat in pats]
         pos = np.full(self.N, -1, dtype=np.int64)
         self.primal = self.L.primal_rows()
         pos[self.primal] = np.arange(len(self.primal))
         self.diag_rows, self.diag_slots = np.nonzero(isdiag)
         self.diag_pos = pos[self.diag_rows]
 
+    def table_of(self, pid: int) -> int:
+        """The table of a problem with id word `pid` (MinresParams.tableIdBits): (id mod 2^7) mod tables."""
+        return (int(pid) % (1 << TABLE_ID_BITS)) % len(self.coefs)
+
     def to_words(self, x) -> list[int]:
         """float values rounded to the format, as raw words (what the testbench sends)."""
         return self.ops.words(self.ops.value(x))
 
-    def band(self, diag: np.ndarray) -> np.ndarray:
+    def band(self, diag: np.ndarray, table: int = 0) -> np.ndarray:
         """N x K coefficients of every row's slots (mpc_cores.minres.band), +0 where no product is taken, in the
         arithmetic's representation (float32 values or raw words); `diag`: float values of the variable column."""
-        return self._band(self.ops.value(diag))
+        return self._band(self.ops.value(diag), table)
 
-    def _band(self, diag) -> np.ndarray:
-        B = self.coef.copy()
+    def _band(self, diag, table: int = 0) -> np.ndarray:
+        B = self.coefs[table].copy()
         B[self.diag_rows, self.diag_slots] = diag[self.diag_pos]
         B[~self.inrange] = self.ops.zero
         return B
@@ -237,29 +248,29 @@ class MinresCoreModel:
         with np.errstate(all="ignore"):
             return tree(o.mul(band, win), o)
 
-    def matrix(self, diag) -> np.ndarray:
+    def matrix(self, diag, table: int = 0) -> np.ndarray:
         """The matrix the core multiplies by, in float64 (its entries are values of the format)."""
         N = self.N
         K = np.zeros((N, N))
-        B = np.asarray(self.ops.to_float(self.band(diag)), dtype=float)
+        B = np.asarray(self.ops.to_float(self.band(diag, table)), dtype=float)
         rows = np.repeat(np.arange(N)[:, None], self.pattern.K, axis=1)
         K[rows[self.inrange], self.cols[self.inrange]] = B[self.inrange]
         return K
 
-    def solve(self, diag, b, imax: int) -> Result:
+    def solve(self, diag, b, imax: int, table: int = 0) -> Result:
         o = self.ops
         diag = o.value(diag)
         b = o.value(b)
         bad_in = not (o.finite(diag) and o.finite(b))
         z = o.zeros(self.N)
         with np.errstate(all="ignore"):
-            band = self._band(diag)
+            band = self._band(diag, table)
             u = o.sub(o.sub(b, o.mul(z, z)), o.mul(z, z))   # the init pass: r_0 = b - A x_0 with x_0 = 0
             x, _ = self.iterate(band, u, imax)
         flag = bad_in or not o.finite(x)
         return Result(o.to_float(x), bool(flag), o.words(x))
 
-    def solve_warm(self, diag, d, b, z0, imax: int) -> tuple[Result, float]:
+    def solve_warm(self, diag, d, b, z0, imax: int, table: int = 0) -> tuple[Result, float]:
         """The interior-point core's form (MinresParams warm): MINRES on (D A D) y = b from y_0 = D^-1 z0, D =
         diag(d), so that its init pass forms r_0 = b - d (A z0); returns the solution x = y - y_0 (flagged as
         `solve`) and ||r_0|| (the word the core sends after x)."""
@@ -267,7 +278,7 @@ class MinresCoreModel:
         diag, d, b, z0 = (o.value(v) for v in (diag, d, b, z0))
         bad_in = not all(o.finite(v) for v in (diag, d, b, z0))
         with np.errstate(all="ignore"):
-            band = self._band(diag)
+            band = self._band(diag, table)
             u = o.sub(b, o.mul(d, self.matvec(band, z0)))
             x, res = self.iterate(band, u, imax, scale=d)
         flag = bad_in or not o.finite(x)

@@ -31,10 +31,14 @@ class IpmTB(AxiDriver):
         self.nrng = np.random.default_rng(seed)
         self.warm = True
         self.out_all = False
+        # multiplexed: a frame carries x^, (x_s, u_s,i) and F, an answer the T planned moves after u0 and mu
+        self.mux = bool(self.cfg.get("multiplexed"))
+        self.T = self.cfg["minres"]["T"]
 
     def state(self, scale: float = 1.0):
-        """a random state and reference (float values)"""
-        return self.nrng.uniform(-scale, scale, self.n), self.nrng.uniform(-0.5, 0.5, self.ny)
+        """a random state and reference (float values); multiplexed: the state and ((x_s, u_s,i), F)"""
+        rest = self.n + 1 + self.n * self.T if self.mux else self.ny
+        return self.nrng.uniform(-scale, scale, self.n), self.nrng.uniform(-0.5, 0.5, rest)
 
     def words(self, x, r) -> list[int]:
         return self.model.mr.to_words(np.concatenate([x, r]))
@@ -50,7 +54,7 @@ class IpmTB(AxiDriver):
     async def recv(self) -> tuple[int, int, list[int], int]:
         f = await self.sink.recv()
         d = list(f.tdata)
-        want = self.m + 4 + (self.core["N"] + self.n + self.m if self.out_all else 0)
+        want = self.m + 4 + (self.T if self.mux else 0) + (self.core["N"] + self.n + self.m if self.out_all else 0)
         assert len(d) == want, f"answer of {len(d)} words, expected {want}"
         return (d[0] >> 24) & 0x3F, d[0] & 0xFFFFFF, d[1:-1], d[-1]
 

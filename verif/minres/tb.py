@@ -53,11 +53,13 @@ class MinresTB(AxiDriver):
         z0 = self.nrng.standard_normal(self.N)
         return diag, b, d, z0
 
-    def expect(self, diag, b, d=None, z0=None):
-        """The model's result (and ||r_0|| in the warm form, else None)."""
+    def expect(self, diag, b, d=None, z0=None, pid: int = 0):
+        """The model's result (and ||r_0|| in the warm form, else None) for the problem of id `pid` (which chooses
+        the coefficient table of a core with several)."""
+        t = self.model.table_of(pid)
         if not self.warm:
-            return self.model.solve(diag, b, self.imax), None
-        return self.model.solve_warm(diag, d, b, z0, self.imax)
+            return self.model.solve(diag, b, self.imax, table=t), None
+        return self.model.solve_warm(diag, d, b, z0, self.imax, table=t)
 
     async def set_imax(self, imax: int):
         if self.warm:
@@ -113,7 +115,7 @@ class MinresTB(AxiDriver):
         ||r_0|| in the warm form)."""
         exp, res = {}, {}
         for pid, *data in problems:
-            exp[pid], res[pid] = self.expect(*data)
+            exp[pid], res[pid] = self.expect(*data, pid=pid)
         for pid, *data in problems:
             await self.send(pid, *data)
         if self.warm and len(problems) % self.P:

@@ -24,6 +24,8 @@ object IpmMain extends App {
       "problems_in_flight" -> p.slots,
       "in_words" -> p.inWords,
       "out_words" -> p.outWords,
+      "multiplexed" -> p.multiplexed,
+      "plan_words" -> p.planWords,
       "stage1" -> st1,
       "minres" -> mr,
       "axil_addr_width" -> p.axiAddrW,

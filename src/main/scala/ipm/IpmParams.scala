@@ -9,6 +9,11 @@ import shell.{Field, RegMap, Register, SolverRegs}
   * core's own parameters: n states, m inputs, ny references (0 without tracking), the default Newton iterations
   * I_NW and the convergence tolerances on mu and ||r_0|| (raw words of the format). The Stage 1 programs must
   * keep the stream protocol the core wires up; it is checked here from their IN and OUT instructions.
+  *
+  * `multiplexed` (parallel multiplexed MPC, Algorithm 2 of 001): every channel solves one input's single-input
+  * problem (m = 1 here), its constants in its Stage 1 constant bank and its MINRES coefficient table (channel c:
+  * input c mod the number of banks); a frame carries x^, the steady state (x_s, u_s,i) and the known term F (n T
+  * words) instead of r, and an answer the T planned moves after u0 and mu (mpc_cores/ipm/program.py).
   */
 case class IpmParams(
     name: String,
@@ -19,7 +24,8 @@ case class IpmParams(
     muTol: BigInt,
     resTol: BigInt,
     st1: Stage1Params,
-    mr: MinresParams) {
+    mr: MinresParams,
+    multiplexed: Boolean = false) {
   import Isa._
   val P: Int     = mr.P
   val slots: Int = 2 * P
@@ -33,6 +39,13 @@ case class IpmParams(
   require(st1.fmt == fmt, s"Stage 1 and MINRES must use one float format: got ${st1.fmt} and $fmt")
   require(n == mr.n && m == mr.m, s"n, m must match the MINRES configuration: got $n, $m and ${mr.n}, ${mr.m}")
   require(ny >= 0 && iNw >= 1 && iNw <= 65535, s"need ny >= 0 and I_NW in [1, 65535]: got ny=$ny, I_NW=$iNw")
+  require(!multiplexed || ny == 0 && m == 1 && st1.constBanks == mr.coefTables.length,
+    s"a multiplexed core has m = 1, ny = 0 and one Stage 1 constant bank per MINRES table: got m=$m, ny=$ny, " +
+      s"${st1.constBanks} banks and ${mr.coefTables.length} tables")
+  /** words of a sample's input after the id: x^ and r, or (multiplexed) x^, (x_s, u_s,i) and F */
+  val inData: Int = if (multiplexed) n + (n + m) + n * T else n + ny
+  /** the planned moves an answer carries after u0 and mu (multiplexed) */
+  val planWords: Int = if (multiplexed) T else 0
   require(Seq(muTol, resTol).forall(w => w >= 0 && w < (BigInt(1) << fmt.width)), "tolerances are raw words of the format")
 
   /** program index by name */
@@ -44,16 +57,17 @@ case class IpmParams(
   private def words(name: String, op: Int): Int =
     st1.programs(prog(name))._2.map(decode).filter(_.op == op).map(_.n).sum
   // the stream protocol of the programs (mpc_cores/ipm/program.py)
-  private val protocol = Seq(("sample", IN, n + ny), ("sample", OUT, 0), ("cold", IN, 0), ("cold", OUT, 0),
+  private val protocol = Seq(("sample", IN, inData), ("sample", OUT, 0), ("cold", IN, 0), ("cold", OUT, 0),
     ("warm", IN, 0), ("warm", OUT, 0), ("linearise", IN, 0), ("linearise", OUT, npr + 3 * N), ("receive", IN, N),
-    ("receive", OUT, 0), ("update", IN, 0), ("update", OUT, 0), ("output", IN, 0), ("output", OUT, m + 1),
-    ("output_all", IN, 0), ("output_all", OUT, m + 1 + N + n + m))
+    ("receive", OUT, 0), ("update", IN, 0), ("update", OUT, 0), ("output", IN, 0), ("output", OUT, m + 1 + planWords),
+    ("output_all", IN, 0), ("output_all", OUT, m + 1 + planWords + N + n + m))
   for ((pr, op, w) <- protocol) require(words(pr, op) == w,
     s"program $pr must ${ops(op)} $w words (the core's stream protocol): got ${words(pr, op)}")
 
-  /** frames: in id, x (n), r (ny); out id, u0 (m), mu, (CTRL.OUT_ALL: z (N), x_s (n), u_s (m)), ||r_0||, status */
-  val inWords: Int     = 1 + n + ny
-  val outWords: Int    = m + 4
+  /** frames: in id, x (n), r (ny) (multiplexed: inData); out id, u0 (m), mu, (multiplexed: the plan, T), (CTRL.OUT_ALL:
+    * z (N), x_s (n), u_s (m)), ||r_0||, status */
+  val inWords: Int     = 1 + inData
+  val outWords: Int    = m + 4 + planWords
   val outWordsAll: Int = outWords + N + n + m
   val axiAddrW: Int = log2Ceil(SolverRegs.RegionStart) + 2
   val moduleName: String =
@@ -76,7 +90,8 @@ object IpmParams {
       muTol = BigInt(j("mu_tol").num.toLong),
       resTol = BigInt(j("res_tol").num.toLong),
       st1 = Stage1Params.fromJson(ujson.write(j("stage1"))).copy(slots = 2 * mr.P),
-      mr = mr
+      mr = mr,
+      multiplexed = j.obj.get("multiplexed").exists(_.bool)
     )
   }
 }

@@ -79,6 +79,11 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val cur      = Reg(new InstrBits)
   private val slotBases = table(Seq.tabulate(p.slots)(k => (k * p.slotWords).U(p.memAddrW.W)), 1 << p.slotW,
     0.U(p.memAddrW.W))
+  // several constant banks: the slot's bank, (slot mod banks) times the bank's words
+  private val constBaseW = log2Ceil(p.constWords.length)
+  private val constBase  = Option.when(p.constBanks > 1)(Reg(UInt(constBaseW.W)))
+  private val constBases = Option.when(p.constBanks > 1)(table(Seq.tabulate(p.slots)(k =>
+    (k % p.constBanks * p.constLen).U(constBaseW.W)), 1 << p.slotW, 0.U(constBaseW.W)))
   private val i        = Reg(UInt(NW.W))
 
   private val entry  = table(p.entries.init.map(_.U(p.pcW.W)), 1 << p.progW, 0.U(p.pcW.W))
@@ -185,6 +190,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
     pcEnd    := ends(progR)
     atEnd    := false.B // programs are not empty (Stage1Params)
     slotBase := slotBases(slotR)
+    constBase.foreach(_ := constBases.get(slotR))
   }
 
   // the table address of the element at T (the instruction's base + iT) is kept in a register (the next
@@ -230,9 +236,14 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val bOff   = offset(cur.b, tabBM)
   private val aAdr  = RegNext(aBase + aOff)
   private val bAdr  = RegNext(bBase + bOff)
-  // constant operands: their address is relative to the constant region (the slot base is not added)
-  private val caAdr = RegNext(cur.a.addr +& aOff)
-  private val cbAdr = RegNext(cur.b.addr +& bOff)
+  // constant operands: their address is relative to the constant region (the slot base is not added), or to the
+  // slot's bank of it (the bank's base added to the operand's address at the launch, as the slot base)
+  private def constAdr(o: OperandBits, off: UInt): UInt = constBase match {
+    case None    => RegNext(o.addr +& off)
+    case Some(c) => RegNext(RegNext(c +& o.addr) + off)
+  }
+  private val caAdr = constAdr(cur.a, aOff)
+  private val cbAdr = constAdr(cur.b, bOff)
   private val dAdr  = RegNext(dBase + Mux(cur.d.isGather, tabDM, iM))
 
   // ---- A: the memories read at the registered addresses

@@ -10,6 +10,9 @@ import float.FloatFormat
   * inside their region (gather and scatter through the table's first n entries), tables that exist, ACC longer
   * than lat_add (the streaming accumulator's partial sums). `target` (dsp.Target): ecp5 builds the slot memory
   * from DP16KD primitives with their output register (SlotMem); the words and cycles are those of every target.
+  *
+  * `constBanks` (the multiplexed interior-point core): the constant region is that many banks of the same layout,
+  * one per channel's problem, and slot s reads bank s mod constBanks (constant addresses are within a bank).
   */
 case class Stage1Params(
     name: String,
@@ -24,7 +27,8 @@ case class Stage1Params(
     latDiv: Int,
     latSqrt: Int,
     latCmp: Int,
-    target: dsp.Target = dsp.Target.Generic) {
+    target: dsp.Target = dsp.Target.Generic,
+    constBanks: Int = 1) {
   import Isa._
 
   require(fmt.width <= 32, s"the stream words are 32 bits: the format must fit them: got width ${fmt.width}")
@@ -46,7 +50,10 @@ case class Stage1Params(
   require(programs.forall(_._2.nonEmpty),
     s"Stage 1 programs must not be empty: ${programs.filter(_._2.isEmpty).map(_._1).mkString(", ")}")
   val entries: Seq[Int]  = programs.map(_._2.length).scanLeft(0)(_ + _)
-  val constLen: Int      = constWords.length
+  require(constBanks >= 1 && constWords.length % constBanks == 0,
+    s"const_banks must divide the ${constWords.length} const words: got $constBanks")
+  /** the words of one bank of the constant region (the programs' constant addresses are within it) */
+  val constLen: Int      = constWords.length / constBanks
 
   /** the streaming accumulator's latency: lat_add + 1 + lat_add ceil(log2 lat_add) (minres.FStreamAcc) */
   val latAcc: Int = latAdd + 1 + latAdd * log2Ceil(latAdd)
@@ -112,7 +119,7 @@ case class Stage1Params(
   val tableW: Int           = math.max(1, log2Ceil((tableWords :+ 1).max + 1))
   val slotMemWords: Int     = slots * slotWords
   val memAddrW: Int         = math.max(1, log2Ceil(slotMemWords))
-  val constAddrW: Int       = math.max(1, log2Ceil(constLen))
+  val constAddrW: Int       = math.max(1, log2Ceil(constWords.length))
   val progW: Int            = math.max(1, log2Ceil(programs.length))
   val slotW: Int            = math.max(1, log2Ceil(slots))
   val pcW: Int              = log2Ceil(code.length + 1)
@@ -151,7 +158,8 @@ object Stage1Params {
       latDiv = j("lat_div").num.toInt,
       latSqrt = j("lat_sqrt").num.toInt,
       latCmp = j("lat_cmp").num.toInt,
-      target = dsp.Target(j.obj.get("target").map(_.str).getOrElse("generic"))
+      target = dsp.Target(j.obj.get("target").map(_.str).getOrElse("generic")),
+      constBanks = j.obj.get("const_banks").map(_.num.toInt).getOrElse(1)
     )
   }
 }

@@ -108,6 +108,10 @@ class MinresCore(val p: MinresParams) extends Module {
   val cnt    = Reg(Vec(2, UInt(log2Ceil(P + 1).W)))
   val ids    = Reg(Vec(2 * P, UInt(31.W))) // bank * P + slot
   val inBad  = Reg(Vec(2 * P, Bool()))
+  // several coefficient tables: each problem's table, (id mod 2^tableIdBits) mod tables, set with its id
+  private val nTab    = p.coefTables.length
+  private val tabOfId = Option.when(nTab > 1)(VecInit((0 until (1 << p.tableIdBits)).map(i => (i % nTab).U(log2Ceil(nTab).W))))
+  val tabs = Option.when(nTab > 1)(Reg(Vec(2 * P, UInt(log2Ceil(nTab).W))))
 
   s_axis.tready := !full(ldBank) && !(regs.ctrlHold && ldAt0)
   private val d = s_axis.tdata(W - 1, 0) // a data word: the format's word in the low bits
@@ -129,6 +133,7 @@ class MinresCore(val p: MinresParams) extends Module {
     when(s_axis.tlast =/= lastWord) { regs.stTlast := true.B }
     when(ldAt0) {
       ids(ldBank * P.U + ldSlot)   := s_axis.tdata(30, 0)
+      tabs.foreach(_(ldBank * P.U + ldSlot) := tabOfId.get(s_axis.tdata(p.tableIdBits - 1, 0)))
       inBad(ldBank * P.U + ldSlot) := false.B
     }.otherwise {
       when(!finite(d)) {
@@ -159,6 +164,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val gEnd     = Reg(Vec(2, UInt(32.W)))           // its last x write, minus one
   val atEnd    = RegInit(VecInit(Seq.fill(2)(false.B))) // g = its last x write (a compare registered a cycle ahead)
   val gFeed    = Reg(Vec(2, UInt(32.W)))           // its feed's last element, minus one
+  val gFeedM1  = Reg(Vec(2, UInt(32.W)))           // gFeed - 1, for the compare a cycle ahead
   val fed      = RegInit(VecInit(false.B, false.B)) // g has reached the feed's last element (g >= gFeed + 1)
   val batchCyc = Reg(Vec(2, UInt(32.W)))
   val xBad     = Reg(Vec(2 * P, Bool()))
@@ -199,14 +205,20 @@ class MinresCore(val p: MinresParams) extends Module {
     g(nextBank)       := 0.U
     gEnd(nextBank)    := ~0.U(32.W) // set from the product when it is ready
     gFeed(nextBank)   := ~0.U(32.W)
+    gFeedM1(nextBank) := ~1.U(32.W)
     fed(nextBank)     := false.B
     for (q <- 0 until P) xBad(nextBank * P.U + q.U) := false.B
     curBank  := nextBank
     nextBank := ~nextBank
   }
+  // g = gFeed from the compare of g with gFeed - 1 a cycle ahead (while the batch was active: g counts up by one,
+  // and the values of the cycle of its start are the previous batch's), registered in halves
+  private def half(x: UInt, h: Int): UInt = x(16 * h + 15, 16 * h)
+  private val feedEq = Seq.tabulate(2, 2)((b, h) => RegNext(half(g(b), h) === half(gFeedM1(b), h), false.B))
+  private val wasAct = Seq.tabulate(2)(b => RegNext(active(b), false.B))
   for (b <- 0 until 2) when(active(b)) {
     g(b) := g(b) + 1.U
-    when(g(b) === gFeed(b)) { fed(b) := true.B } // an equality: no carry chain before the batch start
+    when(wasAct(b) && feedEq(b)(0) && feedEq(b)(1)) { fed(b) := true.B } // g = gFeed: no carry chain
     atEnd(b) := g(b) === gEnd(b)
     when(atEnd(b)) {
       atEnd(b)    := false.B
@@ -253,9 +265,11 @@ class MinresCore(val p: MinresParams) extends Module {
   private val cpi     = p.cyclesPerIteration.S((BigInt(p.cyclesPerIteration).bitLength + 1).W)
   private val latCyc  = p.target.minLatency(imaxS.getWidth + 1, cpi.getWidth).max(3)
   private val imaxCyc = fixed.FixedOps.mulPipelined(imaxS.zext, cpi, latCyc, target = p.target).asUInt
+  require(p.cyclesPerIteration - 2 > latCyc + 1, "the feed's end lies past the cycle its compare is set up")
   for (b <- 0 until 2) when(active(b) && g(b) === latCyc.U) {
     gEnd(b)  := imaxCyc +& (p.batchCycles(0) - 2).U
     gFeed(b) := imaxCyc +& (p.cyclesPerIteration - 2).U
+    gFeedM1(b) := imaxCyc +& (p.cyclesPerIteration - 3).U
   }
 
   // ---- feed: v_j into the alignment shift register, M cycles ahead of the row
@@ -288,11 +302,16 @@ class MinresCore(val p: MinresParams) extends Module {
       VecInit((0 until p.period).map(f))(c.r))
   /** f of the row's key, registered at the row from the row's fields a cycle ahead */
   private def perKey[T <: Data](f: Int => T): T = RegNext(byKey(f, rowPre))
+  private val tabRow = tabs.map(t => Stages.delay(RegNext(t(rowAdr.bank * P.U + rowAdr.slot)), RL - 2))
   for (s <- 0 until p.K) {
     val cands = p.candidates(s)
     val selOf = (q: Int) => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W)
     val diag  = perKey(q => p.offsets(q)(s).contains(0).B)
-    val coef  = perKey(q => p.coefs(q)(s).U(W.W))
+    // the constant: one table, or (several) the table of the row's problem, read at its address phase
+    val coef  = tabs match {
+      case None    => perKey(q => p.coefs(q)(s).U(W.W))
+      case Some(t) => RegNext(VecInit(p.coefTables.map(c => byKey(q => c(q)(s).U(W.W), rowPre)))(tabRow.get))
+    }
     // whether the slot holds a term: it is used and column e + o is inside the matrix, from compares registered
     // two cycles ahead and the key's offset a cycle ahead, so that the operands' clear is one register
     val insPre  = RegNext(VecInit(cands.map(o => if (o >= 0) rowAdr.e < (N - o).U else rowAdr.e >= (-o).U)))
@@ -482,7 +501,8 @@ class MinresCore(val p: MinresParams) extends Module {
   private val pendLast = pend(issIdx === lastIdx)
   private val pendFin  = pend(issIdx === lastIdx && issSlot === count - 1.U)
   private val pendRes  = pend(issIdx === (N + 1).U)
-  private val pendR0   = pend(res0R(ob))
+  // res0R of the output's bank is stable while it is output: the index is registered a cycle ahead of the select
+  private val pendR0   = Stages.delay(res0R(RegNext(ob)), RL - 1)
   outQ.io.enq.valid      := pending
   outQ.io.enq.bits.data  := Mux(pendId, pendWord, Mux(pendRes && p.warm.B, pendR0, xOut))
   outQ.io.enq.bits.last  := pendLast

@@ -8,6 +8,10 @@ import chisel3.util.log2Ceil
   * columns of the half-CDS band (`rom`, raw words of the format: (2n+m) rows x (M-1) columns, see
   * mpc_cores/minres/kkt.py).
   *
+  * `tables` (the multiplexed interior-point core): several coefficient tables of the one band pattern (keys x K
+  * each, the first is `coefs`); a problem multiplies by table (id mod 2^tableIdBits) mod tables.length, from its
+  * id word (the interior-point core's channel); empty: `coefs` alone.
+  *
   * The schedule (MinresCore) runs P problems in slots of S cycles; a problem's iteration is the matvec feed,
   * the matvec, the Lanczos update (pass B), the scalar part and the vector updates (pass C), at fixed offsets
   * from its slot start. P * S must cover the chain from a slot's feed to the first v_{j+1} word being written:
@@ -34,7 +38,8 @@ case class MinresParams(
     expW: Int = 8,
     manW: Int = 23,
     warm: Boolean = false,
-    target: dsp.Target = dsp.Target.Generic) {
+    target: dsp.Target = dsp.Target.Generic,
+    tables: Seq[Seq[Seq[BigInt]]] = Seq()) {
   /** the float format of every operator, memory and constant (FloatFormat refuses widths outside its rules) */
   val fmt: float.FloatFormat = float.FloatFormat(expW, manW)
   require(fmt.width <= 32, s"the float format must fit the 32-bit stream word (1 + expW + manW <= 32): got " +
@@ -67,6 +72,13 @@ case class MinresParams(
   require(offsets.forall(r => r.flatten.distinct.length == r.flatten.length), "a key takes each offset once")
   require(coefs.flatten.forall(w => w >= 0 && w < (BigInt(1) << fmt.width)),
     s"band coefficients must be raw words of the format (0 .. 2^${fmt.width}-1)")
+  require(tables.isEmpty || tables.head == coefs && tables.forall(t => t.length == keys && t.forall(_.length == K) &&
+    t.flatten.forall(w => w >= 0 && w < (BigInt(1) << fmt.width))),
+    s"band_tables must be tables of $keys keys x $K slots of raw words, the first equal to band_coefs")
+  /** the coefficient tables, one or more */
+  val coefTables: Seq[Seq[Seq[BigInt]]] = if (tables.isEmpty) Seq(coefs) else tables
+  /** the id bits that choose a problem's table (the interior-point core's channels are below 2P <= 128) */
+  val tableIdBits: Int = MinresParams.TableIdBits
   /** per slot, the distinct offsets it takes over all keys (its window multiplexer) */
   val candidates: Seq[Seq[Int]] = (0 until K).map(s => offsets.flatMap(_(s)).distinct.sorted)
   /** partial sums of the streaming accumulators */
@@ -175,6 +187,7 @@ case class MinresParams(
 }
 
 object MinresParams {
+  val TableIdBits = 7
   /** cycles from a batch's start decision to its time 0: the decision is registered before the passes' counters */
   val StartReg = 1
   def fromJson(text: String): MinresParams = {
@@ -197,7 +210,9 @@ object MinresParams {
       expW = j.obj.get("exp_width").map(_.num.toInt).getOrElse(8),
       manW = j.obj.get("man_width").map(_.num.toInt).getOrElse(23),
       warm = j.obj.get("warm").exists(_.bool),
-      target = dsp.Target(j.obj.get("target").map(_.str).getOrElse("generic"))
+      target = dsp.Target(j.obj.get("target").map(_.str).getOrElse("generic")),
+      tables = j.obj.get("band_tables").map(_.arr.toSeq.map(_.arr.toSeq.map(_.arr.toSeq.map(v => BigInt(v.num.toLong)))))
+        .getOrElse(Seq())
     )
   }
 }
