@@ -19,6 +19,7 @@ SBT_JAR     := $(HOME)/.m2/repository/org/scala-sbt/sbt-launch/$(SBT_VERSION)/sb
 ##v EARLY_EXIT: fgm: true builds the exit test (a solve ends once z stops moving, else at IMAX)
 ##v EXIT_TOL: fgm: the exit test's tolerance in the units of u (builds the test; default 2 LSB)
 ##v FORMAT, LATENCY: float cores (kinds: minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact, fast)
+##v MULTIPLEXED: ipm: 1 builds parallel multiplexed MPC (one input's problem per channel; Algorithm 2 of 001)
 ##v ITER: iteration count (Imax; I_MR for ipm); without it the spec's, or the design check's choice for GAP
 ##v GAP, CYCLES, CHECK: design check: target closed-loop cost gap in percent, cycle budget per solve; CHECK=0 skips it
 ##v JOBS, PYTEST_ARGS, WAVES: make test: workers (default auto), more pytest arguments, WAVES=1 traces every simulation
@@ -44,6 +45,8 @@ EXIT_TOL   ?=
 # float cores (minres, ipm): format (binary32, e8m17, ...) and operator latencies (compact or fast)
 FORMAT  ?=
 LATENCY ?=
+# ipm: parallel multiplexed MPC (1)
+MULTIPLEXED ?=
 # iteration count (Imax; I_MR for ipm): without it, the spec's, or the design check's choice for a GAP target
 ITER    ?=
 # design check (mpc_cores.check): target closed-loop cost gap in percent, budget of cycles per solve; CHECK=0 skips it
@@ -59,6 +62,7 @@ GEN_ARGS = --core $(CORE) --problem $(PROBLEM) $(if $(P),--P $(P)) $(if $(B),--f
            $(if $(TARGET),--target $(TARGET)) $(if $(LAT_ADD),--lat-add $(LAT_ADD)) $(if $(LAT_MUL),--lat-mul $(LAT_MUL)) \
            $(if $(PROBLEMS),--problems $(PROBLEMS)) $(if $(LANES),--lanes $(LANES)) \
            $(if $(EARLY_EXIT),--early-exit $(EARLY_EXIT)) $(if $(EXIT_TOL),--exit-tol $(EXIT_TOL)) $(if $(FORMAT),--format $(FORMAT)) $(if $(LATENCY),--latency $(LATENCY)) \
+           $(if $(filter 1 true,$(MULTIPLEXED)),--multiplexed true) \
            $(if $(ITER),--iterations $(ITER)) $(if $(GAP),--gap $(GAP)) $(if $(CYCLES),--cycles $(CYCLES)) $(if $(filter 0,$(CHECK)),--no-check)
 
 .PHONY: help setup verilog c split design test test-slow demo table2 methods bench scaling soak soak-all gallery clean test-float

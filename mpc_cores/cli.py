@@ -26,7 +26,7 @@ from mpc_cores.flow import REPO
 from mpc_cores.schema import check_override, check_size
 
 OVERRIDES = ("P", "frac_bits", "lat_add", "lat_mul", "rounding", "iterations", "format", "latency", "target",
-             "problems", "lanes", "early_exit", "exit_tol")
+             "problems", "lanes", "early_exit", "exit_tol", "multiplexed")
 
 
 def refuse(msg: str) -> None:
@@ -249,6 +249,8 @@ def main(argv=None) -> None:
                        "ends when two iterations in a row move no word of z by EXIT_TOL or more, else at IMAX")
         s.add_argument("--exit-tol", dest="exit_tol", help=f"{who('exit_tol')}: the exit test's tolerance in the units of u "
                        "(EXIT_TOL's reset value; builds the test)")
+        s.add_argument("--multiplexed", help=f"{who('multiplexed')}: parallel multiplexed MPC (true or false): each "
+                       "channel solves one input's single-input problem, the closed loop keeps the plan")
         s.add_argument("--out")
         s.add_argument("--gap", help="design check target: closed-loop cost at most this many percent above the "
                                      "optimum; the flow chooses the iteration count (default: the spec's check.gap)")

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mpc_cores.ipm import stage1_config
+from mpc_cores.ipm.mux_loop import data, plan_of
 from mpc_cores.minres.model import MinresCoreModel
 
 
@@ -103,9 +104,8 @@ class IpmCoreModel:
         """Multiplexed: one copy on channel `slot` (input slot mod inputs): x^ (n), the steady state (x_s, u_s,i)
         (n + 1) and the known term F (T x n, stage by stage) as float values."""
         assert self.multiplexed, "solve_copy needs a multiplexed core"
-        data = np.concatenate([np.ravel(x), np.ravel(ss), np.ravel(F)])
-        return self.solve(slot, None, warm=warm, x_words=self.mr.to_words(data))
+        return self.solve(slot, None, warm=warm, x_words=self.mr.to_words(data(x, ss, F)))
 
     def plan(self, a: Answer) -> np.ndarray:
         """Multiplexed: the T planned moves of an answer (deviations from u_s,i), float values"""
-        return self.ops.to_float(self.ops.from_words(a.words[self.m + 1: self.m + 1 + self.T]))
+        return plan_of(self.ops, a.words, self.T)

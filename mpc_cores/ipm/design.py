@@ -35,6 +35,9 @@ from mpc_cores.minres.design import MinresDesign, design_minres
 
 SIGMA, TAU, START, FLOOR = 0.1, 0.99, 1.0, 1e-2
 I_NW, I_MR_ACCURACY = 8, 12
+# multiplexed: a round's copies at a reference change start from the shifted plan's iterate; at I_MR = 12, 7 of the
+# 292 answers of the masses design check's closed loop miss RES_TOL, at 20 none
+I_MR_ACCURACY_MUX = 20
 LATENCY = "compact"   # the float operators' latency preset (mpc_cores.minres.design.format_latencies)
 MU_TOL, RES_TOL = 1e-3, 1e-1
 
@@ -137,9 +140,14 @@ def design_ipm(problem, P: int | None = None, iterations: int | None = None, new
     st1 = banks[0] if mux else build(s, SIGMA, TAU, True, START, FLOOR)
     d = IpmDesign(name or problem.name, problem, s, st1, md, i_nw, float(solver.get("ipm_mu_tol", MU_TOL)),
                   float(solver.get("ipm_res_tol", RES_TOL)), banks=banks)
+    try:   # the engine's rules (an ACC of more than lat_add terms, ...): a refusal, not a traceback
+        stage1_config.check(st1.programs, [[int(t) for t in tab] for tab in st1.tables], d.lat)
+    except ValueError as e:
+        raise DesignError(f"the Stage 1 programs break a rule of the engine: {e} (the {s.n_ineq} box "
+                          f"inequalities are summed by ACC)") from None
     if mux and md.P == 0:   # every input's copy in one MINRES batch: P at least m (eq. (15) otherwise)
         md.P = max(planned_core(d, 1)["P"], problem.nu)
-    i_mr = iterations or solver.get("ipm_minres") or max(I_MR_ACCURACY, hiding_imr(d))
+    i_mr = iterations or solver.get("ipm_minres") or max(I_MR_ACCURACY_MUX if mux else I_MR_ACCURACY, hiding_imr(d))
     if not 1 <= int(i_mr) <= 65535:
         raise DesignError(f"I_MR (iterations) must be in [1, 65535]: got {i_mr}")
     md.iterations = int(i_mr)

@@ -1,7 +1,7 @@
 """The interior-point core kind (registry entry): Algorithm 1 of 001, Stage 1 and MINRES, 2P problems in flight."""
 from mpc_cores.float.latency import LATENCY_PRESETS
 from mpc_cores.kind import CoreKind
-from mpc_cores.schema import Choice, FloatFormat, Int, Num
+from mpc_cores.schema import Bool, Choice, FloatFormat, Int, Num
 
 KIND = CoreKind(
     name="ipm",
@@ -9,8 +9,9 @@ KIND = CoreKind(
           "e<E>m<M>, 2P problems in flight",
     constraints=("hard_states",),
     model_fn="mpc_cores.ipm.core_model:IpmCoreModel",
-    spec_section=("ipm_P", "ipm_newton", "ipm_minres", "ipm_format", "ipm_latency", "ipm_mu_tol", "ipm_res_tol"),
-    overrides=("P", "iterations", "newton", "lat_add", "lat_mul", "format", "latency", "target"),
+    spec_section=("ipm_P", "ipm_newton", "ipm_minres", "ipm_format", "ipm_latency", "ipm_mu_tol", "ipm_res_tol",
+                  "ipm_multiplexed"),
+    overrides=("P", "iterations", "newton", "lat_add", "lat_mul", "format", "latency", "target", "multiplexed"),
     cycle_test="latency",
     controllers_fn="mpc_cores.ipm.kind:controllers",
     rtl_controller_fn="mpc_cores.ipm.control:rtl_controller",
@@ -24,6 +25,7 @@ KIND = CoreKind(
         "ipm_latency": Choice(LATENCY_PRESETS),
         "ipm_mu_tol": Num(0),
         "ipm_res_tol": Num(0),
+        "ipm_multiplexed": Bool(),
     },
 )
 

@@ -42,16 +42,16 @@ class MuxPlan:
 
     Additions for tracking (a reference change moves the steady state (x_s, u_s) that the plan's deviation
     variables are taken from):
-    - `shift`: the stored plan moves with u_s (plan += u_s,new - u_s,old), so the channels that are not chosen
-      follow the new steady state instead of holding the old one;
+    - `shift`: the stored plan moves with u_s (plan += u_s,new - u_s,old, clipped to the input box), so the
+      channels that are not chosen follow the new steady state instead of holding the old one;
     - `rounds`: in a sample whose reference changed, the m copies run `rounds` times, each round from the plan the
       previous one chose (block-coordinate descent on the full QP); otherwise once;
     - `blends`: besides the m copies, the candidates include the plan with every channel's new moves applied at
       once, scaled by each blend factor (Jacobi steps); the cheapest candidate by predicted cost is applied.
     `shift=False, rounds=1, blends=()` is Algorithm 2 as 001 states it. `chosen` records the copy per round (-1:
     the full solve of the first sample, -2: a blend). The first sample: `first_sample` (a subclass's, the full
-    problem's plan), or, without one, the plan u_s from which the copies run `first_rounds` rounds (default twice
-    `rounds`)."""
+    problem's plan), or, without one, the plan u_s (clipped to the input box) from which the copies run
+    `first_rounds` rounds (default twice `rounds`)."""
 
     def __init__(self, p: MpcProblem, shift: bool = True, rounds: int = 4, blends: tuple[float, ...] = (0.5, 1.0),
                  first_rounds: int | None = None):
@@ -72,6 +72,19 @@ class MuxPlan:
         raise NotImplementedError
 
     def step(self, x, r=None) -> np.ndarray:
+        """One sample, the copies solved by `copy` one by one."""
+        gen = self.steps(x, r)
+        try:
+            jobs = next(gen)
+            while True:
+                jobs = gen.send([self.copy(*j) for j in jobs])
+        except StopIteration as e:
+            return e.value
+
+    def steps(self, x, r=None):
+        """One sample as a generator: it yields each round's copies, a list of (i, dx0, xs, us, dplan, F), is sent
+        their moves (a list of T-vectors in the same order) and returns u_0. A solver that runs a round as one
+        batch (the core: mpc_cores.ipm.mux_loop) drives it."""
         p = self.p
         xs, us = _targets(p, r)
         dx0 = np.asarray(x, float) - xs
@@ -81,17 +94,20 @@ class MuxPlan:
                 self.plan, self.us = plan, us
                 self.chosen.append(-1)
                 return self.plan[0]
-            self.plan, self.us = np.tile(us, (p.N, 1)), us
-            for _ in range(self.first_rounds):
-                self._round(dx0, xs, us)
-            return self.plan[0]
-        changed = not np.array_equal(us, self.us)
-        if self.shift:
-            self.plan = self.plan + (us - self.us)
-        self.us = us
-        self.plan = np.vstack([self.plan[1:], self.plan[-1:]])
-        for _ in range(self.rounds if changed else 1):
-            self._round(dx0, xs, us)
+            self.plan, self.us = np.clip(np.tile(us, (p.N, 1)), p.umin, p.umax), us
+            n_rounds = self.first_rounds
+        else:
+            changed = not np.array_equal(us, self.us)
+            if self.shift:   # kept inside the input box: a copy re-optimises only its own channel's moves
+                self.plan = np.clip(self.plan + (us - self.us), p.umin, p.umax)
+            self.us = us
+            self.plan = np.vstack([self.plan[1:], self.plan[-1:]])
+            n_rounds = self.rounds if changed else 1
+        for _ in range(n_rounds):
+            dplan = self.plan - us
+            jobs = [(i, dx0, xs, us, dplan, self.known_term(i, dplan)) for i in range(p.nu)]
+            moves = yield jobs
+            self._choose(dx0, us, dplan, moves)
         return self.plan[0]
 
     def known_term(self, i: int, dplan) -> np.ndarray:
@@ -99,14 +115,14 @@ class MuxPlan:
         others = [j for j in range(self.p.nu) if j != i]
         return -(dplan[:, others] @ self.p.B[:, others].T)
 
-    def _round(self, dx0, xs, us) -> None:
-        """The m copies from the stored plan; the cheapest candidate becomes the plan."""
+    def _choose(self, dx0, us, dplan, moves) -> None:
+        """The round's candidates (each copy's moves in the plan, the blends); the cheapest becomes the plan."""
         p = self.p
-        dplan = self.plan - us
         new = dplan.copy()
         cands = []
-        for i in range(p.nu):
-            du = self.copy(i, dx0, xs, us, dplan, self.known_term(i, dplan))
+        for i, du in enumerate(moves):
+            # an interior-point iterate stops inside its box only to the solver's tolerance: clipped to it
+            du = np.clip(du, p.umin[i] - us[i], p.umax[i] - us[i])
             self.copies += 1
             dU = dplan.copy()
             dU[:, i] = new[:, i] = du

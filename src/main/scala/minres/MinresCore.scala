@@ -307,10 +307,13 @@ class MinresCore(val p: MinresParams) extends Module {
     val cands = p.candidates(s)
     val selOf = (q: Int) => p.offsets(q)(s).map(o => cands.indexOf(o)).getOrElse(0).U(log2Ceil(cands.length + 1).W)
     val diag  = perKey(q => p.offsets(q)(s).contains(0).B)
-    // the constant: one table, or (several) the table of the row's problem, read at its address phase
+    // the constant: one table, or (several) each table's registered and the row's problem's selected (AND-OR)
     val coef  = tabs match {
       case None    => perKey(q => p.coefs(q)(s).U(W.W))
-      case Some(t) => RegNext(VecInit(p.coefTables.map(c => byKey(q => c(q)(s).U(W.W), rowPre)))(tabRow.get))
+      case Some(_) =>
+        val at = RegNext(tabRow.get)
+        p.coefTables.map(c => perKey(q => c(q)(s).U(W.W))).zipWithIndex
+          .map { case (v, i) => Mux(at === i.U, v, 0.U) }.reduce(_ | _)
     }
     // whether the slot holds a term: it is used and column e + o is inside the matrix, from compares registered
     // two cycles ahead and the key's offset a cycle ahead, so that the operands' clear is one register
