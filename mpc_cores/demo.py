@@ -33,6 +33,8 @@ def run_demo(kind, d, spec: Path, out: Path, steps: int, hold: int, seed: int) -
         step("optimal and golden loops")
         t_opt = run_closed_loop(p, optimal, x0, refs)
         t_fix = run_closed_loop(p, golden, x0, refs)
+        # a kind's other controllers on the same references (the multiplexed core's conventional counterpart)
+        beside = [(label, run_closed_loop(p, c, x0, refs), cyc) for label, c, cyc in getattr(golden, "beside", [])]
         step("RTL loop (Verilator)")
         tests, failed = run_cocotb(out / "core" / core["sv"], core["module"], "mpc_cores.closedloop_tb", out / "sim",
                                    {"CORE_OUT": str((out / "core").resolve()), "CL_SPEC": str(Path(spec).resolve()),
@@ -54,6 +56,7 @@ def run_demo(kind, d, spec: Path, out: Path, steps: int, hold: int, seed: int) -
         "| controller | closed-loop cost | above optimum |",
         "|---|---|---|",
         f"| float64 OSQP (optimal) | {t_opt.cost:.6f} | 0 % |",
+        *(f"| {label} | {t.cost:.6f} | {pct(t.cost):.4f} % |" for label, t, _ in beside),
         f"| golden model, {d.label()} | {t_fix.cost:.6f} | {pct(t_fix.cost):.4f} % |",
         f"| RTL (Verilator, AXI) | {rtl['cost']:.6f} | {pct(rtl['cost']):.4f} % |",
         "",
@@ -62,7 +65,13 @@ def run_demo(kind, d, spec: Path, out: Path, steps: int, hold: int, seed: int) -
         f"status after the run: {', '.join(k for k, v in rtl['status'].items() if v) or 'clear'}",
     ]
     cps = core.get("cycles_per_solve")
-    if cps is not None:
+    if core.get("multiplexed"):
+        rounds = getattr(golden.mux, "rounds_run", 0)
+        lines.append(f"latency per sample: {core['latency_cycles_per_sample']} cycles per round of the {core['inputs']} "
+                     f"copies (this loop ran {rounds} rounds in {steps} samples: one per sample, more at a reference "
+                     f"change and at the first)" +
+                     "".join(f"; {label.split(':')[0]}: {cyc} cycles per sample" for label, _, cyc in beside))
+    elif cps is not None:
         per_it = f" ({core['cycles_per_iteration']} per iteration)" if "cycles_per_iteration" in core else ""
         # at the clocks of the core's paper (002: 400 and 230 MHz; core.json may name others)
         clocks = core.get("reference_clocks_mhz", [400, 230])

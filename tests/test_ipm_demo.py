@@ -36,3 +36,21 @@ def test_ipm_demo_rtl_equals_golden(P):
     assert len(rtl["words"]) == STEPS and rtl["words"] == golden.words
     assert np.array_equal(np.array(rtl["x"]), t_gold.x)
     assert abs(rtl["cost"] - t_opt.cost) / t_opt.cost < 1e-3, (rtl["cost"], t_opt.cost)
+
+
+@pytest.mark.slow
+def test_ipm_demo_multiplexed():
+    """`make demo CORE=ipm MULTIPLEXED=1` in short form: the multiplexed core's RTL in Algorithm 2's closed loop (the
+    round's copies sent together on channels 0 .. m - 1) returns the golden model's words at every step, and the
+    report puts the conventional core's model beside it on the same references, with both latencies per sample."""
+    kind = registry.get("ipm")
+    p = load_spec(SPEC)
+    d = kind.design(p, multiplexed=True)
+    out = BUILD / "mux"
+    table = run_demo(kind, d, SPEC, out, STEPS, HOLD, SEED)  # DemoError when the words differ
+    assert f"RTL words equal the golden model's in all {STEPS} steps: yes" in table
+    assert "| conventional MPC: golden model," in table and "latency per sample:" in table
+    rtl = json.loads((out / "closed_loop_rtl.json").read_text())
+    # every step: the answers of its rounds, m per round (u0, mu, the T moves, ||r_0||, status each)
+    per_answer = 1 + 1 + p.N + 1 + 1
+    assert all(len(w) % (p.nu * per_answer) == 0 and w for w in rtl["words"])

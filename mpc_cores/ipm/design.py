@@ -83,7 +83,8 @@ class IpmDesign:
                 "cmp": self.lat_cmp}
 
     def label(self) -> str:
-        return (f"{self.format} ({self.md.latency} latencies, target {self.md.target}), I_NW = {self.i_nw}, "
+        return (("multiplexed (Algorithm 2), " if self.multiplexed else "") +
+                f"{self.format} ({self.md.latency} latencies, target {self.md.target}), I_NW = {self.i_nw}, "
                 f"I_MR = {self.i_mr}")
 
     def word(self, v: float) -> int:
