@@ -33,8 +33,12 @@ def run_demo(kind, d, spec: Path, out: Path, steps: int, hold: int, seed: int) -
         step("optimal and golden loops")
         t_opt = run_closed_loop(p, optimal, x0, refs)
         t_fix = run_closed_loop(p, golden, x0, refs)
-        # a kind's other controllers on the same references (the multiplexed core's conventional counterpart)
-        beside = [(label, run_closed_loop(p, c, x0, refs), cyc) for label, c, cyc in getattr(golden, "beside", [])]
+        # a design's conventional counterpart (the multiplexed interior-point core's), its golden model on the same
+        # references
+        conv = getattr(d, "conventional", lambda: None)()
+        beside = [] if conv is None else [(f"conventional MPC: golden model, {conv.label()}",
+                                           run_closed_loop(p, kind.controllers(conv)[1], x0, refs),
+                                           kind.facts(conv)["cycles"])]
         step("RTL loop (Verilator)")
         tests, failed = run_cocotb(out / "core" / core["sv"], core["module"], "mpc_cores.closedloop_tb", out / "sim",
                                    {"CORE_OUT": str((out / "core").resolve()), "CL_SPEC": str(Path(spec).resolve()),

@@ -196,7 +196,7 @@ def test_missing_spec_file(tmp_path):
      "target xilinx7 needs lat_mul >= 4 (the DSP's registers, and a stage summing partial products; widest product "
      "20 x 29 bits): got lat_mul=2 (set lat_mul: 4 in the spec's solver section, LAT_MUL=4, or leave it out)"),
     (("--core", "ipm", "--problems", "2"), "CORE=ipm takes the overrides P, iterations, newton, lat_add, lat_mul, "
-                                           "format, latency, target: got problems"),
+                                           "format, latency, target, multiplexed: got problems"),
     (("--core", "minres", "--P", "65"), "--P: expected an integer in [0, 64] (0: eq. (15) of 001), got 65"),
     (("--core", "minres", "--format", "e9m23"), "--format: format must fit the 32-bit stream word (1 + E + M <= 32): "
                                                 "got e9m23, 33 bits"),

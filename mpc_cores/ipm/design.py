@@ -82,6 +82,14 @@ class IpmDesign:
         return {"add": m["lat_add"], "mul": m["lat_mul"], "div": m["lat_div"], "sqrt": m["lat_sqrt"],
                 "cmp": self.lat_cmp}
 
+    def conventional(self):
+        """A multiplexed design's conventional counterpart (the full problem, the same format, latencies, target and
+        I_NW; P and I_MR the flow's), which `make demo` runs beside it; None for a conventional design."""
+        if not self.multiplexed:
+            return None
+        return design_ipm(self.problem, format=self.format, latency=self.md.latency, target=self.md.target,
+                          newton=self.i_nw, multiplexed=False)
+
     def label(self) -> str:
         return (("multiplexed (Algorithm 2), " if self.multiplexed else "") +
                 f"{self.format} ({self.md.latency} latencies, target {self.md.target}), I_NW = {self.i_nw}, "

@@ -42,19 +42,8 @@ def small():
 
 def controllers(d):
     """Closed loop of `make demo CORE=ipm`: OSQP to optimality and the bit-exact model, one channel (0); the RTL
-    side is mpc_cores.ipm.control.rtl_controller (KIND.rtl_controller_fn). A multiplexed design's golden controller
-    carries `beside`: the conventional core of the same format (its golden model), which the demo runs on the same
-    references."""
+    side is mpc_cores.ipm.control.rtl_controller (KIND.rtl_controller_fn)."""
     from mpc_cores.closedloop import OsqpController
     from mpc_cores.ipm.control import IpmModelController
 
-    golden = IpmModelController(d)
-    if d.multiplexed:
-        from mpc_cores.ipm.design import design_ipm
-        from mpc_cores.ipm.report import facts
-
-        conv = design_ipm(d.problem, format=d.format, latency=d.md.latency, target=d.md.target, newton=d.i_nw,
-                          multiplexed=False)
-        golden.beside = [(f"conventional MPC: golden model, {conv.label()}", IpmModelController(conv),
-                          facts(conv)["cycles"])]
-    return OsqpController(d.problem), golden, 0.9
+    return OsqpController(d.problem), IpmModelController(d), 0.9
