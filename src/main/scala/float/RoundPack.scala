@@ -187,6 +187,7 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.Ma
     val tiny    = Bool()
     val fieldM  = UInt(eW.W)
     val rounded = UInt((m + 2).W)
+    val carry   = UInt(2.W) // rounded(m + 1, m), from an AND of the kept bits beside the adder, not its carry out
     val inexact = Bool()
     val ovf     = Vec(4, Bool()) // field >= maxExpField if the significand adds c to it (c = 3 never occurs)
     val fieldC  = Vec(3, UInt(eW.W)) // fieldM + c for c = 0, 1, 2, beside the rounding
@@ -195,15 +196,19 @@ class RoundPack(fmt: FloatFormat, sigW: Int, regs: Seq[Int], maxLz: Int = Int.Ma
   s2.isZero  := kept.isZero
   s2.tiny    := kept.tiny
   s2.fieldM  := kept.fieldM
-  s2.rounded := kept.kept +& (kept.guard && (kept.rest || kept.kept(0)))
+  private val inc = kept.guard && (kept.rest || kept.kept(0))
+  private val carryM = inc && kept.kept(m - 1, 0).andR // the increment ripples into the hidden bit
+  s2.rounded := kept.kept +& inc
+  s2.carry   := Cat(kept.kept(m) && carryM, kept.kept(m) ^ carryM)
   s2.inexact := kept.guard || kept.rest
   for (c <- 0 until 4) s2.ovf(c) := kept.fieldM >= (fmt.maxExpField - math.min(c, 2)).U
   for (c <- 0 until 3) s2.fieldC(c) := kept.fieldM + c.U
   val r2 = cut(s2)
 
   // ---- pack (the significand's top bits, 0 to 2 with a rounding carry, add to the exponent field; the three
-  // sums and overflow tests were made beside the rounding, so the carry only selects)
-  private val c        = r2.rounded(m + 1, m)
+  // sums and overflow tests were made beside the rounding, and the top bits beside its adder, so that only the
+  // stored significand bits come from the adder's carry chain)
+  private val c        = r2.carry
   private val field    = VecInit(r2.fieldC :+ (r2.fieldM + 3.U))(c)
   private val overflow = r2.ovf(c)
   private val raw      = r2.raw

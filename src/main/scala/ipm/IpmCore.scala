@@ -96,6 +96,8 @@ class IpmCore(val p: IpmParams) extends Module {
   val forming = Reg(Bool())
   val k       = Reg(UInt(log2Ceil(P + 1).W)) // position of curC in its group's batch
   val inExt   = RegInit(false.B) // Stage 1 IN from s_axis (sample), else from MINRES (update)
+  private val inExtNext = WireDefault(inExt)
+  inExt := inExtNext
   val outExt  = RegInit(false.B) // Stage 1 OUT to m_axis (output), else to MINRES (linearise)
 
   st1.start := false.B
@@ -151,7 +153,7 @@ class IpmCore(val p: IpmParams) extends Module {
     fifoG(0) := fifoG(1)
     k       := 0.U
     curC    := ord(g, 0.U)
-    inExt   := false.B
+    inExtNext := false.B
     state   := sRecv
   }
   private val pushed = WireDefault(false.B)
@@ -184,7 +186,7 @@ class IpmCore(val p: IpmParams) extends Module {
         k := gCnt(curG)
         gOrd(curG * P.U +& gCnt(curG)) := headCh
         gCnt(curG) := gCnt(curG) + 1.U
-        inExt := true.B
+        inExtNext := true.B
         run("sample", headCh)
         state := sSample
       }
@@ -242,7 +244,7 @@ class IpmCore(val p: IpmParams) extends Module {
       when(!st1.busy) {
         run("update", curC)
         state := sOut // the next step is chosen when update is done
-        inExt := false.B
+        inExtNext := false.B
       }
     }
     is(sOut) {
@@ -287,7 +289,10 @@ class IpmCore(val p: IpmParams) extends Module {
   extIn.io.enq.bits  := s_axis.tdata
   mrIn.io.enq.valid  := mr.m_axis.tvalid && mrData
   mrIn.io.enq.bits   := mr.m_axis.tdata
-  st1.s_axis.tvalid  := Mux(inExt, extIn.io.deq.valid, mrIn.io.deq.valid)
+  // Stage 1's valid selected by a copy of inExt of its own (kept apart on an FPGA target), placed by the issue
+  // logic it feeds rather than by the sequencer and the data select
+  private val inExtV = if (p.mr.target == dsp.Target.Generic) inExt else mem.KeepReg(inExtNext && !reset.asBool)
+  st1.s_axis.tvalid  := Mux(inExtV, extIn.io.deq.valid, mrIn.io.deq.valid)
   st1.s_axis.tdata   := Mux(inExt, extIn.io.deq.bits, mrIn.io.deq.bits)
   st1.s_axis.tlast   := false.B
   extIn.io.deq.ready := inExt && st1.s_axis.tready

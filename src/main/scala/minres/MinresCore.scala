@@ -411,13 +411,18 @@ class MinresCore(val p: MinresParams) extends Module {
   }
   private val Seq(g1d, a1d, a2d, a3d, c1d, s1d, cetaD) = Seq("g1", "a1", "a2", "a3", "c1", "s1", "ceta").map(res)
   private val eta1D = res("seta") ^ (BigInt(1) << (W - 1)).U // eta_{j+1} = -(s eta)
-  private val scW = ops.delayTo(sc, 0, tS)
+  // the writes' enables decoded a cycle ahead into a register per slot (and per bank and slot for ||r_0||), so
+  // that the scalars' clock enables come from registers and not from a decoder of the slot spread over the die
+  private val scW1   = ops.delayTo(sc, 0, tS - 1)
+  private val scV1   = Stages.delayValid(ps.first, tS - 1)
   private val scInit = Stages.delay(sc.j === 0.U, tS) // the init pass, compared at the source (a register here)
-  when(Stages.delayValid(ps.first, tS)) {
-    val q = scW.slot
+  private val scWen  = RegNext(VecInit.tabulate(P)(q => scV1 && scW1.slot === q.U), VecInit.fill(P)(false.B))
+  private val res0Wen = RegNext(VecInit.tabulate(2 * P)(k => scV1 && Stages.delay(sc.j === 0.U, tS - 1) &&
+    scW1.bank === (k / P).U && scW1.slot === (k % P).U), VecInit.fill(2 * P)(false.B))
+  for (q <- 0 until P) when(scWen(q)) {
     when(scInit) {
       cR(q) := one; cpR(q) := one; sR(q) := zero; spR(q) := zero
-      gamR(q) := g1d; etaR(q) := g1d; res0R(scW.bank * P.U + q) := g1d
+      gamR(q) := g1d; etaR(q) := g1d
     }.otherwise {
       cpR(q) := cR(q); cR(q) := c1d; spR(q) := sR(q); sR(q) := s1d
       gamR(q) := g1d; etaR(q) := eta1D
@@ -425,6 +430,7 @@ class MinresCore(val p: MinresParams) extends Module {
     g1R(q) := g1d; a1R(q) := a1d; a2R(q) := a2d; a3R(q) := a3d
     cetaR(q) := cetaD
   }
+  for (k <- 0 until 2 * P) when(res0Wen(k)) { res0R(k) := g1d }
 
   // ---- pass C: v_{j+1} = u / gamma_{j+1}; w_{j+1} = ((v_j - a3 w_{j-1}) - a2 w_j) / a1; x += c eta w_{j+1}
   // x is double-buffered by bank: copy 0 for pass C, copy 1 for the output stream of a finished batch.
