@@ -25,7 +25,6 @@ from pathlib import Path
 
 import numpy as np
 
-from mpc_bench import floorplan
 from mpc_bench.baselines import (
     NumpyFgm, closed_loop_qps, core_ratios, fastest_cell, own_columns, prepare_fgm_software, slug, solver_section,
 )
@@ -410,7 +409,7 @@ class Section(QpSection):
                 continue
             self.cores.append(Core("fgm", "masses", P, FMAX_B, out / "cores" / tag, d, d.iterations, role="fmax",
                                    pnr_seeds=FMAX_SEEDS_QUICK if self.quick else FMAX_SEEDS, copies=copies,
-                                   pnr_args=PLACER_ARGS, floorplan=floorplan if copies == 1 else None))
+                                   pnr_args=PLACER_ARGS, floorplan=copies == 1))
 
     def software_case(self):
         return prepare_fgm_software(self.problem, self.designs, self.steps, LOOP_HOLD)

@@ -130,10 +130,9 @@ def floorplan(netlist: dict, module: str) -> dict[str, str]:
     return bels
 
 
-def floorplan_file(src: Path, dst: Path, module: str, plan=None) -> int:
-    """plan() (default: floorplan(), the FGM's rows) from the netlist file `src` into `dst`; the number of pinned
-    cells."""
+def floorplan_file(src: Path, dst: Path, module: str) -> int:
+    """floorplan() from the netlist file `src` into `dst`; the number of pinned cells."""
     d = json.loads(Path(src).read_text())
-    n = len((plan or floorplan)(d, module))
+    n = len(floorplan(d, module))
     Path(dst).write_text(json.dumps(d))
     return n

@@ -13,8 +13,7 @@ The interior-point core (Algorithm 1 of 001: Stage 1 engine + MINRES in its warm
              a full run synth_xilinx xc7 on it and both on masses at P = 1 in binary32 and at its default P in
              e8m17 with the fast operator latencies and TARGET=ecp5 (the masses core that fits the part);
   Fmax       nextpnr-ecp5 on the LFE5U-85F (speed 8, constraints/ipm_core.lpf) for the cores that fit (the masses
-             core with PLACER_ARGS and its block RAMs pinned by part, mpc_bench.floorplan_ipm; the median of
-             seeds 1, 2 and 3);
+             core with PLACER_ARGS, the median of seeds 1, 2 and 3);
   software   OSQP (default and tuned), PIQP and Clarabel on the QPs of the masses closed loop under the core's
              bit-exact model, against the core's latency at that Fmax (an estimate for the cores not placed) and at
              001's 150 MHz.
@@ -34,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpc_bench import floorplan_ipm, section
+from mpc_bench import section
 from mpc_bench.baselines import OSQP_DEFAULT, OSQP_TUNED, OsqpWarm, SwCase, _optimal_u0
 from mpc_bench.ipm_report import ipm_rows, ipm_section, summary_table
 from mpc_bench.minres import MASSES, SMALL, small_problem, synth_ecp5
@@ -210,12 +209,10 @@ class Section(QpSection):
         if full:
             # masses: at P = 1 in binary32 (simulated; too big for the part), and the core for the part: e8m17 with
             # the fast operator latencies at its default P (eq. (15)), TARGET=ecp5 (the memories' DP16KD with their
-            # output register), placed with a stronger timing weight and its block RAMs pinned by part
-            # (mpc_bench.floorplan_ipm)
+            # output register), placed with a stronger timing weight
             plan += [(masses, 1, "masses_p1", dict(simulate=True, synth=True), None, None),
                      (masses, None, "masses_e8m17_fast",
-                      dict(synth=True, place=self.place, pnr_args=PLACER_ARGS, pnr_seeds=FMAX_SEEDS,
-                           floorplan=floorplan_ipm), "e8m17", "fast")]
+                      dict(synth=True, place=self.place, pnr_args=PLACER_ARGS, pnr_seeds=FMAX_SEEDS), "e8m17", "fast")]
         for p, P, role, steps, fmt, lat in plan:
             target = "ecp5" if lat == "fast" else None
             d = design_ipm(p, P=P, format=fmt, latency=lat, target=target)

@@ -217,9 +217,7 @@ def _units_part(cores: list, recs: list[dict]) -> list[str]:
     placed = [(c, r) for c, r in zip(cores, recs) if c.pnr or (c.place and c.pnr_note)]
     L += ["### Fmax (nextpnr-ecp5, LFE5U-85F, CABGA381, speed 8)", "",
           f"constraints/ipm_core.lpf (the clock only, 001's 150 MHz), seed {PNR_SEED}, `--lpf-allow-unconstrained`: "
-          "register to register. The cores placed with several seeds give the median seed's figures, every seed's "
-          "Fmax in brackets; the masses e8m17 core is placed with the placer settings of mpc_bench.tools.PLACER_ARGS "
-          "and its block RAMs pinned by part (mpc_bench.floorplan_ipm).", ""]
+          "register to register.", ""]
     if placed:
         L += _table(["core", "Fmax MHz", "TRELLIS_COMB", "critical path (register to register)", "logic cells",
                      "ns"], [[c.tag, *pnr_cells(c, _n(r.get("ecp5_TRELLIS_COMB_pnr")))] for c, r in placed])

