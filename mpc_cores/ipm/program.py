@@ -177,14 +177,16 @@ def build(s: SparseMpc, sigma: float, tau: float, precondition: bool, start_valu
             raise ValueError("a multiplexed channel's problem takes its steady state, not a reference")
         sample = [I("IN", n, d=S(a["xin"]), note="x^"), I("IN", n + m, d=S(a["ss"]), note="(x_s, u_s,i)"),
                   I("IN", n * L.T, d=S(a["F"]), note="F: the other channels' planned moves, -B_{-i} du_{-i,k}")]
-    elif ny:
-        sample = [I("IN", n + ny, d=S(a["xin"]), note="x^, r"),
-                  I("MUL", n + m, d=S(a["ss"]), a=C(c["Mxu0"]), b=S(a["r"], "scalar"))]
-        for j in range(1, ny):
-            sample += [I("MUL", n + m, d=S(a["ts"]), a=C(c[f"Mxu{j}"]), b=S(a["r"] + j, "scalar")),
-                       I("ADD", n + m, d=S(a["ss"]), a=S(a["ss"]), b=S(a["ts"]))]
     else:
-        sample = [I("IN", n + ny, d=S(a["xin"]), note="x^, r"), I("MOV", n + m, d=S(a["ss"]), a=C(c["zero"], "scalar"))]
+        # x^ and r; the steady state (x_s, u_s) = sum_j Mxu_j r_j when tracking, else 0
+        sample = [I("IN", n + ny, d=S(a["xin"]), note="x^, r")]
+        if ny:
+            sample += [I("MUL", n + m, d=S(a["ss"]), a=C(c["Mxu0"]), b=S(a["r"], "scalar"))]
+            for j in range(1, ny):
+                sample += [I("MUL", n + m, d=S(a["ts"]), a=C(c[f"Mxu{j}"]), b=S(a["r"] + j, "scalar")),
+                           I("ADD", n + m, d=S(a["ss"]), a=S(a["ss"]), b=S(a["ts"]))]
+        else:
+            sample += [I("MOV", n + m, d=S(a["ss"]), a=C(c["zero"], "scalar"))]
     sample += [I("SUB", nb2, d=S(a["lo"]), a=C(c["lo"]), b=S(a["ss"], "gather", T_SHIFT), note="lo, hi shifted")]
     if precondition:
         sample += [I("SUB", n, d=S(a["fx"]), a=S(a["ss"]), b=S(a["xin"]), note="f = -x0 = x_s - x^"),
