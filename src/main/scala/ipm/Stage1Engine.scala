@@ -17,10 +17,12 @@ import float.Stages
   * wait for the other side, the only data-dependent timing.
   *
   * Pipeline, one element per cycle:
-  *   T  issue: element index; index-table ROMs read (one per role d, a, b that gathers or scatters) at the
-  *      instruction's table base (registered when the instruction word was fetched) + the index (a register
-  *      counting from the base, so the ROM address is a select between two registers)
-  *   G  table words out of their ROMs, registered (each ROM's second register: on the ECP5 its block RAM's own)
+  *   T  issue: element index. The index tables (one per role d, a, b that gathers or scatters) were read on the
+  *      cycle before, in two copies: at the address of the element at T (the instruction's table base, registered
+  *      when its word was fetched, + the index) and at it + 1, both kept in registers, so that neither the issue
+  *      decision nor an adder lies before a ROM
+  *   G  table words out of their ROMs (each ROM's second register: on the ECP5 its block RAM's own), the copy
+  *      picked by whether the element before issued, registered in the fabric
   *   M  addresses: operand base (the slot's base + the operand's address, registered at the instruction's
   *      launch) + the index or the table word, registered
   *   A  slot memory and constant ROMs read at them (one copy per operand a, b)
@@ -104,7 +106,8 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val accept = startR
   // a launch is due when the gap ends (gapOne: it ends on the next cycle) or a cycle after an accept; it is kept
   // in a register so that the issue decision below starts at registers
-  private val launch = RegNext(accept || running && !issuing && !gapZero && gapOne && !atEnd, false.B)
+  private val launchNxt = accept || running && !issuing && !gapZero && gapOne && !atEnd
+  private val launch    = RegNext(launchNxt, false.B)
   assert(launch === (running && !issuing && gapZero && !atEnd), "Stage1Engine: launch register out of step")
   // the ROM word of pc, or a program's first word from a table of its own (a register either way): `prog` comes
   // from the caller's decisions in the cycle of the start and meets only that table, not the ROM's decoder
@@ -193,20 +196,33 @@ class Stage1Engine(p: Stage1Params) extends Module {
     constBase.foreach(_ := constBases.get(slotR))
   }
 
-  // the table address of the element at T (the instruction's base + iT) is kept in a register (the next
-  // element's address; the instruction's base + 1 is registered with it at fetch), so that no adder lies between
-  // the issue decision and the ROMs
-  private val nxtTab1 = RegNext(VecInit(bases(word).map(_ + 1.U)))
-  private val tabAdr  = Reg(Vec(3, UInt(17.W)))
-  when(launch) {
-    tabAdr := Mux(issue, nxtTab1, nxtTab)
-  }.elsewhen(issue) {
-    tabAdr := VecInit(tabAdr.map(_ + 1.U))
+  // The table words are read a cycle ahead of T, from two copies of each table ROM: copy 0 at the address of the
+  // element at T now (or at the next instruction's base when it launches next), copy 1 at that address + 1. On the
+  // cycle the words leave the ROMs (G), the issue decision of the cycle they were read on selects one, and the word
+  // is registered in the fabric (M), where the operand address adders take it. adr0 and adr1 are registers (the
+  // address at T and it + 1), so no issue logic or adder lies before a ROM; the table words reach the adders from a
+  // register of their own, not from a block RAM across the device.
+  private def plus1(v: Vec[UInt]): Vec[UInt] = VecInit(v.map(_ + 1.U))
+  private val firstBases = bases(InstrBits.decode(firstWord(prog))) // a program's first instruction's, at its start
+  private val firstTab   = RegNext(firstBases)
+  private val firstTab1  = RegNext(plus1(firstBases))
+  private val nxtTab1    = RegNext(plus1(bases(word)))
+  // the bases at the next launch (the first instruction's in the cycle of an accept: nxtTab takes them a cycle later)
+  private val baseNxt  = Mux(accept, firstTab, nxtTab)
+  private val baseNxt1 = Mux(accept, firstTab1, nxtTab1)
+  private val adr0 = Reg(Vec(3, UInt(17.W)))
+  private val adr1 = Reg(Vec(3, UInt(17.W)))
+  for (k <- 0 until 3) {
+    adr0(k) := Mux(launchNxt, baseNxt(k), Mux(issue, adr1(k), adr0(k)))
+    adr1(k) := Mux(launchNxt, baseNxt1(k), Mux(issue, adr1(k) + 1.U, adr1(k)))
   }
+  private val pick = Stages.delay(issue && !launchNxt, 2) // at G: the word of copy 1
   private def tableRom(role: String, used: Boolean, k: Int): UInt =
-    if (used) Rom.registered(s"Stage1Table$role", p.tableWords.map(BigInt(_)), p.tableW,
-      Mux(launch, nxtTab(k), tabAdr(k)), clock, ecp5)
-    else 0.U(p.tableW.W)
+    if (used) {
+      def copy(c: Int, a: UInt) = Rom.registered(s"Stage1Table$role$c", p.tableWords.map(BigInt(_)), p.tableW, a,
+        clock, ecp5)
+      RegNext(Mux(pick, copy(1, adr1(k)), copy(0, Mux(launchNxt, baseNxt(k), adr0(k)))))
+    } else 0.U(p.tableW.W)
   private val tabD = tableRom("D", p.gatherD, 0)
   private val tabA = tableRom("A", p.gatherA, 1)
   private val tabB = tableRom("B", p.gatherB, 2)
@@ -229,7 +245,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val dBase = RegNext(slotBase +& cur.d.addr)
 
   // ---- M: addresses, registered
-  private val (tabAM, tabBM, tabDM) = (tabA, tabB, tabD) // registered in their ROMs
+  private val (tabAM, tabBM, tabDM) = (tabA, tabB, tabD) // registered in the fabric at M
   private def offset(o: OperandBits, tab: UInt): UInt = Mux(o.isGather, tab, Mux(o.isVec, iM, 0.U))
   private val mem    = new SlotMem(p.moduleName, p.slotMemWords, w, if (p.slotB) 2 else 1, ecp5 = ecp5)
   private val aOff   = offset(cur.a, tabAM)

@@ -73,22 +73,26 @@ class MinresCore(val p: MinresParams) extends Module {
   val zmem  = if (p.warm) Some(vec("zmem", 2 * P * N)) else None
   /** (buf P + slot) len + e and slot N + e, the products as tables of constants indexed by the (buf, slot) bits: a
     * few LUT levels ahead of the adder instead of a multiplier on the memories' address paths */
-  private def adr2(buf: UInt, slot: UInt, e: UInt, len: Int): UInt = {
+  private def adr2(buf: UInt, slot: UInt, e: UInt, len: Int): UInt = base2(buf, slot, len) +& e
+  private def base2(buf: UInt, slot: UInt, len: Int): UInt = {
     val (wb, ws) = (buf.getWidth, slot.getWidth)
     val prods    = Seq.tabulate(1 << (wb + ws))(k => BigInt(((k >> ws) * P + (k & ((1 << ws) - 1))) * len))
     val w        = math.max(1, prods.max.bitLength)
-    VecInit(prods.map(_.U(w.W)))(Cat(buf, slot)) +& e
+    VecInit(prods.map(_.U(w.W)))(Cat(buf, slot))
   }
   private def adr1(slot: UInt, e: UInt): UInt = adr2(0.U(1.W), slot, e, N)
+  private def base1(slot: UInt): UInt = base2(0.U(1.W), slot, N)
   private def inN(e: UInt): UInt = Mux(e < N.U, e, 0.U)
-  /** the write addresses of a pass's control word c delayed by t >= 1 cycles: computed a cycle ahead and registered,
-    * so no adder meets a memory's write port */
-  private def adr1At(c: MinresCtl, t: Int): UInt = adrAt(c, t)(x => adr1(x.slot, x.e))
-  private def adr2At(c: MinresCtl, t: Int): UInt = adrAt(c, t)(x => adr2(x.bank, x.slot, x.e, N))
-  /** an address f of the control word c delayed by t >= 1 cycles, formed from c's delay by t - 1 and registered */
-  private def adrAt(c: MinresCtl, t: Int)(f: MinresCtl => UInt): UInt = {
-    require(t >= 1, "address registered a cycle ahead")
-    RegNext(f(Stages.delay(c, t - 1)))
+  /** the write addresses of a pass's control word c delayed by t >= 2 cycles (adrAt) */
+  private def adr1At(c: MinresCtl, t: Int): UInt = adrAt(c, t)(x => (base1(x.slot), x.e))
+  private def adr2At(c: MinresCtl, t: Int): UInt = adrAt(c, t)(x => (base2(x.bank, x.slot, N), x.e))
+  /** an address base + offset (f of the control word c) delayed by t >= 2 cycles: the base (a table of the bank
+    * and slot) and the offset registered from c's delay by t - 2, their sum registered, so that no adder meets a
+    * memory and no table or compare meets the adder */
+  private def adrAt(c: MinresCtl, t: Int)(f: MinresCtl => (UInt, UInt)): UInt = {
+    require(t >= 2, "address parts registered two cycles ahead")
+    val (base, off) = f(Stages.delay(c, t - 2))
+    RegNext(RegNext(base) +& RegNext(off))
   }
 
   // ---- per-problem scalars
@@ -256,9 +260,12 @@ class MinresCore(val p: MinresParams) extends Module {
   val ps   = new PassCounter(p); ps.tick(startAt(p.tS), feed.imax, bankCopy(), Some(feed.imaxZero))
   val pcA  = new PassCounter(p); pcA.tick(startAt(p.tC - RL - 1), feed.imax, bankCopy(), Some(feed.imaxZero))
   /** a pass's address phase, a cycle behind its counter (which starts a cycle earlier): the counter's word and its
-    * read addresses (in a slot's vector; in a bank's slot's vector) registered, so no adder meets a memory */
+    * read addresses (in a slot's vector; in a bank's slot's vector) registered. The addresses are the counter's
+    * elementAdr registers (counting beside it) registered once more, so that no adder or compare meets a memory,
+    * and the register driving the memories has nothing but a register before it */
   private def addressPhase(pc: PassCounter): (MinresCtl, UInt, UInt) =
-    (RegNext(pc.c), RegNext(adr1(pc.c.slot, inN(pc.c.e))), RegNext(adr2(pc.c.bank, pc.c.slot, inN(pc.c.e), N)))
+    (RegNext(pc.c), RegNext(pc.elementAdr((c, e) => adr1(c.slot, e), N)),
+      RegNext(pc.elementAdr((c, e) => adr2(c.bank, c.slot, e, N), N)))
   // the batch's last cycles, I_MR P S + c: the I_MR latched at the start decision times a constant, a product of
   // the target's pipelined multiplier (on the ECP5 a MULT18X18D with its registers), set when it is ready on the
   // batch's fourth cycle (g = 3; until then they hold the largest count)
@@ -292,7 +299,7 @@ class MinresCore(val p: MinresParams) extends Module {
   // stage) selects, per slot, an offset o of the window and a coefficient: a constant, or the variable diagonal
   // (dmem) at o = 0. Operands are registered before the products (latMatvec counts that cycle).
   private val dRead  =
-    dmem.read(0, adrAt(feed.c, p.tRow - RL)(c => adr2(c.bank, c.slot, Mux(c.r < n.U, 0.U, c.prim), nPrimal)))
+    dmem.read(0, adrAt(feed.c, p.tRow - RL)(c => (base2(c.bank, c.slot, nPrimal), Mux(c.r < n.U, 0.U, c.prim))))
   val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd, p.dotMove, p.target))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
   /** f of the row key of c (q: a position in the period, or period + a row of the last stage), read from c's
@@ -330,7 +337,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val ay   = Timed(dot.io.sum, p.latMatvec)
   // warm form: row i scaled by d_i (its read addressed RL cycles ahead)
   val y    = if (!p.warm) ay else {
-    mul(Timed(smem.get.read(1, adrAt(row, ay.t - RL)(c => adr2(c.bank, c.slot, inN(c.e), N))), ay.t), ay)
+    mul(Timed(smem.get.read(1, adrAt(row, ay.t - RL)(c => (base2(c.bank, c.slot, N), inN(c.e)))), ay.t), ay)
   }
   ymem.write(Stages.delayValid(rowValid, y.t), adr1At(row, y.t), y.v)
   // delta = v_j . A v_j (warm form: (d v_j) . (A d v_j), the same sum on the feed's words)
@@ -358,7 +365,7 @@ class MinresCore(val p: MinresParams) extends Module {
   val yIn   = Mux(bInit, bRhs, bY)
   val vjB   = Mux(bInit, zero, bVj)
   val vjm1B = Mux(bFirst, zero, bVjm1)
-  vpmem.write(bValid, RegNext(adr1(bA1.slot, bA1.e)), vjB)
+  vpmem.write(bValid, Stages.delay(bAdr, RL), vjB) // bc's address (e < N where valid)
   // warm form, init pass: u = (b - 1 (d A z0)) - 0 0 = b - d A z0
   val dB    = Mux(bInit, if (p.warm) one else zero, delta(bc.slot))
   val mB    = if (p.warm) Mux(bInit, bY, bVj) else vjB
@@ -505,7 +512,7 @@ class MinresCore(val p: MinresParams) extends Module {
   private val oBad   = RegNext(inBad(obLate) || xBad(obLate))
   private def pend[T <: Data](x: T): T = Stages.delay(x, RL)
   private val pendId   = pend(issIdx === 0.U)
-  private val pendWord = Cat(oBad, pend(ids(ob)))
+  private val pendWord = Cat(oBad, Stages.delay(ids(RegNext(ob)), RL - 1)) // ids of the output's bank: stable, as res0R
   private val lastIdx  = (p.outWords - 1).U
   private val pendLast = pend(issIdx === lastIdx)
   private val pendFin  = pend(issIdx === lastIdx && issSlot === count - 1.U)
