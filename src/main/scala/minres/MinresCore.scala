@@ -290,9 +290,10 @@ class MinresCore(val p: MinresParams) extends Module {
       dv.v)
   }
   val sr = VecInit(Seq.iterate(feedWord, taps)(RegNext(_)))
-  val rowAdr   = Stages.delay(feed.c, p.tRow - RL) // address phase of the variable column's read
-  val rowPre   = Stages.delay(rowAdr, RL - 1)
-  val row      = Stages.delay(rowPre, 1)
+  require(RL == 2 && p.tRow > RL, "the row keys' tables are read two cycles before their registers")
+  val rowAdr1  = Stages.delay(feed.c, p.tRow - RL - 1) // a cycle ahead of rowAdr: the row keys' tables read
+  val rowAdr   = RegNext(rowAdr1) // address phase of the variable column's read
+  val row      = Stages.delay(rowAdr, RL)
   val rowValid = Stages.delayValid(feed.valid, p.tRow)
 
   // ---- the sparse row (mpc_cores/minres/band.py): the row's key (position in the period, or a row of the last
@@ -303,12 +304,13 @@ class MinresCore(val p: MinresParams) extends Module {
   val dot = Module(new FDotProduct(fmt, p.K, p.latMul, p.latAdd, p.dotMove, p.target))
   require(dot.latency + 1 == p.latMatvec, "matvec latency")
   /** f of the row key of c (q: a position in the period, or period + a row of the last stage), read from c's
-    * fields (no key adder) */
-  private def byKey[T <: Data](f: Int => T, c: MinresCtl): T =
-    Mux(c.k === T.U, VecInit((0 until p.keys - p.period).map(r => f(p.period + r)))(c.r),
-      VecInit((0 until p.period).map(f))(c.r))
-  /** f of the row's key, registered at the row from the row's fields a cycle ahead */
-  private def perKey[T <: Data](f: Int => T): T = RegNext(byKey(f, rowPre))
+    * fields (no key adder), two cycles after c: the period's table and the last stage's read at c.r and the stage
+    * compare registered, then their select registered, so that the tables and the select take a cycle each */
+  private def keyAt[T <: Data](f: Int => T, c: MinresCtl): T =
+    RegNext(Mux(RegNext(c.k === T.U), RegNext(VecInit((0 until p.keys - p.period).map(r => f(p.period + r)))(c.r)),
+      RegNext(VecInit((0 until p.period).map(f))(c.r))))
+  /** f of the row's key, registered at the row */
+  private def perKey[T <: Data](f: Int => T): T = keyAt(f, rowAdr)
   private val tabRow = tabs.map(t => Stages.delay(RegNext(t(rowAdr.bank * P.U + rowAdr.slot)), RL - 2))
   for (s <- 0 until p.K) {
     val cands = p.candidates(s)
@@ -325,8 +327,8 @@ class MinresCore(val p: MinresParams) extends Module {
     // whether the slot holds a term: it is used and column e + o is inside the matrix, from compares registered
     // two cycles ahead and the key's offset a cycle ahead, so that the operands' clear is one register
     val insPre  = RegNext(VecInit(cands.map(o => if (o >= 0) rowAdr.e < (N - o).U else rowAdr.e >= (-o).U)))
-    val selPre  = RegNext(byKey(selOf, rowAdr))
-    val usedPre = RegNext(byKey(q => p.offsets(q)(s).isDefined.B, rowAdr))
+    val selPre  = keyAt(selOf, rowAdr1)
+    val usedPre = keyAt(q => p.offsets(q)(s).isDefined.B, rowAdr1)
     val ok      = RegNext(usedPre && insPre(selPre))
     // the window word at the key's offset, zero without a term: an AND-OR select by one-hot registers (written out:
     // chisel3.util.Mux1H ignores its select when it has a single input)
@@ -422,9 +424,10 @@ class MinresCore(val p: MinresParams) extends Module {
   // that the scalars' clock enables come from registers and not from a decoder of the slot spread over the die
   private val scW1   = ops.delayTo(sc, 0, tS - 1)
   private val scV1   = Stages.delayValid(ps.first, tS - 1)
-  private val scInit = Stages.delay(sc.j === 0.U, tS) // the init pass, compared at the source (a register here)
+  private val scInit1 = Stages.delay(sc.j === 0.U, tS - 1) // the init pass, compared at the source
+  private val scInit  = RegNext(scInit1)
   private val scWen  = RegNext(VecInit.tabulate(P)(q => scV1 && scW1.slot === q.U), VecInit.fill(P)(false.B))
-  private val res0Wen = RegNext(VecInit.tabulate(2 * P)(k => scV1 && Stages.delay(sc.j === 0.U, tS - 1) &&
+  private val res0Wen = RegNext(VecInit.tabulate(2 * P)(k => scV1 && scInit1 &&
     scW1.bank === (k / P).U && scW1.slot === (k % P).U), VecInit.fill(2 * P)(false.B))
   for (q <- 0 until P) when(scWen(q)) {
     when(scInit) {
