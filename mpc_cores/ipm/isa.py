@@ -68,7 +68,7 @@ def latency(op: str, lat: dict) -> int:
     return {"ADD": lat["add"], "SUB": lat["add"], "MUL": lat["mul"], "DIV": lat["div"], "SQRT": lat["sqrt"],
             "MOV": 1, "MIN": lat["cmp"], "MAX": lat["cmp"], "SELNEG": lat["cmp"],
             "ACC": lat["add"] + 1 + lat["add"] * max(0, int(np.ceil(np.log2(lat["add"])))) if lat["add"] > 1
-            else lat["add"] + 1, "MINRED": 1, "IN": 0, "OUT": 0}[op]
+            else lat["add"] + 1, "MINRED": 2, "IN": 0, "OUT": 0}[op]
 
 
 BINARY = ("ADD", "SUB", "MUL", "DIV", "MIN", "MAX", "SELNEG")   # the ops that read operand b

@@ -52,8 +52,11 @@ class IpmCore(val p: IpmParams) extends Module {
     Map("INW.INW" -> inwReg, "MU_TOL.VALUE" -> muTol, "RES_TOL.VALUE" -> resTol))
 
   // ---- the two stages
-  val st1 = Module(new Stage1Engine(p.st1))
-  val mr  = Module(new MinresCore(p.mr))
+  // each stage's reset through a register of its own (the stages leave reset a cycle after the registers here,
+  // which take every input first)
+  private val keep = p.mr.target != dsp.Target.Generic
+  val st1 = withReset(mem.KeepReg.reset(keep)) { Module(new Stage1Engine(p.st1)) }
+  val mr  = withReset(mem.KeepReg.reset(keep)) { Module(new MinresCore(p.mr)) }
   mr.s_axil.awvalid := false.B; mr.s_axil.awaddr := 0.U; mr.s_axil.awprot := 0.U
   mr.s_axil.wvalid := false.B; mr.s_axil.wdata := 0.U; mr.s_axil.wstrb := 0.U; mr.s_axil.bready := true.B
   mr.s_axil.arvalid := false.B; mr.s_axil.araddr := 0.U; mr.s_axil.arprot := 0.U; mr.s_axil.rready := true.B
@@ -291,7 +294,7 @@ class IpmCore(val p: IpmParams) extends Module {
   mrIn.io.enq.bits   := mr.m_axis.tdata
   // Stage 1's valid selected by a copy of inExt of its own (kept apart on an FPGA target), placed by the issue
   // logic it feeds rather than by the sequencer and the data select
-  private val inExtV = if (p.mr.target == dsp.Target.Generic) inExt else mem.KeepReg(inExtNext && !reset.asBool)
+  private val inExtV = if (!keep) inExt else mem.KeepReg(inExtNext && !reset.asBool)
   st1.s_axis.tvalid  := Mux(inExtV, extIn.io.deq.valid, mrIn.io.deq.valid)
   st1.s_axis.tdata   := Mux(inExt, extIn.io.deq.bits, mrIn.io.deq.bits)
   st1.s_axis.tlast   := false.B

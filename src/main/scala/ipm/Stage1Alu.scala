@@ -16,8 +16,8 @@ import float._
   *   MIN, MAX, SELNEG   one FCompare (lat_cmp), operands delayed beside it; min(a, b): b < a ? b : a,
   *              max(a, b): a < b ? b : a, NaN if either is NaN; SELNEG: b < 0 ? -a : +inf, NaN if a is NaN
   *   MOV        one register (1), NaN canonicalised
-  *   MINRED     a running minimum (1): a new element replaces it only if strictly less (the first of equal
-  *              values stays; +0 == -0), a NaN sets a sticky flag; written one cycle after the last element
+  *   MINRED     a running minimum (2): a new element replaces it only if strictly less (the first of equal
+  *              values stays; +0 == -0), a NaN sets a sticky flag; written two cycles after the last element
   *   ACC        minres.FStreamAcc (lat_add + 1 + lat_add ceil(log2 lat_add)), one per ACC length of the
   *              programs (its length is built in)
   *   IN         the stream word, written on the cycle it arrives here (0)
@@ -110,25 +110,30 @@ class Stage1Alu(p: Stage1Params) extends Module {
   private val movA     = operands(MOV)._1
   private val movOut   = RegNext(Mux(isNaN(movA), qnan, movA))
 
-  // ---- MINRED
-  private val redA    = operands(MINRED)._1
-  private val minReg  = Reg(UInt(w.W))
-  private val minNaN  = Reg(Bool())
-  private val less    = Module(new FCompare(fmt, 0))
-  less.in_valid  := false.B
-  less.a         := redA
-  less.b         := minReg
-  less.signaling := false.B
-  when(is(MINRED)) {
-    when(io.idx === 0.U) {
-      minReg := redA
-      minNaN := isNaN(redA)
-    }.otherwise {
-      when(less.lt) { minReg := redA }
-      minNaN := minNaN || isNaN(redA)
-    }
+  // ---- MINRED: the running minimum compares order keys, made a cycle ahead of it: a word's bits as an unsigned
+  // number in the order of its value (negative: the bits inverted; else the sign bit set; -0 as +0), so that the
+  // loop from the minimum's register to its enable is one unsigned compare. A NaN sets a sticky flag instead.
+  private val redA = operands(MINRED)._1
+  private def orderKey(x: UInt): UInt = {
+    val neg = x(w - 1) && x(w - 2, 0).orR
+    Mux(neg, ~x, x | signBit)
   }
-  private val minValid = RegNext(is(MINRED) && io.last, false.B)
+  private val redV     = RegNext(is(MINRED), false.B)
+  private val redFirst = RegNext(io.idx === 0.U)
+  private val redWord  = RegNext(redA)
+  private val redKey   = RegNext(orderKey(redA))
+  private val redNaN   = RegNext(isNaN(redA))
+  private val minReg   = Reg(UInt(w.W))
+  private val minKey   = Reg(UInt(w.W))
+  private val minNaN   = Reg(Bool())
+  when(redV) {
+    when(redFirst || redKey < minKey) {
+      minReg := redWord
+      minKey := redKey
+    }
+    minNaN := redNaN || !redFirst && minNaN
+  }
+  private val minValid = Stages.delayValid(is(MINRED) && io.last, 2)
 
   // ---- ACC: one streaming accumulator per length
   private val accA = operands(ACC)._1

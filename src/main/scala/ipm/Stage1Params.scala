@@ -64,7 +64,8 @@ case class Stage1Params(
     case MUL                  => latMul
     case DIV                  => latDiv
     case SQRT                 => latSqrt
-    case MOV | MINRED         => 1
+    case MOV                  => 1
+    case MINRED               => 2
     case MIN | MAX | SELNEG   => latCmp
     case ACC                  => latAcc
     case IN | OUT             => 0

@@ -33,9 +33,10 @@ class FStreamAcc(fmt: FloatFormat, nTerms: Int, latAdd: Int, shareTree: Boolean 
   add.a        := io.term
   // terms 0 .. L-1 are added to +0: the flag is known a cycle ahead, as a stream is gapless (after term
   // k < nTerms - 1 comes term k + 1; after the last term or an idle cycle, term 0 of the next stream), so the
-  // operand is a register beside the adder's output register, loaded with the sum or cleared
+  // operand is a register beside the adder's output register, loaded with the sum or cleared (no reset: the
+  // first term after reset is term 0, added to +0)
   private val zeroNext = !io.valid || io.index < (L - 1).U || io.index === (nTerms - 1).U
-  add.b        := RegNext(Mux(zeroNext, 0.U, add.outEarly.get), 0.U)
+  add.b        := RegNext(Mux(zeroNext, 0.U, add.outEarly.get))
   add.sub      := false.B
   val idxOut = Stages.delay(io.index, latAdd)
   val vOut   = Stages.delayValid(io.valid, latAdd)

@@ -61,7 +61,11 @@ class PassCounter(p: MinresParams) {
     * and once its element passes n - 1, so that no compare or adder lies between the count and it */
   def elementAdr(f: (MinresCtl, UInt) => UInt, n: Int): UInt = {
     val a = Reg(chiselTypeOf(f(c, c.e)))
-    when(started || run && (lastE || c.e >= (n - 1).U)) { a := f(nxt, 0.U) }
+    // c.e >= n - 1 as a flag beside the count, set a cycle ahead (the count's next e is 0 after a slot's last
+    // element and at a start, else e + 1), so that the load select is a function of registers
+    val past = if (n <= 1) true.B else RegInit(false.B)
+    if (n > 1) when(started) { past := false.B }.elsewhen(run) { past := !lastE && (past || c.e === (n - 2).U) }
+    when(started || run && (lastE || past)) { a := f(nxt, 0.U) }
       .elsewhen(run) { a := a + 1.U }
     a
   }
