@@ -325,13 +325,15 @@ class IpmCore(val p: IpmParams) extends Module {
     val nxt = Mux(mrCnt === (p.mr.outWords - 1).U, 0.U, mrCnt + 1.U)
     mrCnt  := nxt
     mrData := nxt =/= 0.U && nxt =/= (N + 1).U
-    when(mrCnt === 0.U) {
-      val c = mr.m_axis.tdata(cw - 1, 0)
-      mrSlot := c
-      when(mr.m_axis.tdata(31)) { badC(c) := true.B }
-    }
-    when(mrCnt === (N + 1).U) { resC(mrSlot) := mr.m_axis.tdata(W - 1, 0) }
+    when(mrCnt === 0.U) { mrSlot := mr.m_axis.tdata(cw - 1, 0) }
   }
+  // an id word's bad flag and ||r_0|| are written a cycle after their handshake (read at the answer, long after),
+  // so that the handshake meets registers, not the slot decode of the flags' and the norms' enables
+  private val mrWord  = RegNext(mr.m_axis.tdata)
+  private val mrIdSet = RegNext(mr.m_axis.fire && mrCnt === 0.U && mr.m_axis.tdata(31), false.B)
+  private val mrResW  = RegNext(mr.m_axis.fire && mrCnt === (N + 1).U, false.B)
+  when(mrIdSet) { badC(mrWord(cw - 1, 0)) := true.B }
+  when(mrResW) { resC(mrSlot) := mrWord(W - 1, 0) }
 
   // ---- Stage 1 output: the MINRES frame (id c, then linearise's words) or the answer frame (id, output's words,
   // ||r_0||, status)

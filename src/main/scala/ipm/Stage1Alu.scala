@@ -8,7 +8,8 @@ import float._
   * `pre`, with its operands a, b, into the op's unit's own registers; then with the input-stream word, its index in
   * the instruction, and its destination address); the unit of `op`
   * returns its result `latency(op)` cycles later (mpc_cores.ipm.isa.latency) with the destination address
-  * delayed alongside, and `wen`, `wdata`, `waddr` drive the write port of the slot memory. Instructions do not
+  * delayed alongside; each unit's result is registered once more beside it, and `wen`, `wdata`, `waddr` (an OR
+  * of those registers) drive the write port of the slot memory a cycle after the result. Instructions do not
   * overlap in here (the engine starts one only after the previous one's last result), so at most one unit
   * returns a result on a cycle.
   *
@@ -17,10 +18,10 @@ import float._
   *              max(a, b): a < b ? b : a, NaN if either is NaN; SELNEG: b < 0 ? -a : +inf, NaN if a is NaN
   *   MOV        one register (1), NaN canonicalised
   *   MINRED     a running minimum (2): a new element replaces it only if strictly less (the first of equal
-  *              values stays; +0 == -0), a NaN sets a sticky flag; written two cycles after the last element
+  *              values stays; +0 == -0), a NaN sets a sticky flag; returned two cycles after the last element
   *   ACC        minres.FStreamAcc (lat_add + 1 + lat_add ceil(log2 lat_add)), one per ACC length of the
   *              programs (its length is built in)
-  *   IN         the stream word, written on the cycle it arrives here (0)
+  *   IN         the stream word, returned on the cycle it arrives here (0)
   * Reductions write to the destination address of their first element. Every NaN result is the canonical
   * quiet NaN (the float units return it; MOV, MIN, MAX, SELNEG and MINRED substitute it).
   */
@@ -155,7 +156,10 @@ class Stage1Alu(p: Stage1Params) extends Module {
     (minValid, Mux(minNaN, qnan, minReg), redAddr),
     (is(IN), io.inData, tap(0))
   ) ++ accs
-  io.wen   := results.map(_._1).reduce(_ || _)
-  io.wdata := Mux1H(results.map(r => r._1 -> r._2))
-  io.waddr := Mux1H(results.map(r => r._1 -> r._3))
+  // each unit's result registered beside it, zero unless valid, so that the write-back's select is an OR of
+  // registers (not a one-hot select behind every unit's valid); the write port takes it a cycle later
+  private val held = results.map { case (v, d, a) => (RegNext(v, false.B), RegNext(Mux(v, d, 0.U)), RegNext(Mux(v, a, 0.U))) }
+  io.wen   := held.map(_._1).reduce(_ || _)
+  io.wdata := held.map(_._2).reduce(_ | _)
+  io.waddr := held.map(_._3).reduce(_ | _)
 }

@@ -11,7 +11,7 @@ import float.Stages
   * idle or on the cycle `done` is high (and ignored for a `prog` beyond the programs; `slot` must be < slots). `busy` is high from the cycle after `start` to `done` included. A
   * program started on cycle s raises `done` on cycle s + cycles(program) with cycles as
   * mpc_cores.ipm.isa.cycles when the streams do not stall (1 + the sum over the instructions of n + latency + 7); its
-  * last result is written on the cycle after `done`, before any read of a program started on the `done`
+  * last result reaches the write port two cycles after `done`, before any read of a program started on the `done`
   * cycle, so back-to-back programs run as one. IN takes words from `s_axis` (the format's word in the low bits
   * of tdata), OUT writes them to `m_axis` (tlast on an instruction's last word) through an 8-word buffer; both
   * wait for the other side, the only data-dependent timing.
@@ -31,7 +31,8 @@ import float.Stages
   *   S  bank select and operand select (slot or constant), registered once per operand (the memories and the
   *      units lie far apart: this register splits the route between them)
   *   D  the operands into the op's unit's own registers (each unit has its operand registers, Stage1Alu)
-  *   U  operands ready; into the unit of the op (Stage1Alu), result written latency(op) cycles later.
+  *   U  operands ready; into the unit of the op (Stage1Alu), result latency(op) cycles later (at the write port
+  *      a cycle after).
   * Every block RAM's output and every address adder ends in a register, so no path runs from one memory
   * through an adder into another, nor from a memory into a unit.
   * The instruction ROM is read ahead: the word at the program counter is decoded into a register (with its
@@ -39,7 +40,9 @@ import float.Stages
   * per program, Stage1Params.ProgramStart).
   * An instruction issues its n elements on consecutive cycles (IN: when a word is there; OUT: when the output
   * buffer has room for the words in flight, a credit counter) and the next one issues latency + 8 cycles after
-  * its last element, that is on the cycle its last result is written: its first read is three cycles after. The
+  * its last element, that is on the cycle its last result leaves its unit: that result reaches the write port a
+  * cycle later (Stage1Alu) and the slot memory the cycle after, and the new instruction's first read is three
+  * cycles after the issue. The
   * sequencer decides from flags registered a cycle ahead (gap = 0 or 1, last element, last instruction, IN or
   * OUT), so no compare or adder lies between its registers and the issue. So instructions run
   * strictly one after another and an instruction never reads a word it writes itself later (the programs keep
@@ -105,8 +108,12 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val slotR  = RegNext(slot)
   private val accept = startR
   // a launch is due when the gap ends (gapOne: it ends on the next cycle) or a cycle after an accept; it is kept
-  // in a register so that the issue decision below starts at registers
-  private val launchNxt = accept || running && !issuing && !gapZero && gapOne && !atEnd
+  // in a register so that the issue decision below starts at registers. The gap's end is itself a register, set
+  // a cycle ahead (the count at 2), so that the table ROMs' addresses (below) are one select of registers.
+  private val gapEnd    = RegNext(running && !issuing && !gapZero && gap === 2.U && !atEnd, false.B)
+  assert(gapEnd === (running && !issuing && !gapZero && gapOne && !atEnd),
+    "Stage1Engine: gap end register out of step")
+  private val launchNxt = accept || gapEnd
   private val launch    = RegNext(launchNxt, false.B)
   assert(launch === (running && !issuing && gapZero && !atEnd), "Stage1Engine: launch register out of step")
   // the ROM word of pc, or a program's first word from a table of its own (a register either way): `prog` comes
