@@ -55,8 +55,8 @@ class IpmCore(val p: IpmParams) extends Module {
   // each stage's reset through a register of its own (the stages leave reset a cycle after the registers here,
   // which take every input first)
   private val keep = p.mr.target != dsp.Target.Generic
-  val st1 = withReset(mem.KeepReg.reset(keep)) { Module(new Stage1Engine(p.st1)) }
-  val mr  = withReset(mem.KeepReg.reset(keep)) { Module(new MinresCore(p.mr)) }
+  val st1 = withReset(LocalReset(keep)) { Module(new Stage1Engine(p.st1)) }
+  val mr  = withReset(LocalReset(keep)) { Module(new MinresCore(p.mr)) }
   mr.s_axil.awvalid := false.B; mr.s_axil.awaddr := 0.U; mr.s_axil.awprot := 0.U
   mr.s_axil.wvalid := false.B; mr.s_axil.wdata := 0.U; mr.s_axil.wstrb := 0.U; mr.s_axil.bready := true.B
   mr.s_axil.arvalid := false.B; mr.s_axil.araddr := 0.U; mr.s_axil.arprot := 0.U; mr.s_axil.rready := true.B

@@ -291,7 +291,7 @@ class Stage1Engine(p: Stage1Params) extends Module {
   private val bD    = RegNext(Mux(cur.b.inConst, constBR, slotBw))
   private val aU    = RegEnable(aD, vD && curOut) // the OUT word; the units register their own operands
 
-  private val alu = withReset(_root_.mem.KeepReg.reset(p.target != dsp.Target.Generic)) { Module(new Stage1Alu(p)) }
+  private val alu = withReset(LocalReset(p.target != dsp.Target.Generic)) { Module(new Stage1Alu(p)) }
   alu.io.op     := cur.op
   alu.io.n      := cur.n
   alu.io.idx    := eU.i

@@ -35,14 +35,6 @@ object KeepReg {
   def copies[T <: Data](d: T, n: Int, keep: Boolean): Seq[T] =
     if (keep) Seq.fill(n)(apply(d)) else { val r = RegNext(d); Seq.fill(n)(r) }
 
-  /** the module's reset registered, for a block instantiated under it (`withReset`): a register of the block's
-    * own (kept apart on an FPGA target), which placement puts beside the block's flip-flops, so that no reset net
-    * crosses the device. The block enters and leaves reset a cycle after its parent. */
-  def reset(keep: Boolean): Bool = {
-    val r = Module.reset.asBool
-    if (keep) apply(r) else RegNext(r)
-  }
-
   /** `d` registered in a kept register (RegNext that synthesis does not merge with its equals) */
   def apply[T <: Data](d: T): T = {
     val r = Module(new KeepRegBox(d.getWidth))
