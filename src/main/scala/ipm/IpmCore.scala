@@ -122,18 +122,20 @@ class IpmCore(val p: IpmParams) extends Module {
   private val toIdle  = !toArmed && toAt0
   private val outIdle = !outArmed && outCnt === 0.U
 
-  // the head's channel is free, from a flag registered a cycle ahead: it holds for the head once the same word has
-  // waited a cycle (tvalid high and not taken), so no channel select lies in the sequencer's decisions
-  private val headSame = RegNext(s_axis.tvalid && !s_axis.tready, false.B)
-  private val headFree = RegNext(!busyC(headCh), false.B)
-  private val headOk  = s_axis.tvalid && headSame && headFree && !regs.ctrlHold
+  // the head may be taken: the same word has waited a cycle (tvalid high and not taken), its channel is free and
+  // CTRL.HOLD is clear, in one flag registered a cycle ahead (CTRL.HOLD acts a cycle after its write), with the
+  // head's group beside it, so that no channel select or register read lies in the sequencer's decisions
+  private val headWaits = RegNext(s_axis.tvalid && !s_axis.tready && !busyC(headCh) && !regs.ctrlHold, false.B)
+  private val headOk    = s_axis.tvalid && headWaits
+  private val headGR    = RegNext(headG)
   /** another problem of the current group follows curC in its batch */
   private val more    = k + 1.U < gCnt(curG)
   // What picks the next program and its slot, registered a cycle ahead: a program runs for several cycles, and
-  // curC, k, the group and its counts hold while it runs, so on the cycle it is done these equal their
-  // combinational values (CTRL.WARM and CTRL.OUT_ALL act a cycle after their write). No table read or compare
+  // curC, k, the group and its counts hold while it runs and while its output drains, so on the cycle it is done and
+  // after it these equal their combinational values (CTRL.WARM and CTRL.OUT_ALL act a cycle after their write). No table read or compare
   // then lies between the engine's done and its next start.
   private val moreR    = RegNext(more, false.B)
+  private val curFull  = RegNext(gCnt(curG) === P.U, false.B)
   private val nextOrd  = RegNext(ord(curG, k + 1.U))
   private val firstOrd = RegNext(ord(curG, 0.U))
   private val warmSel  = RegNext(started(curC) && regs.ctrlWarm, false.B)
@@ -178,8 +180,8 @@ class IpmCore(val p: IpmParams) extends Module {
       when(fifoN === 2.U) {
         startGroupUpdate(fifoG(0))
       }.elsewhen(fifoN === 1.U) {
-        when(headOk && headG === other) { form(other) }.otherwise { startGroupUpdate(fifoG(0)) }
-      }.elsewhen(headOk) { form(headG) }
+        when(headOk && headGR === other) { form(other) }.otherwise { startGroupUpdate(fifoG(0)) }
+      }.elsewhen(headOk) { form(headGR) }
     }
     is(sTakeId) {
       when(takeId) {
@@ -214,10 +216,10 @@ class IpmCore(val p: IpmParams) extends Module {
     is(sLinDrain) {
       when(toIdle) {
         when(forming) {
-          val another = headOk && headG === curG && gCnt(curG) =/= P.U
+          val another = headOk && headGR === curG && !curFull
           when(another) { state := sTakeId }.otherwise { pushBatch(curG) }
         }.otherwise {
-          when(more) {
+          when(moreR) {
             next(); state := sUpd
           }.otherwise { pushBatch(curG) }
         }
@@ -269,7 +271,7 @@ class IpmCore(val p: IpmParams) extends Module {
     }
     is(sOutDrain) {
       when(!st1.busy && !outArmed && outCnt === 0.U && !RegNext(st1.start)) {
-        when(more) {
+        when(moreR) {
           next(); state := sUpd
         }.otherwise { state := sIdle }
       }
