@@ -78,5 +78,11 @@ def test_masses_state_report(dgp_cores):
     rep = design_report(d, core)
     assert f"(36) of 003 gives p >= {d.bits36}" in rep and f"(37) of 003 gives r >= {d.bits37}" in rep
     assert core["cycles_per_iteration"] == d.cycles_per_iteration
+    # the chunk schedule on the structure of masses_state (z = (u_0, ..., u_9), 4 inputs; G's rows: the 40 input
+    # rows, then the positions of the 4 masses at stages k = 1..10): a round of 4 input rows of one stage lies in
+    # one chunk of 16; a round of the 4 positions at stage k needs the columns of u_0..u_k-1, ceil(4 k / 16) chunks.
+    # Dense, each of the 20 rounds would take ceil(40 / 16) = 3.
+    assert (d.P, d.lanes, d.problem.N, d.nu) == (4, 16, 10, 4)
+    assert core["issue_cycles"]["G"] == 10 + sum(-(-4 * k // 16) for k in range(1, 11)) == 28 < 20 * 3
     assert core["cycles_at_imax"] == core["solve_overhead_cycles"] + d.iterations * core["cycles_per_iteration"]
     assert "MULT18X18D" in rep

@@ -47,7 +47,7 @@ class DgpDesign(FixedPointDesign):
     """qp: the DgpQP. Words: b = p fraction bits; widths['data'] = r + p."""
     output_all: bool
     accelerated: bool
-    lanes: int                   # multipliers of each row unit (a row of c columns takes ceil(c / lanes) cycles)
+    lanes: int                   # multipliers of each row unit (a row of c columns: at most ceil(c / lanes) cycles)
     eps_g: float
     eps_V: float
     margin: float
@@ -104,10 +104,24 @@ class DgpDesign(FixedPointDesign):
         """rows per row unit: pass K (and Fe), pass G (and Lw); unit u takes the rows u, u + P, ..."""
         return {"K": -(-self.n // self.P), "G": -(-self.mc // self.P)}
 
+    def schedule(self, M: np.ndarray) -> list[list[int]]:
+        """The chunks each round of a pass over the rows of M issues (DgpParams.schedule): those in which one of
+        the round's rows (rows r P .. r P + P - 1, one per unit) has a nonzero coefficient, ascending; a round with
+        none issues chunk 0. The chunks left out are zero in every unit's row, so the sums are the dense ones."""
+        M = np.asarray(M)
+        rounds = -(-M.shape[0] // self.P)
+        out = []
+        for r in range(rounds):
+            cols = np.nonzero(M[r * self.P:(r + 1) * self.P].any(axis=0))[0]
+            out.append(sorted({int(c) // self.lanes for c in cols}) or [0])
+        return out
+
     @property
     def issue_cycles(self) -> dict:
-        ch, r = self.chunks, self.rounds
-        return {"F": (r["K"] + r["G"]) * ch["F"], "K": r["K"] * ch["K"], "G": r["G"] * ch["G"]}
+        """per pass: the chunks its rounds issue (first pass: the rows of Fe, then those of Lw)"""
+        def count(M):
+            return sum(len(cs) for cs in self.schedule(M))
+        return {"F": count(self.Fe) + count(self.Lw), "K": count(self.K), "G": count(self.G)}
 
     @property
     def row_latency(self) -> int:

@@ -13,7 +13,8 @@ def _counts(d: DgpDesign) -> list[int]:
 def core_json(d: DgpDesign, hw: dict) -> dict:
     """Metadata of a generated DGP core: the Python design and the generator's hw.json, checked against each other."""
     for key, mine in (("cycles_per_iteration", d.cycles_per_iteration), ("solve_overhead_cycles", d.solve_overhead),
-                      ("multipliers", d.multipliers), ("div_cycles", d.div_cycles)):
+                      ("multipliers", d.multipliers), ("div_cycles", d.div_cycles),
+                      ("issue_cycles", d.issue_cycles)):
         if hw[key] != mine:
             raise RuntimeError(f"generator and front end disagree on {key}: {hw[key]} vs {mine}")
     b = d.b
@@ -44,6 +45,12 @@ def core_json(d: DgpDesign, hw: dict) -> dict:
     }
 
 
+def _dense(d: DgpDesign) -> str:
+    """the issue cycles of the passes without the chunk schedule: every round takes every chunk"""
+    ch, r = d.chunks, d.rounds
+    return f"{(r['K'] + r['G']) * ch['F']}, {r['K'] * ch['K']}, {r['G'] * ch['G']}"
+
+
 def design_report(d: DgpDesign, core: dict | None = None) -> str:
     a = d.analysis
     W = d.widths["data"]
@@ -67,7 +74,8 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
         f"  Words: data {W} bits = Q{W - d.b - 1}.{d.b} (sign included in r), coefficients {d.widths['coef']}, "
         f"row accumulator {d.widths['acc']}, sums of the test {d.widths['sum']}, stream {d.widths['stream']} bits",
         f"  Row units: P = {d.P} of {d.lanes} lanes, rows per unit K {d.rounds['K']}, G {d.rounds['G']}; chunks per "
-        f"row F {d.chunks['F']}, K {d.chunks['K']}, G {d.chunks['G']}; l_A = {d.lat_add}, l_M = {d.lat_mul}",
+        f"row F {d.chunks['F']}, K {d.chunks['K']}, G {d.chunks['G']}, issued where a round's rows have a nonzero "
+        f"(F {i['F']}, K {i['K']}, G {i['G']} of {_dense(d)}); l_A = {d.lat_add}, l_M = {d.lat_mul}",
         report_line(d.target, d.lat_mul, d.products(), _counts(d)),
         f"  Cycles per iteration: {d.cycles_per_iteration} = pass K {i['K']} + {g['K']} + pass G {i['G']} + {g['G']}"
         f" + 1",

@@ -12,9 +12,10 @@ import shell.{Field, FrameIn, RegMap, Register, SolverRegs}
 /** Fixed-point dual gradient projection (iteration (35) of 003) for MPC with input and state constraints; the
   * arithmetic is that of mpc_cores/dgp/model.py, word for word.
   *
-  * P row units of `lanes` multipliers each compute rows' dot products chunk by chunk (a row of c columns takes
-  * ceil(c / lanes) cycles); unit u takes the rows u, u + P, ... of every pass from a matrix memory of its own
-  * holding its rows of Fe, Lw, K and G, all units reading the same address and the same operand chunk. A solve: the
+  * P row units of `lanes` multipliers each compute rows' dot products chunk by chunk (a round of rows takes a cycle
+  * per chunk with a nonzero coefficient in one of them, at most ceil(c / lanes) for c columns); unit u takes the
+  * rows u, u + P, ... of every pass from a matrix memory of its own holding its rows of Fe, Lw, K and G, all units
+  * reading the same address and the same operand chunk. A solve: the
   * first pass (e = Fe w, then the bounds lo, hi = lo0, hi0 + Lw w), then per iteration pass K (z = K v + e,
   * v = wy+ - wy-) and pass G (s = G z), whose rows feed each unit's element stage (g, the projected dual step, the
   * sums of the stopping test); the iteration ends in a decision cycle (stop when the test holds or at IMAX), from
@@ -114,11 +115,22 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the pass being issued: 0 F, 1 K, 2 G */
   val pass    = RegInit(0.U(2.W))
   val addr    = RegInit(0.U(log2Ceil(p.matRows + 1).W))
-  val chunk   = RegInit(0.U(8.W))
+  // The issue slot at addr: its chunk and whether it is its round's first and last (DgpParams.slots), registers
+  // loaded with addr, from a table of the next slot's (the jumps load constants), so that the operand select and
+  // the round's count meet registers
+  private val chunkW = log2Ceil(Seq(p.cF, p.cK, p.cG).max + 1)
+  val chunk   = RegInit(p.slots.head._1.U(chunkW.W))
+  val firstC  = RegInit(true.B)
+  val lastC   = RegInit(p.slots.head._3.B)
+  private val slotNext = VecInit((p.slots.drop(1) :+ ((0, true, true))).map { case (c, f, l) =>
+    Cat(c.U(chunkW.W), f.B, l.B)
+  })
+  def jump(a: Int): Unit = {
+    addr := a.U; chunk := p.slots(a)._1.U; firstC := p.slots(a)._2.B; lastC := p.slots(a)._3.B
+  }
   val round   = RegInit(0.U(16.W))
   val waitCnt = RegInit(0.U(16.W))
   val cycles  = RegInit(0.U(32.W))
-  def chunksOf(ps: UInt): UInt = MuxLookup(ps, p.cF.U)(Seq(1.U -> p.cK.U, 2.U -> p.cG.U))
   def roundsOf(ps: UInt): UInt = MuxLookup(ps, (rK + rG).U)(Seq(1.U -> rK.U, 2.U -> rG.U))
 
   /** per unit, `d` registered: a kept copy each when split, else one register for all */
@@ -133,7 +145,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val warmU  = unitRegs(warmNow)
   when(take) {
     wReg := frameIn.io.frame
-    st := St.issue; pass := 0.U; addr := 0.U; chunk := 0.U; round := 0.U
+    st := St.issue; pass := 0.U; jump(0); round := 0.U
     iter := 0.U; imax := regs.imaxReg; cycles := 0.U
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
@@ -155,11 +167,14 @@ class DgpCore(val p: DgpParams) extends Module {
   when(st =/= St.idle && st =/= St.out) { cycles := cycles + 1.U }
 
   val issuing   = st === St.issue
-  val lastChunk = chunk === (chunksOf(pass) - 1.U)
+  val lastChunk = lastC
   val lastRound = round === (roundsOf(pass) - 1.U)
   when(issuing) {
-    addr  := addr + 1.U
-    chunk := Mux(lastChunk, 0.U, chunk + 1.U)
+    val nx = slotNext(addr)
+    addr   := addr + 1.U
+    chunk  := nx(chunkW + 1, 2)
+    firstC := nx(1)
+    lastC  := nx(0)
     when(lastChunk) { round := Mux(lastRound, 0.U, round + 1.U) }
     when(lastChunk && lastRound) {
       switch(pass) {
@@ -198,7 +213,7 @@ class DgpCore(val p: DgpParams) extends Module {
     val valid = Bool(); val pass = UInt(2.W); val round = UInt(16.W); val first = Bool(); val last = Bool()
   }
   val tok0 = Wire(new Tok)
-  tok0.valid := issuing; tok0.pass := pass; tok0.round := round; tok0.first := chunk === 0.U; tok0.last := lastChunk
+  tok0.valid := issuing; tok0.pass := pass; tok0.round := round; tok0.first := firstC; tok0.last := lastChunk
   def tokAt(d: Int): Tok = ShiftRegister(tok0, d, 0.U.asTypeOf(new Tok), true.B)
   /** the token at stage `d` (>= 1) per unit: split, a kept copy each of the token a stage earlier */
   def unitTok(d: Int): Seq[Tok] = if (split) Seq.fill(P)(KeepReg(tokAt(d - 1))) else Seq.fill(P)(tokAt(d))
@@ -399,7 +414,7 @@ class DgpCore(val p: DgpParams) extends Module {
       itersR := iter + 1.U; metR := stop
       regs.solveDone(cycles + 1.U)
     }.otherwise {
-      st := St.issue; pass := 1.U; addr := p.baseK.U; iter := iter + 1.U
+      st := St.issue; pass := 1.U; jump(p.baseK); iter := iter + 1.U
     }
   }
 

@@ -10,7 +10,8 @@ import fixed.FixedOps
   * @param mc     two-sided constraint rows (the dual has 2 mc words: upper rows, then lower rows)
   * @param units  row units P: unit u takes the rows u, u + P, ... of every pass (rK = ceil(n / P) rows of pass K
   *               and rG = ceil(mc / P) of pass G each; the last rounds' missing rows are zero rows)
-  * @param lanes  multipliers of each row unit: a row of c columns takes ceil(c / lanes) cycles
+  * @param lanes  multipliers of each row unit: a row of c columns takes at most ceil(c / lanes) cycles (the chunks
+  *               with a nonzero coefficient in one of its round's rows)
   * @param k      K = -Q^-1 G', n x mc (z = K v + e)
   * @param g      G, mc x n (s = G z)
   * @param fe     Fe, n x nw (e = Fe w)
@@ -91,15 +92,34 @@ case class DgpParams(
   /** rows of unit u: pass K, pass G */
   def rowsK(u: Int): Int = if (u < n) (n - u + units - 1) / units else 0
   def rowsG(u: Int): Int = if (u < mc) (mc - u + units - 1) / units else 0
-  /** each unit's matrix memory rows (lanes words each): its Fe, Lw, K, G rows, chunk by chunk */
-  val baseF: Int = 0
-  val baseK: Int = (rK + rG) * cF
-  val baseG: Int = baseK + rK * cK
-  val matRows: Int = baseG + rG * cG
+  /** The chunks each round of a pass issues: those in which one of the round's rows (rows r P .. r P + P - 1 of
+    * `m`, one per unit) has a nonzero coefficient, ascending; a round with none issues chunk 0 (its rows pass the
+    * units all the same). A chunk left out is zero in every unit's row, so the sums are the dense ones, word for
+    * word: structure in the matrices (the identity of an input row of G, the triangle of a state row) costs no
+    * cycles. */
+  def schedule(m: Seq[Seq[BigInt]], rounds: Int): Seq[Seq[Int]] = (0 until rounds).map { r =>
+    val cs = (0 until units).flatMap(u => m.lift(r * units + u).getOrElse(Nil).zipWithIndex.collect {
+      case (v, c) if v != 0 => c / lanes
+    }).distinct.sorted
+    if (cs.isEmpty) Seq(0) else cs
+  }
+  val schedFe: Seq[Seq[Int]] = schedule(fe, rK)
+  val schedLw: Seq[Seq[Int]] = schedule(lw, rG)
+  val schedK: Seq[Seq[Int]]  = schedule(k, rK)
+  val schedG: Seq[Seq[Int]]  = schedule(g, rG)
   /** issue cycles of the passes */
-  val issueF: Int = (rK + rG) * cF
-  val issueK: Int = rK * cK
-  val issueG: Int = rG * cG
+  val issueF: Int = (schedFe ++ schedLw).map(_.length).sum
+  val issueK: Int = schedK.map(_.length).sum
+  val issueG: Int = schedG.map(_.length).sum
+  /** each unit's matrix memory rows (lanes words each): its Fe, Lw, K, G rows, the issued chunks of each */
+  val baseF: Int = 0
+  val baseK: Int = issueF
+  val baseG: Int = baseK + issueK
+  val matRows: Int = baseG + issueG
+  /** per memory row (issue slot, in issue order): its chunk, and whether it is its round's first and last */
+  val slots: Seq[(Int, Boolean, Boolean)] = (schedFe ++ schedLw ++ schedK ++ schedG).flatMap { cs =>
+    cs.zipWithIndex.map { case (c, i) => (c, i == 0, i == cs.length - 1) }
+  }
 
   val depth: Int = log2Ceil(lanes)
   /** dot-product tree: l_M + l_A ceil(log2 lanes) */
@@ -138,13 +158,13 @@ case class DgpParams(
   /** byte-address width of the AXI4-Lite port: the registers only (the data are fixed at generation) */
   val axiAddrW: Int = log2Ceil(shell.SolverRegs.RegionStart) + 2
 
-  /** unit u's matrix memory: its rows of Fe, Lw, K and G (zero rows past the last) */
+  /** unit u's matrix memory: its rows of Fe, Lw, K and G, the chunks of each round's schedule (zero rows past the
+    * last) */
   def matInit(u: Int): Seq[Seq[BigInt]] = {
-    def rowChunks(r: Seq[BigInt], c: Int) =
-      (0 until c).map(j => (0 until lanes).map(l => r.lift(j * lanes + l).getOrElse(BigInt(0))))
-    def mine(m: Seq[Seq[BigInt]], rounds: Int, c: Int) =
-      (0 until rounds).flatMap(k => rowChunks(m.lift(k * units + u).getOrElse(Nil), c))
-    mine(fe, rK, cF) ++ mine(lw, rG, cF) ++ mine(k, rK, cK) ++ mine(g, rG, cG)
+    def chunkOf(r: Seq[BigInt], j: Int) = (0 until lanes).map(l => r.lift(j * lanes + l).getOrElse(BigInt(0)))
+    def mine(m: Seq[Seq[BigInt]], sched: Seq[Seq[Int]]) =
+      sched.zipWithIndex.flatMap { case (cs, r) => cs.map(j => chunkOf(m.lift(r * units + u).getOrElse(Nil), j)) }
+    mine(fe, schedFe) ++ mine(lw, schedLw) ++ mine(k, schedK) ++ mine(g, schedG)
   }
   /** unit u's word of a per-row vector at round k (0 past the last row) */
   def ofUnit(v: Seq[BigInt], u: Int, k: Int): BigInt = v.lift(k * units + u).getOrElse(BigInt(0))
