@@ -124,6 +124,12 @@ class DgpDesign(FixedPointDesign):
         return {"F": count(self.Fe) + count(self.Lw), "K": count(self.K), "G": count(self.G)}
 
     @property
+    def dense_issue_cycles(self) -> dict:
+        """issue_cycles without the chunk schedule: every round takes every chunk of its rows"""
+        ch, r = self.chunks, self.rounds
+        return {"F": (r["K"] + r["G"]) * ch["F"], "K": r["K"] * ch["K"], "G": r["G"] * ch["G"]}
+
+    @property
     def row_latency(self) -> int:
         """issue to the row's sum: memory read and its output register (2), the tree, the accumulator (1)"""
         depth = math.ceil(math.log2(self.lanes)) if self.lanes > 1 else 0

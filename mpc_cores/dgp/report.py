@@ -45,12 +45,6 @@ def core_json(d: DgpDesign, hw: dict) -> dict:
     }
 
 
-def _dense(d: DgpDesign) -> str:
-    """the issue cycles of the passes without the chunk schedule: every round takes every chunk"""
-    ch, r = d.chunks, d.rounds
-    return f"{(r['K'] + r['G']) * ch['F']}, {r['K'] * ch['K']}, {r['G'] * ch['G']}"
-
-
 def design_report(d: DgpDesign, core: dict | None = None) -> str:
     a = d.analysis
     W = d.widths["data"]
@@ -75,7 +69,7 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
         f"row accumulator {d.widths['acc']}, sums of the test {d.widths['sum']}, stream {d.widths['stream']} bits",
         f"  Row units: P = {d.P} of {d.lanes} lanes, rows per unit K {d.rounds['K']}, G {d.rounds['G']}; chunks per "
         f"row F {d.chunks['F']}, K {d.chunks['K']}, G {d.chunks['G']}, issued where a round's rows have a nonzero "
-        f"(F {i['F']}, K {i['K']}, G {i['G']} of {_dense(d)}); l_A = {d.lat_add}, l_M = {d.lat_mul}",
+        f"(F {i['F']}, K {i['K']}, G {i['G']} of {', '.join(map(str, d.dense_issue_cycles.values()))}); l_A = {d.lat_add}, l_M = {d.lat_mul}",
         report_line(d.target, d.lat_mul, d.products(), _counts(d)),
         f"  Cycles per iteration: {d.cycles_per_iteration} = pass K {i['K']} + {g['K']} + pass G {i['G']} + {g['G']}"
         f" + 1",
