@@ -68,20 +68,23 @@ class DgpCore(val p: DgpParams) extends Module {
   val eU   = Seq.fill(P)(Reg(Vec(rK, SInt(W.W))))
   val loU  = Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
   val hiU  = Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
-  val z    = Reg(Vec(n, SInt(W.W)))
+  /** z, per unit (row k P + u is unit u's element k after pass K), and its flat view */
+  val zU   = Seq.fill(P)(Reg(Vec(rK, SInt(W.W))))
   /** the dual y = (y+, y-), upper and lower rows; it survives a solve (the warm start) */
   val yU   = Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W))))
   /** accelerated: the extrapolated dual, the operand of pass K (flat) and the element stage's copy (per unit);
     * plain: y itself */
   val wyH  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else Nil
   val wyEU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else yU
-  /** accelerated: the extrapolated dual's candidate, written row by row */
-  val wyc  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else Nil
+  /** accelerated: the extrapolated dual's candidate, per unit, entering row by row at the tail */
+  val wycU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else Nil
   val szU  = if (acc) Nil else Seq.fill(P)(Reg(Vec(rK, SInt(p.sumW.W))))
   val sgU  = if (acc) Nil else Seq.fill(2, P)(Reg(Vec(rG, SInt(p.sumW.W))))
   /** flat views: row i is unit i mod P's element i / P */
   def flat(f: Seq[Vec[SInt]], len: Int): Seq[SInt] = (0 until len).map(i => f(i % P)(i / P))
   val yFlat = yU.map(flat(_, mc))
+  val z     = flat(zU, n)
+  val wyc   = wycU.map(flat(_, mc))
   /** the operand dual of pass K, flat */
   val wyOp: Seq[Seq[SInt]] = if (acc) wyH else yFlat
   /** one step of a rotating FIFO: the head leaves, `in` enters at the tail */
@@ -115,23 +118,27 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the pass being issued: 0 F, 1 K, 2 G */
   val pass    = RegInit(0.U(2.W))
   val addr    = RegInit(0.U(log2Ceil(p.matRows + 1).W))
-  // The issue slot at addr: its chunk and whether it is its round's first and last (DgpParams.slots), registers
-  // loaded with addr, from a table of the next slot's (the jumps load constants), so that the operand select and
-  // the round's count meet registers
+  // The issue slot at addr: its chunk, whether it is its round's first and last (DgpParams.slots) and whether it
+  // ends its pass, registers loaded with addr, from a table of the next slot's (the jumps load constants), so that
+  // the operand select, the round's count and the sequencer meet registers
   private val chunkW = log2Ceil(Seq(p.cF, p.cK, p.cG).max + 1)
-  val chunk   = RegInit(p.slots.head._1.U(chunkW.W))
+  /** the slots that end a pass: the last of the first pass, of pass K and of pass G */
+  private val passEnds = Set(p.baseK - 1, p.baseG - 1, p.matRows - 1)
+  private val slotBits = p.slots.zipWithIndex.map { case ((c, f, l), a) => (c, f, l, passEnds(a)) }
+  val chunk   = RegInit(slotBits.head._1.U(chunkW.W))
   val firstC  = RegInit(true.B)
-  val lastC   = RegInit(p.slots.head._3.B)
-  private val slotNext = VecInit((p.slots.drop(1) :+ ((0, true, true))).map { case (c, f, l) =>
-    Cat(c.U(chunkW.W), f.B, l.B)
+  val lastC   = RegInit(slotBits.head._3.B)
+  val endC    = RegInit(slotBits.head._4.B)
+  private val slotNext = VecInit((slotBits.drop(1) :+ ((0, true, true, true))).map { case (c, f, l, e) =>
+    Cat(c.U(chunkW.W), f.B, l.B, e.B)
   })
   def jump(a: Int): Unit = {
-    addr := a.U; chunk := p.slots(a)._1.U; firstC := p.slots(a)._2.B; lastC := p.slots(a)._3.B
+    addr := a.U; chunk := slotBits(a)._1.U; firstC := slotBits(a)._2.B; lastC := slotBits(a)._3.B
+    endC := slotBits(a)._4.B
   }
   val round   = RegInit(0.U(16.W))
   val waitCnt = RegInit(0.U(16.W))
   val cycles  = RegInit(0.U(32.W))
-  def roundsOf(ps: UInt): UInt = MuxLookup(ps, (rK + rG).U)(Seq(1.U -> rK.U, 2.U -> rG.U))
 
   /** per unit, `d` registered: a kept copy each when split, else one register for all */
   def unitRegs[T <: Data](d: T): Seq[T] = KeepReg.copies(d, P, split)
@@ -167,16 +174,15 @@ class DgpCore(val p: DgpParams) extends Module {
   when(st =/= St.idle && st =/= St.out) { cycles := cycles + 1.U }
 
   val issuing   = st === St.issue
-  val lastChunk = lastC
-  val lastRound = round === (roundsOf(pass) - 1.U)
   when(issuing) {
     val nx = slotNext(addr)
     addr   := addr + 1.U
-    chunk  := nx(chunkW + 1, 2)
-    firstC := nx(1)
-    lastC  := nx(0)
-    when(lastChunk) { round := Mux(lastRound, 0.U, round + 1.U) }
-    when(lastChunk && lastRound) {
+    chunk  := nx(chunkW + 2, 3)
+    firstC := nx(2)
+    lastC  := nx(1)
+    endC   := nx(0)
+    when(lastC) { round := Mux(endC, 0.U, round + 1.U) }
+    when(endC) {
       switch(pass) {
         is(0.U) { pass := 1.U }                       // pass K follows the first pass at once
         is(1.U) { st := St.gap; waitCnt := (p.gapK - 1).U }
@@ -213,7 +219,7 @@ class DgpCore(val p: DgpParams) extends Module {
     val valid = Bool(); val pass = UInt(2.W); val round = UInt(16.W); val first = Bool(); val last = Bool()
   }
   val tok0 = Wire(new Tok)
-  tok0.valid := issuing; tok0.pass := pass; tok0.round := round; tok0.first := firstC; tok0.last := lastChunk
+  tok0.valid := issuing; tok0.pass := pass; tok0.round := round; tok0.first := firstC; tok0.last := lastC
   def tokAt(d: Int): Tok = ShiftRegister(tok0, d, 0.U.asTypeOf(new Tok), true.B)
   /** the token at stage `d` (>= 1) per unit: split, a kept copy each of the token a stage earlier */
   def unitTok(d: Int): Seq[Tok] = if (split) Seq.fill(P)(KeepReg(tokAt(d - 1))) else Seq.fill(P)(tokAt(d))
@@ -251,9 +257,19 @@ class DgpCore(val p: DgpParams) extends Module {
   val udU  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rG).map(k => p.ofUnit(p.ud.slice(h * mc, (h + 1) * mc), u, k).S(W.W))))
   /** accelerated: per unit, the rows' restart and the extrapolated dual's writes */
   val restartU = Wire(Vec(P, Bool()))
+  /** per unit, a condition on the token at the row result stage, registered from the stage before (a kept copy
+    * each when split): the FIFOs' rotate enables come from flip-flops */
+  def rowFlag(f: Tok => Bool): Seq[Bool] = {
+    val pre = tokAt(p.rowLat - 1)
+    val c = pre.valid && pre.last && f(pre)
+    if (split) Seq.fill(P)(KeepReg(c)) else Seq.fill(P)(RegNext(c, false.B))
+  }
+  val rowEU  = rowFlag(t => t.pass === 0.U && t.round < rK.U)    // first pass, a row of Fe
+  val rowBU  = rowFlag(t => t.pass === 0.U && t.round >= rK.U)   // first pass, a row of Lw
+  val rowKU  = rowFlag(_.pass === 1.U)
+  val rowGU  = rowFlag(_.pass === 2.U)
   for (u <- 0 until P) {
     val tokR  = tokRU(u)
-    val rowOk = tokR.valid && tokR.last
     val a     = accR(u)
     // first pass and pass K
     val (zNew, ofZ) = sat(a +& eU(u)(0))
@@ -266,18 +282,17 @@ class DgpCore(val p: DgpParams) extends Module {
     hi0R := hi0U(u)(tokPre.round)
     val (loNew, ofL) = sat(lo0R +& a)
     val (hiNew, ofH) = sat(hi0R +& a)
-    when(rowOk && tokR.pass === 0.U) {
-      // rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail
-      when(tokR.round < rK.U) {
-        rotate(eU(u), eNew)
-        ovfU(u) := ofE
-      }.otherwise {
-        rotate(loU(u), loNew); rotate(hiU(u), hiNew)
-        ovfU(u) := ofL || ofH
-      }
+    // first pass: rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail
+    when(rowEU(u)) {
+      rotate(eU(u), eNew)
+      ovfU(u) := ofE
     }
-    when(rowOk && tokR.pass === 1.U) {
-      for (k <- 0 until p.rowsK(u)) when(tokR.round === k.U) { z(k * P + u) := zNew }
+    when(rowBU(u)) {
+      rotate(loU(u), loNew); rotate(hiU(u), hiNew)
+      ovfU(u) := ofL || ofH
+    }
+    when(rowKU(u)) {
+      rotate(zU(u), zNew)
       ovfU(u) := ofZ
       rotate(eU(u), eU(u)(0))
       szU.lift(u).foreach(s => rotate(s, s(0) + zNew))
@@ -285,13 +300,12 @@ class DgpCore(val p: DgpParams) extends Module {
 
     // pass G. E0: s = sat(G z), the bounds of the row (lo and hi rotate here) and its dual box, registered
     val (sNow, ofS) = sat(a)
-    val rowG = rowOk && tokR.pass === 2.U
+    val rowG = rowGU(u)
     when(rowG) {
       rotate(loU(u), loU(u)(0)); rotate(hiU(u), hiU(u)(0))
       when(ofS) { ovfU(u) := true.B }
     }
     val e0  = RegNext(rowG, false.B)
-    val r0  = RegNext(tokR.round)
     val s0  = Reg(SInt(W.W))
     s0 := sNow
     val (lo0, hi0) = (Reg(SInt(W.W)), Reg(SInt(W.W)))  // typed: RegNext leaves the width to inference
@@ -303,12 +317,10 @@ class DgpCore(val p: DgpParams) extends Module {
     val (gmNow, ofGm) = sat(lo0 -& s0)
     when(e0 && (ofGp || ofGm)) { ovfU(u) := true.B }
     val e1 = RegNext(e0, false.B)
-    val r1 = RegNext(r0)
     val g1 = RegNext(VecInit(gpNow, gmNow))
     val u1 = RegNext(u0)
     // E1b: g - ud - 1, so that E2 tests wy + g > ud from a sign (both sums in parallel)
     val e1b = RegNext(e1, false.B)
-    val r1b = RegNext(r1)
     val g1b = RegNext(g1)
     val u1b = RegNext(u1)
     val gmu = RegNext(VecInit((0 until 2).map(h => g1(h) -& u1(h) - 1.S)))
@@ -333,7 +345,6 @@ class DgpCore(val p: DgpParams) extends Module {
     restartU(u) := false.B
     if (acc) {
       val e2  = RegNext(e1b, false.B)
-      val r2  = RegNext(r1b)
       val yN2 = RegNext(VecInit(yNew))
       val g2  = RegNext(g1b)
       val w2  = RegNext(VecInit(wy2))
@@ -342,7 +353,6 @@ class DgpCore(val p: DgpParams) extends Module {
       val yOld = yU.map(_(u)(0))
       when(e2) { for (h <- 0 until 2) rotate(yU(h)(u), yN2(h)) }
       val e3 = RegNext(e2, false.B)
-      val r3 = RegNext(r2)
       val yN3 = RegNext(yN2)
       val yO3 = RegNext(VecInit(yOld))
       val g3 = RegNext(g2)
@@ -350,7 +360,6 @@ class DgpCore(val p: DgpParams) extends Module {
       val u3 = RegNext(u2)
       // E4: dy = y_new - y
       val e4  = RegNext(e3, false.B)
-      val r4  = RegNext(r3)
       val yN4 = RegNext(yN3)
       val dy4 = RegNext(VecInit((0 until 2).map(h => (yN3(h) -& yO3(h))(W - 1, 0).asSInt)))
       val g4  = RegNext(g3)
@@ -362,11 +371,9 @@ class DgpCore(val p: DgpParams) extends Module {
       val pExt = (0 until 2).map(h => prod(betaR, dy4(h)))
       // E5 (l_M later): the products' sums, and the extrapolation before its clip
       val e5  = ShiftRegister(e4, p.latMul, false.B, true.B)
-      val r5  = ShiftRegister(r4, p.latMul)
       val yN5 = ShiftRegister(yN4, p.latMul)
       val u5  = ShiftRegister(u4, p.latMul)
       val e6   = RegNext(e5, false.B)
-      val r6   = RegNext(r5)
       val u6   = RegNext(u5)
       val sGap = RegNext(pGap(0) +& pGap(1))
       val sRst = RegNext(pRst(0) +& pRst(1))
@@ -375,8 +382,8 @@ class DgpCore(val p: DgpParams) extends Module {
       when(e6) {
         gapU(u) := gapU(u) + sGap
         rstU(u) := rstU(u) + sRst
-        for (h <- 0 until 2; k <- 0 until p.rowsG(u))
-          when(r6 === k.U) { wyc(h)(k * P + u) := clip(tExt(h), u6(h)) }
+        // a row past the unit's last has ud = 0, so its candidate is 0
+        for (h <- 0 until 2) rotate(wycU(h)(u), clip(tExt(h), u6(h)))
       }
     }
   }
@@ -398,16 +405,19 @@ class DgpCore(val p: DgpParams) extends Module {
     violU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S
     if (acc) {
       for (h <- 0 until 2; k <- 0 until rG)
-        wyEU(h)(u)(k) := Mux(restartU(u), yU(h)(u)(k), wyc(h).lift(k * P + u).getOrElse(0.S))
+        wyEU(h)(u)(k) := Mux(restartU(u), yU(h)(u)(k), wycU(h)(u)(k))
       for (h <- 0 until 2; c <- u until mc by P) wyH(h)(c) := Mux(restartU(u), yFlat(h)(c), wyc(h)(c))
     }
   }
+  // the counter and beta of the next iteration without a restart, registered from kAcc (which changes at the
+  // take and the decisions only, an iteration apart): kNew = min(kAcc + 1, 255), beta at min(kNew + 1, 255)
+  val kInc    = RegNext(Mux(kAcc === 255.U, 255.U, kAcc + 1.U))
+  val betaInc = RegNext(betaRom(Mux(kAcc >= 253.U, 255.U, kAcc + 2.U)))
   when(st === St.decide) {
     tThr := tThr + p.eg.S
     if (acc) {
-      val kNew = Mux(restart, 0.U, Mux(kAcc === 255.U, 255.U, kAcc + 1.U))
-      kAcc  := kNew
-      betaR := betaRom(Mux(kNew === 255.U, 255.U, kNew + 1.U))
+      kAcc  := Mux(restart, 0.U, kInc)
+      betaR := Mux(restart, betaRom(1), betaInc)
     }
     when(finish) {
       st := St.out; outIdx := 0.U
@@ -432,11 +442,15 @@ class DgpCore(val p: DgpParams) extends Module {
   val wordOk = Wire(Bool())
   if (acc) {
     // z is final from the decision cycle on (its clamped copy, a cycle behind z, long before): word 0 is loaded
-    // there, word i + 1 when word i leaves
-    val zc = RegNext(VecInit((0 until n).map(i => clampAt(z(i), i))))
-    val outNext = RegInit(0.U(16.W))
-    when(st === St.decide && finish) { word := zc(0); outNext := 1.U }
-    when(m_axis.fire) { word := zc(outNext); outNext := outNext + 1.U }
+    // there; in the output state the copy shifts a word down as each word leaves, the next word at its head + 1
+    val zc = Reg(Vec(n, SInt(W.W)))
+    when(st =/= St.out) {
+      for (i <- 0 until n) zc(i) := clampAt(z(i), i)
+    }.elsewhen(m_axis.fire) {
+      for (i <- 0 until n - 1) zc(i) := zc(i + 1)
+    }
+    when(st === St.decide && finish) { word := zc(0) }
+    when(m_axis.fire) { word := zc.lift(1).getOrElse(zc(0)) }
     wordOk := true.B
   } else {
     // zbar_i = floor((2 Sz_i + I) / (2 I)): Sz / I rounded to nearest
