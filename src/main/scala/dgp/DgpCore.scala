@@ -102,8 +102,10 @@ class DgpCore(val p: DgpParams) extends Module {
   val solveOvf = RegInit(false.B)
   val ovfU     = Wire(Vec(P, Bool()))
   ovfU.foreach(_ := false.B)
+  /** the first pass's bounds' flags, a cycle later than the row results' */
+  val ovfB     = Wire(Vec(P, Bool()))
   // the units' overflow flags, ORed a cycle later (the flags are read at the status word, long after)
-  val ovfNow = RegNext(ovfU.asUInt.orR, false.B)
+  val ovfNow   = RegNext(ovfU.asUInt.orR || ovfB.asUInt.orR, false.B)
   when(ovfNow) { solveOvf := true.B; regs.stOvf := true.B }
   // per iteration and unit: the test's violations (plain: some Sg_i > T; accelerated: some g_i > eg), the sums of
   // the gap and of the restart test
@@ -115,8 +117,6 @@ class DgpCore(val p: DgpParams) extends Module {
   // ------------------------------------------------------------------ sequencer
   object St extends ChiselEnum { val idle, issue, gap, decide, out = Value }
   val st = RegInit(St.idle)
-  /** the pass being issued: 0 F, 1 K, 2 G */
-  val pass    = RegInit(0.U(2.W))
   val addr    = RegInit(0.U(log2Ceil(p.matRows + 1).W))
   // The issue slot at addr: its chunk, whether it is its round's first and last (DgpParams.slots) and whether it
   // ends its pass, registers loaded with addr, from a table of the next slot's (the jumps load constants), so that
@@ -132,8 +132,15 @@ class DgpCore(val p: DgpParams) extends Module {
   private val slotNext = VecInit((slotBits.drop(1) :+ ((0, true, true, true))).map { case (c, f, l, e) =>
     Cat(c.U(chunkW.W), f.B, l.B, e.B)
   })
+  // chunk and pass are set through their next values (chunkD, passD), from which each operand lane keeps copies
+  val chunkD  = WireDefault(UInt(chunkW.W), chunk)
+  /** the pass being issued: 0 F, 1 K, 2 G */
+  val pass    = RegInit(0.U(2.W))
+  val passD   = WireDefault(UInt(2.W), pass)
+  chunk := chunkD
+  pass  := passD
   def jump(a: Int): Unit = {
-    addr := a.U; chunk := slotBits(a)._1.U; firstC := slotBits(a)._2.B; lastC := slotBits(a)._3.B
+    addr := a.U; chunkD := slotBits(a)._1.U; firstC := slotBits(a)._2.B; lastC := slotBits(a)._3.B
     endC := slotBits(a)._4.B
   }
   val round   = RegInit(0.U(16.W))
@@ -152,7 +159,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val warmU  = unitRegs(warmNow)
   when(take) {
     wReg := frameIn.io.frame
-    st := St.issue; pass := 0.U; jump(0); round := 0.U
+    st := St.issue; passD := 0.U; jump(0); round := 0.U
     iter := 0.U; imax := regs.imaxReg; cycles := 0.U
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
@@ -177,14 +184,14 @@ class DgpCore(val p: DgpParams) extends Module {
   when(issuing) {
     val nx = slotNext(addr)
     addr   := addr + 1.U
-    chunk  := nx(chunkW + 2, 3)
+    chunkD := nx(chunkW + 2, 3)
     firstC := nx(2)
     lastC  := nx(1)
     endC   := nx(0)
     when(lastC) { round := Mux(endC, 0.U, round + 1.U) }
     when(endC) {
       switch(pass) {
-        is(0.U) { pass := 1.U }                       // pass K follows the first pass at once
+        is(0.U) { passD := 1.U }                       // pass K follows the first pass at once
         is(1.U) { st := St.gap; waitCnt := (p.gapK - 1).U }
         is(2.U) { st := St.gap; waitCnt := (p.gapG - 1).U }
       }
@@ -194,7 +201,7 @@ class DgpCore(val p: DgpParams) extends Module {
   when(st === St.gap) {
     waitCnt := waitCnt - 1.U
     when(waitCnt === 0.U) {
-      when(pass === 1.U) { st := St.issue; pass := 2.U }.otherwise { st := St.decide }
+      when(pass === 1.U) { st := St.issue; passD := 2.U }.otherwise { st := St.decide }
     }
   }
   /** the decision cycle, per unit (registered from the cycle before) */
@@ -224,15 +231,18 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the token at stage `d` (>= 1) per unit: split, a kept copy each of the token a stage earlier */
   def unitTok(d: Int): Seq[Tok] = if (split) Seq.fill(P)(KeepReg(tokAt(d - 1))) else Seq.fill(P)(tokAt(d))
 
-  // the operand chunk: w (first pass), wy+ - wy- (K), z (G)
-  def chunked(x: Seq[SInt], cs: Int): Vec[Vec[SInt]] =
-    VecInit((0 until cs).map(j => VecInit((0 until p.lanes).map(l => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))))
-  val wCh  = chunked(wReg, p.cF)(chunk)
-  val ypCh = chunked(wyOp(0), p.cK)(chunk)
-  val ymCh = chunked(wyOp(1), p.cK)(chunk)
-  val zCh  = chunked(z, p.cG)(chunk)
-  val opR  = RegNext(VecInit((0 until p.lanes).map(l => Mux(pass === 2.U, zCh(l), Mux(pass === 1.U, ypCh(l), wCh(l))))))
-  val opM  = RegNext(ymCh)
+  // the operand chunk: w (first pass), wy+ - wy- (K), z (G). Each lane selects its word by copies of its own of the
+  // chunk and the pass (FPGA targets: kept registers loaded with them), so that no register drives every lane
+  val fpga   = p.target != Target.Generic
+  val chunkL = if (fpga) Seq.fill(p.lanes)(KeepReg(chunkD)) else Seq.fill(p.lanes)(chunk)
+  val passL  = if (fpga) Seq.fill(p.lanes)(KeepReg(passD)) else Seq.fill(p.lanes)(pass)
+  /** lane l's word of the chunk: x(j lanes + l) at chunk j */
+  def laneWord(x: Seq[SInt], cs: Int, l: Int): SInt =
+    VecInit((0 until cs).map(j => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))(chunkL(l))
+  val opR  = RegNext(VecInit((0 until p.lanes).map { l =>
+    Mux(passL(l) === 2.U, laneWord(z, p.cG, l), Mux(passL(l) === 1.U, laneWord(wyOp(0), p.cK, l), laneWord(wReg, p.cF, l)))
+  }))
+  val opM  = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
   val op1  = VecInit((0 until p.lanes).map(l => Mux(tokAt(1).pass === 1.U, (opR(l) -& opM(l))(p.opW - 1, 0).asSInt, opR(l))))
   val opU  = KeepReg.copies(op1, P, split)
   val tokTU = unitTok(2 + p.treeLat)
@@ -287,10 +297,12 @@ class DgpCore(val p: DgpParams) extends Module {
       rotate(eU(u), eNew)
       ovfU(u) := ofE
     }
-    when(rowBU(u)) {
-      rotate(loU(u), loNew); rotate(hiU(u), hiNew)
-      ovfU(u) := ofL || ofH
-    }
+    // the bounds enter their FIFOs a cycle after their sums (they are first read in pass G)
+    val bNext = RegNext(rowBU(u), false.B)
+    val loN = RegNext(loNew)
+    val hiN = RegNext(hiNew)
+    ovfB(u) := RegNext(rowBU(u) && (ofL || ofH), false.B)
+    when(bNext) { rotate(loU(u), loN); rotate(hiU(u), hiN) }
     when(rowKU(u)) {
       rotate(zU(u), zNew)
       ovfU(u) := ofZ
@@ -399,14 +411,22 @@ class DgpCore(val p: DgpParams) extends Module {
   // the restart, per unit (it selects every dual word of the unit's rows)
   if (acc) restartU := VecInit(unitRegs(rstSum < 0.S))
   val restart = restartU(0)
-  val finish  = stop || iter + 1.U === imax
+  // (iter and imax change at the take and the decisions only, an iteration apart)
+  val lastIter = RegNext(iter + 1.U === imax, false.B)
+  val finish  = stop || lastIter
   val outIdx  = RegInit(0.U(16.W))
-  for (u <- 0 until P) when(decideU(u)) {
-    violU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S
-    if (acc) {
-      for (h <- 0 until 2; k <- 0 until rG)
-        wyEU(h)(u)(k) := Mux(restartU(u), yU(h)(u)(k), wycU(h)(u)(k))
-      for (h <- 0 until 2; c <- u until mc by P) wyH(h)(c) := Mux(restartU(u), yFlat(h)(c), wyc(h)(c))
+  for (u <- 0 until P) when(decideU(u)) { violU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
+  // accelerated: the next extrapolated dual, y on a restart, else the candidate. The decision and the restart reach
+  // each group of 8 of a unit's rows of each half from copies of their own (FPGA targets: kept registers, loaded
+  // with the unit's), so that no register drives a whole vector
+  if (acc) for (u <- 0 until P; h <- 0 until 2; g <- 0 until rG by 8) {
+    val (dec, rs) = if (fpga) (KeepReg(toDecide), KeepReg(rstSum < 0.S)) else (decideU(u), restartU(u))
+    when(dec) {
+      for (k <- g until math.min(g + 8, rG)) {
+        wyEU(h)(u)(k) := Mux(rs, yU(h)(u)(k), wycU(h)(u)(k))
+        val c = k * P + u
+        if (c < mc) wyH(h)(c) := Mux(rs, yFlat(h)(c), wyc(h)(c))
+      }
     }
   }
   // the counter and beta of the next iteration without a restart, registered from kAcc (which changes at the
@@ -424,7 +444,7 @@ class DgpCore(val p: DgpParams) extends Module {
       itersR := iter + 1.U; metR := stop
       regs.solveDone(cycles + 1.U)
     }.otherwise {
-      st := St.issue; pass := 1.U; jump(p.baseK); iter := iter + 1.U
+      st := St.issue; passD := 1.U; jump(p.baseK); iter := iter + 1.U
     }
   }
 
@@ -443,11 +463,15 @@ class DgpCore(val p: DgpParams) extends Module {
   if (acc) {
     // z is final from the decision cycle on (its clamped copy, a cycle behind z, long before): word 0 is loaded
     // there; in the output state the copy shifts a word down as each word leaves, the next word at its head + 1
+    // (the load's select: the state a cycle late; z holds through the output state, so loading in its first cycle
+    // keeps the value)
+    val zcl = RegNext(VecInit((0 until n).map(i => clampAt(z(i), i))))
+    val outR = RegNext(st === St.out, false.B)
     val zc = Reg(Vec(n, SInt(W.W)))
-    when(st =/= St.out) {
-      for (i <- 0 until n) zc(i) := clampAt(z(i), i)
-    }.elsewhen(m_axis.fire) {
+    when(m_axis.fire) {
       for (i <- 0 until n - 1) zc(i) := zc(i + 1)
+    }.elsewhen(!outR) {
+      zc := zcl
     }
     when(st === St.decide && finish) { word := zc(0) }
     when(m_axis.fire) { word := zc.lift(1).getOrElse(zc(0)) }
