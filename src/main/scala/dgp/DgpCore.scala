@@ -72,9 +72,8 @@ class DgpCore(val p: DgpParams) extends Module {
   val zU   = Seq.fill(P)(Reg(Vec(rK, SInt(W.W))))
   /** the dual y = (y+, y-), upper and lower rows; it survives a solve (the warm start) */
   val yU   = Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W))))
-  /** accelerated: the extrapolated dual, the operand of pass K (flat) and the element stage's copy (per unit);
-    * plain: y itself */
-  val wyH  = if (acc) Seq.fill(2)(Reg(Vec(mc, SInt(W.W)))) else Nil
+  /** accelerated: the extrapolated dual, per unit; plain: y itself. The element stage rotates it once round in
+    * pass G, so in pass K, which reads it as the operand, unit u's element k is row k P + u */
   val wyEU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else yU
   /** accelerated: the extrapolated dual's candidate, per unit, entering row by row at the tail */
   val wycU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else Nil
@@ -82,11 +81,9 @@ class DgpCore(val p: DgpParams) extends Module {
   val sgU  = if (acc) Nil else Seq.fill(2, P)(Reg(Vec(rG, SInt(p.sumW.W))))
   /** flat views: row i is unit i mod P's element i / P */
   def flat(f: Seq[Vec[SInt]], len: Int): Seq[SInt] = (0 until len).map(i => f(i % P)(i / P))
-  val yFlat = yU.map(flat(_, mc))
   val z     = flat(zU, n)
-  val wyc   = wycU.map(flat(_, mc))
   /** the operand dual of pass K, flat */
-  val wyOp: Seq[Seq[SInt]] = if (acc) wyH else yFlat
+  val wyOp: Seq[Seq[SInt]] = wyEU.map(flat(_, mc))
   /** one step of a rotating FIFO: the head leaves, `in` enters at the tail */
   def rotate(q: Vec[SInt], in: SInt): Unit = {
     for (i <- 0 until q.length - 1) q(i) := q(i + 1)
@@ -170,7 +167,6 @@ class DgpCore(val p: DgpParams) extends Module {
       when(!warmU(u)) { yU(h)(u)(k) := 0.S }
       if (acc) wyEU(h)(u)(k) := Mux(warmU(u), yU(h)(u)(k), 0.S)
     }
-    for (h <- 0 until 2; c <- u until mc by P) if (acc) wyH(h)(c) := Mux(warmU(u), yFlat(h)(c), 0.S)
     szU.lift(u).foreach(_.foreach(_ := 0.S))
     if (!acc) sgU.foreach(_(u).foreach(_ := 0.S))
   }
@@ -422,11 +418,7 @@ class DgpCore(val p: DgpParams) extends Module {
   if (acc) for (u <- 0 until P; h <- 0 until 2; g <- 0 until rG by 8) {
     val (dec, rs) = if (fpga) (KeepReg(toDecide), KeepReg(rstSum < 0.S)) else (decideU(u), restartU(u))
     when(dec) {
-      for (k <- g until math.min(g + 8, rG)) {
-        wyEU(h)(u)(k) := Mux(rs, yU(h)(u)(k), wycU(h)(u)(k))
-        val c = k * P + u
-        if (c < mc) wyH(h)(c) := Mux(rs, yFlat(h)(c), wyc(h)(c))
-      }
+      for (k <- g until math.min(g + 8, rG)) wyEU(h)(u)(k) := Mux(rs, yU(h)(u)(k), wycU(h)(u)(k))
     }
   }
   // the counter and beta of the next iteration without a restart, registered from kAcc (which changes at the
