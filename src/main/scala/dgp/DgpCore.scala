@@ -116,8 +116,9 @@ class DgpCore(val p: DgpParams) extends Module {
   val st = RegInit(St.idle)
   val addr    = RegInit(0.U(log2Ceil(p.matRows + 1).W))
   // The issue slot at addr: its chunk, whether it is its round's first and last (DgpParams.slots) and whether it
-  // ends its pass, registers loaded with addr, from a table of the next slot's (the jumps load constants), so that
-  // the operand select, the round's count and the sequencer meet registers
+  // ends its pass, registers loaded with addr. The next two slots' bits wait in registers (nx1, nx2), nx2 loaded from
+  // a table of the slot three ahead (the jumps load constants), so that neither the operand select, the round's
+  // count, the sequencer nor the lanes' copies wait on the table
   private val chunkW = log2Ceil(Seq(p.cF, p.cK, p.cG).max + 1)
   /** the slots that end a pass: the last of the first pass, of pass K and of pass G */
   private val passEnds = Set(p.baseK - 1, p.baseG - 1, p.matRows - 1)
@@ -126,9 +127,14 @@ class DgpCore(val p: DgpParams) extends Module {
   val firstC  = RegInit(true.B)
   val lastC   = RegInit(slotBits.head._3.B)
   val endC    = RegInit(slotBits.head._4.B)
-  private val slotNext = VecInit((slotBits.drop(1) :+ ((0, true, true, true))).map { case (c, f, l, e) =>
+  /** a slot's bits (past the last: a lone chunk 0 that ends its pass) */
+  private def bitsOf(a: Int): UInt = {
+    val (c, f, l, e) = slotBits.lift(a).getOrElse((0, true, true, true))
     Cat(c.U(chunkW.W), f.B, l.B, e.B)
-  })
+  }
+  private val slotAhead = VecInit((0 to p.matRows).map(a => bitsOf(a + 3)))
+  val nx1 = RegInit(bitsOf(1))
+  val nx2 = RegInit(bitsOf(2))
   // chunk and pass are set through their next values (chunkD, passD), from which each operand lane keeps copies
   val chunkD  = WireDefault(UInt(chunkW.W), chunk)
   /** the pass being issued: 0 F, 1 K, 2 G */
@@ -138,7 +144,7 @@ class DgpCore(val p: DgpParams) extends Module {
   pass  := passD
   def jump(a: Int): Unit = {
     addr := a.U; chunkD := slotBits(a)._1.U; firstC := slotBits(a)._2.B; lastC := slotBits(a)._3.B
-    endC := slotBits(a)._4.B
+    endC := slotBits(a)._4.B; nx1 := bitsOf(a + 1); nx2 := bitsOf(a + 2)
   }
   val round   = RegInit(0.U(16.W))
   val waitCnt = RegInit(0.U(16.W))
@@ -178,12 +184,13 @@ class DgpCore(val p: DgpParams) extends Module {
 
   val issuing   = st === St.issue
   when(issuing) {
-    val nx = slotNext(addr)
     addr   := addr + 1.U
-    chunkD := nx(chunkW + 2, 3)
-    firstC := nx(2)
-    lastC  := nx(1)
-    endC   := nx(0)
+    chunkD := nx1(chunkW + 2, 3)
+    firstC := nx1(2)
+    lastC  := nx1(1)
+    endC   := nx1(0)
+    nx1    := nx2
+    nx2    := slotAhead(addr)
     when(lastC) { round := Mux(endC, 0.U, round + 1.U) }
     when(endC) {
       switch(pass) {
@@ -286,19 +293,20 @@ class DgpCore(val p: DgpParams) extends Module {
     val hi0R = Reg(SInt(W.W))
     lo0R := lo0U(u)(tokPre.round)
     hi0R := hi0U(u)(tokPre.round)
-    val (loNew, ofL) = sat(lo0R +& a)
-    val (hiNew, ofH) = sat(hi0R +& a)
     // first pass: rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail
     when(rowEU(u)) {
       rotate(eU(u), eNew)
       ovfU(u) := ofE
     }
-    // the bounds enter their FIFOs a cycle after their sums (they are first read in pass G)
+    // the bounds' sums are registered, then saturated into their FIFOs a cycle later (they are first read in pass G)
     val bNext = RegNext(rowBU(u), false.B)
-    val loN = RegNext(loNew)
-    val hiN = RegNext(hiNew)
-    ovfB(u) := RegNext(rowBU(u) && (ofL || ofH), false.B)
-    when(bNext) { rotate(loU(u), loN); rotate(hiU(u), hiN) }
+    val (loS, hiS) = (Reg(SInt((p.accW.max(W) + 1).W)), Reg(SInt((p.accW.max(W) + 1).W)))
+    loS := lo0R +& a
+    hiS := hi0R +& a
+    val (loNew, ofL) = sat(loS)
+    val (hiNew, ofH) = sat(hiS)
+    ovfB(u) := bNext && (ofL || ofH)
+    when(bNext) { rotate(loU(u), loNew); rotate(hiU(u), hiNew) }
     when(rowKU(u)) {
       rotate(zU(u), zNew)
       ovfU(u) := ofZ
@@ -446,9 +454,11 @@ class DgpCore(val p: DgpParams) extends Module {
   val statusWord = Cat(solveOvf, solveSat, metR, itersR)
   // the output words are clamped to the quantised input box [outLo_i, outHi_i] (one comparator pair per output word
   // position, against constants) and registered: only the output, the iteration's z and Sz stay unclamped
-  def clampAt(x: SInt, i: Int): SInt = {
+  /** x clamped to word i's box, x and its compares registered before the select */
+  def clampRegistered(x: SInt, i: Int): SInt = {
     val l = p.outLo(i).S(W.W); val h = p.outHi(i).S(W.W)
-    Mux(x < l, l, Mux(x > h, h, x))
+    val (xr, below, above) = (RegNext(x), RegNext(x < l), RegNext(x > h))
+    Mux(below, l, Mux(above, h, xr))
   }
   val word = Reg(SInt(W.W))
   val wordOk = Wire(Bool())
@@ -457,7 +467,8 @@ class DgpCore(val p: DgpParams) extends Module {
     // there; in the output state the copy shifts a word down as each word leaves, the next word at its head + 1
     // (the load's select: the state a cycle late; z holds through the output state, so loading in its first cycle
     // keeps the value)
-    val zcl = RegNext(VecInit((0 until n).map(i => clampAt(z(i), i))))
+    // (the clamp's compares and its select in registered steps: z is final long before)
+    val zcl = RegNext(VecInit((0 until n).map(i => clampRegistered(z(i), i))))
     val outR = RegNext(st === St.out, false.B)
     val zc = Reg(Vec(n, SInt(W.W)))
     when(m_axis.fire) {
