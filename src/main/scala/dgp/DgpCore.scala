@@ -142,12 +142,19 @@ class DgpCore(val p: DgpParams) extends Module {
   val passD   = WireDefault(UInt(2.W), pass)
   chunk := chunkD
   pass  := passD
+  // The chunk of a jump's slot is loaded ahead, not by the jump (whose condition comes late in its cycle): the
+  // first slot's while idle (a take jumps there), pass K's first slot's in the gap before the decision and in the
+  // decision (the next iteration jumps there); outside the issue and these, chunk holds
+  when(st === St.idle) { chunkD := slotBits(0)._1.U }
+  when((st === St.gap && pass === 2.U) || st === St.decide) { chunkD := slotBits(p.baseK)._1.U }
   def jump(a: Int): Unit = {
-    addr := a.U; chunkD := slotBits(a)._1.U; firstC := slotBits(a)._2.B; lastC := slotBits(a)._3.B
+    addr := a.U; firstC := slotBits(a)._2.B; lastC := slotBits(a)._3.B
     endC := slotBits(a)._4.B; nx1 := bitsOf(a + 1); nx2 := bitsOf(a + 2)
   }
   val round   = RegInit(0.U(16.W))
   val waitCnt = RegInit(0.U(16.W))
+  /** the gap's last cycle: waitCnt === 0, registered as the count is loaded or stepped */
+  val gapEnd  = RegInit(false.B)
   val cycles  = RegInit(0.U(32.W))
 
   /** per unit, `d` registered: a kept copy each when split, else one register for all */
@@ -195,15 +202,16 @@ class DgpCore(val p: DgpParams) extends Module {
     when(endC) {
       switch(pass) {
         is(0.U) { passD := 1.U }                       // pass K follows the first pass at once
-        is(1.U) { st := St.gap; waitCnt := (p.gapK - 1).U }
-        is(2.U) { st := St.gap; waitCnt := (p.gapG - 1).U }
+        is(1.U) { st := St.gap; waitCnt := (p.gapK - 1).U; gapEnd := (p.gapK == 1).B }
+        is(2.U) { st := St.gap; waitCnt := (p.gapG - 1).U; gapEnd := (p.gapG == 1).B }
       }
     }
   }
-  val toDecide = st === St.gap && waitCnt === 0.U && pass === 2.U
+  val toDecide = st === St.gap && gapEnd && pass === 2.U
   when(st === St.gap) {
     waitCnt := waitCnt - 1.U
-    when(waitCnt === 0.U) {
+    gapEnd  := waitCnt === 1.U
+    when(gapEnd) {
       when(pass === 1.U) { st := St.issue; passD := 2.U }.otherwise { st := St.decide }
     }
   }
