@@ -251,7 +251,8 @@ class DgpCore(val p: DgpParams) extends Module {
   def laneWord(x: Seq[SInt], cs: Int, l: Int): SInt =
     VecInit((0 until cs).map(j => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))(chunkL(l))
   val opR  = RegNext(VecInit((0 until p.lanes).map { l =>
-    Mux(passL(l) === 2.U, laneWord(z, p.cG, l), Mux(passL(l) === 1.U, laneWord(wyOp(0), p.cK, l), laneWord(wReg, p.cF, l)))
+    val (zw, yw, ww) = (laneWord(z, p.cG, l), laneWord(wyOp(0), p.cK, l), laneWord(wReg, p.cF, l))
+    Mux(passL(l) === 2.U, zw, Mux(passL(l) === 1.U, yw, ww))
   }))
   val opM  = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
   val op1  = VecInit((0 until p.lanes).map(l => Mux(tokAt(1).pass === 1.U, (opR(l) -& opM(l))(p.opW - 1, 0).asSInt, opR(l))))
