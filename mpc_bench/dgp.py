@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -267,6 +267,8 @@ class DgpLoop:
     cold_met: dict               # role -> stopping test met per random state
     meta: dict                   # steps, hold, seed, states, sat_steps, lead (the role in the loop), imax and warm
                                  # (the design's warm start) per role
+    zero: dict = field(default_factory=dict)        # role -> zero start (the starting dual all zero) per loop step
+    cold_zero: dict = field(default_factory=dict)   # role -> zero start per random state (cold: all)
 
 
 def closed_loop(designs: dict, steps: int, hold: int, seed: int, states: int) -> DgpLoop:
@@ -300,20 +302,22 @@ def closed_loop(designs: dict, steps: int, hold: int, seed: int, states: int) ->
                                                  "warm": {}})
     for role, d in designs.items():
         m = DgpFixed(d)
-        its, met, u = [], [], []
+        its, met, u, zero = [], [], [], []
         for w in W:
             r = m.solve(quantize(w, d.b))
             its.append(int(r.iterations[0]))
             met.append(bool(r.met[0]))
+            zero.append(bool(r.zero_start[0]))
             u.append(r.z[0][: p.nu] / float(1 << d.b))
         if role == lead_role and its != list(golden.iterations):
             raise RuntimeError("the golden model replayed on the loop's parameter words runs other iterations than "
                                "in the loop")
         err = np.abs(np.array(u) - u_opt).max(axis=1)
-        out.iters[role], out.met[role] = np.array(its), np.array(met)
+        out.iters[role], out.met[role], out.zero[role] = np.array(its), np.array(met), np.array(zero)
         out.core_err[role] = (float(err.max()), float(np.median(err)))
         rc = m.solve_batch(quantize(Wc, d.b))
         out.cold_iters[role], out.cold_met[role] = rc.iterations.copy(), rc.met.copy()
+        out.cold_zero[role] = rc.zero_start.copy()
         out.meta["imax"][role], out.meta["warm"][role] = d.iterations, bool(d.warm_start)
     return out
 

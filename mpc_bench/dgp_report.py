@@ -11,9 +11,11 @@ from mpc_bench.report import _f, _table, _tool_columns, latency_us, pnr_cells
 from mpc_bench.tools import PNR_SEED
 
 
-def latency_cycles(overhead: int, cycles_per_iteration: int, iters) -> np.ndarray:
-    """Cycles from the last input word to the first answer word: overhead + I x cycles_per_iteration."""
-    return overhead + np.asarray(iters, dtype=np.int64) * cycles_per_iteration
+def latency_cycles(overhead: int, cycles_per_iteration: int, iters, zero=None, saving: int = 0) -> np.ndarray:
+    """Cycles from the last input word to the first answer word: overhead + I x cycles_per_iteration, less
+    `saving` (core.json's zero_start_saving_cycles) where `zero` (a solve's starting dual was all zero)."""
+    c = overhead + np.asarray(iters, dtype=np.int64) * cycles_per_iteration
+    return c if zero is None else c - np.asarray(zero, dtype=np.int64) * saving
 
 
 def stats(v) -> tuple[float, float, float]:
@@ -37,16 +39,18 @@ def fit_85f(ecp5: dict | None) -> str | None:
     return "fits" if not over else "no: " + "; ".join(over)
 
 
-def _case(r: dict, key: str, iters, met, over: int, L: int, fmax: float | None) -> None:
-    """The iteration and latency fields of one case ("loop", "cold") of a core's record."""
+def _case(r: dict, key: str, iters, met, over: int, L: int, fmax: float | None, zero=None, saving: int = 0) -> None:
+    """The iteration and latency fields of one case ("loop", "cold") of a core's record; zero: the zero starts."""
     it = stats(iters)
-    cyc = stats(latency_cycles(over, L, iters))
+    cycles = latency_cycles(over, L, iters, zero, saving)
+    cyc = stats(cycles)
     r.update({f"{key}_solves": len(iters), f"{key}_met": int(np.sum(met)),
               f"{key}_iter_median": it[0], f"{key}_iter_p99": it[1], f"{key}_iter_max": int(it[2]),
               f"{key}_cycles_median": cyc[0], f"{key}_cycles_p99": cyc[1], f"{key}_cycles_max": int(cyc[2])})
     for name, v in zip(("median", "p99", "max"), cyc):
         r[f"{key}_us_{name}"] = latency_us(v, fmax)
-    r[f"{key}_cycles_mean"] = float(np.mean(latency_cycles(over, L, iters)))
+    r[f"{key}_zero_starts"] = int(np.sum(zero)) if zero is not None else 0
+    r[f"{key}_cycles_mean"] = float(np.mean(cycles))
     r[f"{key}_us_mean"] = latency_us(r[f"{key}_cycles_mean"], fmax)
 
 
@@ -72,8 +76,10 @@ def dgp_rows(cores: list, loop, sw: dict | None) -> list[dict]:
         f = r["fmax_mhz"]
         r["worst_us"] = latency_us(cj["cycles_at_imax"], f)
         if loop is not None and c.role in loop.iters:
-            _case(r, "loop", loop.iters[c.role], loop.met[c.role], over, L, f)
-            _case(r, "cold", loop.cold_iters[c.role], loop.cold_met[c.role], over, L, f)
+            save = r["zero_start_saving"] = cj["zero_start_saving_cycles"]
+            _case(r, "loop", loop.iters[c.role], loop.met[c.role], over, L, f, loop.zero.get(c.role), save)
+            _case(r, "cold", loop.cold_iters[c.role], loop.cold_met[c.role], over, L, f, loop.cold_zero.get(c.role),
+                  save)
             r["core_err_max"], r["core_err_median"] = loop.core_err[c.role]
         _sw_columns(r, sw)
         out.append(r)

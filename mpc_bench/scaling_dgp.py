@@ -60,7 +60,7 @@ def measure(M: int, N: int, steps: int, hold: int, clock: float, repeats: int, t
     with references_held():
         loop = closed_loop({"units": d}, steps, hold, seed=1, states=1)   # one cold start: the loop needs none
     its = loop.iters["units"]
-    cyc = d.solve_overhead + its * d.cycles_per_iteration
+    cyc = d.cycles_to_output(its, loop.zero["units"])
     for q, v in zip(Q3, quantiles(its)):
         r[f"core_iter_{q}"] = v
     for q, v in zip(Q3, quantiles(cyc)):

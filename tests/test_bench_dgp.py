@@ -171,6 +171,7 @@ def _core_json(accelerated: bool) -> dict:
             "solve_overhead_cycles": 242 if accelerated else 301,
             "cycles_at_imax": (242 + 300 * 825) if accelerated else (301 + 300 * 821),
             "issue_cycles": {"F": 240, "K": 400, "G": 400}, "div_cycles_per_word": 0 if accelerated else 59,
+            "zero_start_saving_cycles": 410 if accelerated else 406,
             "multipliers": 14 if accelerated else 8, "module": "Top", "sv": "Top.sv"}
 
 
@@ -182,15 +183,16 @@ def _fake_core(role: str, measured=None, ecp5=None, pnr=None):
     return c
 
 
-def _loop(iters_acc, iters_plain) -> dgp.DgpLoop:
+def _loop(iters_acc, iters_plain, zero_acc=None) -> dgp.DgpLoop:
     it = {"accelerated": np.array(iters_acc), "plain": np.array(iters_plain)}
     met = {k: v < 300 for k, v in it.items()}
+    zero = {} if zero_acc is None else {"accelerated": np.array(zero_acc)}
     return dgp.DgpLoop(np.zeros((len(iters_acc), 12)), np.zeros((len(iters_acc), 4)), it, met,
                        {"accelerated": (2e-3, 1e-8), "plain": (0.1, 1e-8)},
                        {k: v + 10 for k, v in it.items()}, {k: np.ones(len(v), bool) for k, v in it.items()},
                        {"steps": len(iters_acc), "hold": 5, "seed": 1, "states": len(iters_acc), "sat_steps": 2,
                         "lead": "accelerated", "imax": {"accelerated": 300, "plain": 300},
-                        "warm": {"accelerated": True, "plain": False}})
+                        "warm": {"accelerated": True, "plain": False}}, zero=zero)
 
 
 def _sw() -> dict:
@@ -209,10 +211,12 @@ def test_rows_latency_and_ratios():
     acc = _fake_core("accelerated", measured=rec, ecp5=ECP5, pnr=PNR)
     plain = _fake_core("plain", measured={"test": "cycle_contract", "cycles_per_iteration": 821, "overhead": 300})
     its_a, its_p = [1, 1, 2, 5, 9, 1, 1, 1, 3, 1], [1, 1, 3, 50, 300, 1, 1, 1, 7, 1]
+    zero_a = [True, True, False, False, False, True, False, True, False, True]     # the zero starts of the loop
     sw = _sw()
-    a, p = dgp_report.dgp_rows([acc, plain], _loop(its_a, its_p), sw)
+    a, p = dgp_report.dgp_rows([acc, plain], _loop(its_a, its_p, zero_a), sw)
     assert a["measured_equals_corejson"] is True and p["measured_equals_corejson"] is False
-    cyc = 242 + 825 * np.array(its_a)
+    cyc = 242 + 825 * np.array(its_a) - 410 * np.array(zero_a)
+    assert a["loop_zero_starts"] == 5 and p["loop_zero_starts"] == 0
     assert a["loop_cycles_median"] == np.median(cyc) and a["loop_cycles_max"] == cyc.max()
     assert a["loop_iter_max"] == 9 and p["loop_met"] == 9 and a["cold_iter_max"] == 19
     assert a["loop_us_median"] == pytest.approx(np.median(cyc) / 100.0)
@@ -326,8 +330,10 @@ def test_closed_loop_replays_the_models(small):
     assert np.all(loop.W >= d.xlo / one) and np.all(loop.W <= d.xhi / one)      # after the input saturation
     for role, dr in small.items():
         m = DgpFixed(dr)
-        its = [int(m.solve(quantize(w, dr.b)).iterations[0]) for w in loop.W]
-        assert loop.iters[role].tolist() == its
+        rs = [m.solve(quantize(w, dr.b)) for w in loop.W]
+        assert loop.iters[role].tolist() == [int(r.iterations[0]) for r in rs]
+        assert loop.zero[role].tolist() == [bool(r.zero_start[0]) for r in rs]
+        assert loop.cold_zero[role].all()                                         # a cold start is a zero start
         assert len(loop.cold_iters[role]) == 6 and np.all(loop.cold_iters[role] <= dr.iterations)
         assert np.all(loop.met[role] | (loop.iters[role] == dr.iterations))
     k = 5

@@ -196,7 +196,10 @@ def test_warm_start_state(accelerated):
         a = m.solve(w, imax=imax, warm=True)                      # nothing stored: cold
         assert (a.iterations[0], a.z[0].tolist()) == (r0.iterations[i], r0.z[i].tolist())
         assert np.array_equal(m.y_prev, a.y[0])
+        # a zero start: the starting dual all zero (every cold start), a slow state leaves a nonzero one
+        assert a.zero_start[0] and a.y[0].any()
         b = m.solve(w, imax=imax, warm=True)                      # from the stored dual
+        assert not b.zero_start[0]
         assert b.met[0] and b.iterations[0] <= a.iterations[0], (a.iterations[0], b.iterations[0])
         assert np.array_equal(m.y_prev, b.y[0])
         c = m.solve(w, imax=imax, warm=False)                     # the stored dual ignored

@@ -153,6 +153,19 @@ class DgpDesign(FixedPointDesign):
         return i["K"] + g["K"] + i["G"] + g["G"] + 1
 
     @property
+    def zero_start_gap(self) -> int:
+        """idle cycles from the first pass to pass G on a zero start (DgpParams.gapZ): e's last row reaches z the
+        row latency after its issue, which the bound rows' issue cycles hide, and the bounds' FIFOs need a cycle"""
+        bounds = sum(len(cs) for cs in self.schedule(self.Lw))
+        return max(1, self.row_latency - bounds)
+
+    @property
+    def zero_start_saving(self) -> int:
+        """cycles a zero start (the starting dual all zero: every cold start) saves: the first iteration's pass K
+        (z = e, v = 0) and its gap, less the zero start's gap"""
+        return self.issue_cycles["K"] + self.gap_cycles["K"] - self.zero_start_gap
+
+    @property
     def div_cycles(self) -> int:
         return 0 if self.accelerated else self.widths["sum"] + 4
 
@@ -160,9 +173,13 @@ class DgpDesign(FixedPointDesign):
     def solve_overhead(self) -> int:
         return 2 + self.issue_cycles["F"] + self.div_cycles
 
-    def cycles_to_output(self, iters: int) -> int:
-        """from the handshake of the last input word to the first output word, for a solve of `iters` iterations"""
-        return self.solve_overhead + iters * self.cycles_per_iteration
+    def cycles_to_output(self, iters, zero_start=False):
+        """from the handshake of the last input word to the first output word, for a solve of `iters` iterations
+        (arrays broadcast); zero_start: its starting dual was all zero (DgpResult.zero_start), which skips the first
+        pass K"""
+        c = (self.solve_overhead + np.asarray(iters, dtype=np.int64) * self.cycles_per_iteration
+             - np.asarray(zero_start, dtype=np.int64) * self.zero_start_saving)
+        return int(c) if c.ndim == 0 else c
 
     @property
     def multipliers(self) -> int:

@@ -24,9 +24,11 @@ KIND = CoreKind(
 
 
 def small():
-    """The per-kind suites' core: case small_accel of tests/test_dgp_rtl.py (accelerated, 2 lanes)."""
+    """The per-kind suites' core: case small_accel of tests/test_dgp_rtl.py (accelerated, 2 lanes; an input box
+    that binds at a third of the states, so that duals, restarts and warm starts from nonzero duals occur)."""
     from mpc_cores.small import SmallCore, random_spec
 
     return SmallCore("dgp/small_accel", random_spec("dg5", 2, 1, 4, 0, 5, states={"min": -0.5, "max": 0.5},
-                                                    hard_states={"indices": [0], "min": -1.0, "max": 1.0}),
+                                                    hard_states={"indices": [0], "min": -1.0, "max": 1.0},
+                                                    inputs={"min": -0.3, "max": 0.2}),
                      dict(lanes=2, iterations=60))

@@ -7,7 +7,9 @@ construction), data words saturated to W = r + p bits with a flag. dgp_float run
 One solve (w: nw parameter words; y = (y+, y-) the 2 mc dual words, upper rows then lower rows):
   0. w = clip(w_in, wlo, whi) (flag `sat`); e = sat(sum_j rnd(Fe_ij w_j)); c = sum_j rnd(Lw_ij w_j);
      lo = sat(lo0 + c), hi = sat(hi0 + c)
-  1. start: cold y = 0, warm y = the previous solve's final y; the operand dual wy = y; k = 0
+  1. start: cold y = 0, warm y = the previous solve's final y; the operand dual wy = y; k = 0. A solve whose
+     starting dual is all zero (`zero_start`: every cold start) has z = e in its first iteration (v = 0, every
+     product rnd(K_ij 0) = 0), so the core skips that iteration's pass K; the words are the same either way
   then for nu = 0, 1, ..., Imax - 1:
   2. v = wy+ - wy-;  z = sat(sum_j rnd(K_ij v_j) + e_i);  s = sat(sum_j rnd(G_ij z_j))
   3. g = (sat(s - hi), sat(lo - s));  y_new = clip(wy + g, 0, ud)                     ((35), L = 1)
@@ -69,6 +71,7 @@ class DgpResult:
     overflow: np.ndarray        # (S,) a data word saturated
     y: np.ndarray               # (S, 2 mc) final dual words (the next warm start)
     zraw: np.ndarray | None = None   # (S, n) the output words before the clamp (the iteration's own answer)
+    zero_start: np.ndarray | None = None   # (S,) the starting dual was all zero (the core skips the first pass K)
 
 
 class DgpFixed:
@@ -130,6 +133,7 @@ class DgpFixed:
         lo, hi = sat_w(self.lo0 + c), sat_w(self.hi0 + c)
         y = np.zeros((S, 2 * self.mc), dtype=np.int64) if y0 is None else np.array(y0, dtype=np.int64)
         wy = y.copy()
+        zero_start = ~np.any(y, axis=1)
         k = np.zeros(S, dtype=np.int64)
         Sz = np.zeros((S, self.n), dtype=np.int64)
         Sg = np.zeros((S, 2 * self.mc), dtype=np.int64)
@@ -172,7 +176,8 @@ class DgpFixed:
                 break
         # the output only: the state above is unclamped
         zc = np.clip(zout, self.out_lo, self.out_hi) if self.clamp else zout
-        return DgpResult(z=zc, iterations=iters, met=met, sat=sat, overflow=ovf, y=y, zraw=zout)
+        return DgpResult(z=zc, iterations=iters, met=met, sat=sat, overflow=ovf, y=y, zraw=zout,
+                         zero_start=zero_start)
 
 
 def dgp_float(qp, w, imax: int, accelerated: bool, eps_g: float, eps_V: float, ud=None, y0=None):

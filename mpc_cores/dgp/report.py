@@ -14,7 +14,7 @@ def core_json(d: DgpDesign, hw: dict) -> dict:
     """Metadata of a generated DGP core: the Python design and the generator's hw.json, checked against each other."""
     for key, mine in (("cycles_per_iteration", d.cycles_per_iteration), ("solve_overhead_cycles", d.solve_overhead),
                       ("multipliers", d.multipliers), ("div_cycles", d.div_cycles),
-                      ("issue_cycles", d.issue_cycles)):
+                      ("issue_cycles", d.issue_cycles), ("zero_start_saving_cycles", d.zero_start_saving)):
         if hw[key] != mine:
             raise RuntimeError(f"generator and front end disagree on {key}: {hw[key]} vs {mine}")
     b = d.b
@@ -32,8 +32,11 @@ def core_json(d: DgpDesign, hw: dict) -> dict:
         "analysis": a, "widths": d.widths,
         "cycles_per_iteration": hw["cycles_per_iteration"],
         "solve_overhead_cycles": hw["solve_overhead_cycles"],
+        "zero_start_saving_cycles": hw["zero_start_saving_cycles"],
         "cycles_to_output_formula": f"{hw['solve_overhead_cycles']} + I * {hw['cycles_per_iteration']} "
-                                    f"(I: the iterations run, 1..IMAX, in the status word and ITERATIONS)",
+                                    f"- Z * {hw['zero_start_saving_cycles']} (I: the iterations run, 1..IMAX, in the "
+                                    f"status word and ITERATIONS.COUNT; Z: 1 when the starting dual was all zero, "
+                                    f"every cold start, in ITERATIONS.ZERO_START)",
         "cycles_at_imax": d.cycles_to_output(d.iterations),
         "div_cycles_per_word": hw["div_cycles"],
         "issue_cycles": hw["issue_cycles"], "gap_cycles": hw["gap_cycles"], "chunks": hw["chunks"],
@@ -74,7 +77,9 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
         f"  Cycles per iteration: {d.cycles_per_iteration} = pass K {i['K']} + {g['K']} + pass G {i['G']} + {g['G']}"
         f" + 1",
         f"  Latency: {d.solve_overhead} + I x {d.cycles_per_iteration} cycles from the last input word to the first "
-        f"output word, I the iterations run (at IMAX = {d.iterations}: {d.cycles_to_output(d.iterations)})",
+        f"output word, I the iterations run (at IMAX = {d.iterations}: {d.cycles_to_output(d.iterations)}); "
+        f"{d.zero_start_saving} fewer when the starting dual is all zero (every cold start: its first pass K is "
+        f"skipped)",
     ]
     if not d.accelerated:
         lines.append(f"  Output: each word of the averaged primal takes {d.div_cycles} cycles (serial division)")

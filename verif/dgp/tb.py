@@ -3,19 +3,23 @@ AXI4-Stream and AXI4-Lite.
 
 Every answer is u0 (or z) then the status word (iterations in bits 15:0, test met 16, input saturated 17, overflow
 18); the testbench compares all of it with the model, and the cycles from the last input word to the first answer
-word with core.json: solve_overhead + I cycles_per_iteration, I the iterations the model ran.
+word with core.json: solve_overhead + I cycles_per_iteration - Z zero_start_saving_cycles, I the iterations the
+model ran and Z 1 when the model's starting dual was all zero (a zero start skips the first pass K).
 
 Environment: CORE_OUT (the generator's output folder), CORE_RANDOM (random solves of the bit-exact test), CORE_SEED
-(its seed, default 7), CORE_MEASURE (a file to append measurements to).
+(its seed, default 7), CORE_MEASURE (a file to append measurements to), CORE_NONZERO_START (0: the plant's rows bind
+nowhere in the box, so cycle_contract has no warm start from a nonzero dual to check).
 """
 from __future__ import annotations
 
 import os
 
 import cocotb
+import numpy as np
 from cocotb.triggers import ClockCycles, with_timeout
 from cocotbext.axi import AxiResp
 
+from mpc_cores.dgp.model import DgpFixed
 from mpc_cores.driver import TB, measure
 
 TIMEOUT_MS = float(os.environ.get("CORE_TIMEOUT_MS") or 400)
@@ -26,6 +30,11 @@ class DgpTB(TB):
         super().__init__(dut, seed, **kw)
         self.L = self.core["cycles_per_iteration"]
         self.over = self.core["solve_overhead_cycles"]
+        self.save = self.core["zero_start_saving_cycles"]
+
+    def last_cycles(self, r) -> int:
+        """LAST_CYCLES of the model's solve r: the first pass to its decision cycle"""
+        return self.core["issue_cycles"]["F"] + int(r.iterations[0]) * self.L - int(r.zero_start[0]) * self.save
 
     def expect(self, w, problem: int = 0):
         r = self.model.solve(w, imax=self.imax, warm=self.warm)
@@ -41,13 +50,14 @@ class DgpTB(TB):
         await self.send(w)
         got = await self.recv()
         assert got[:-1] == exp[:-1] and got[-1] == exp[-1], f"{tag}: RTL {got} != model {exp} for w={list(w)}"
-        iters = int(r.iterations[0])
+        iters, zs = int(r.iterations[0]), int(r.zero_start[0])
         if cycles:
             lat = self.out_start[-1] - self.in_done[n_in]
-            assert lat == self.over + iters * self.L, \
-                f"{tag}: {lat} cycles to the answer, core.json says {self.over} + {iters} x {self.L}"
+            assert lat == self.over + iters * self.L - zs * self.save, \
+                f"{tag}: {lat} cycles to the answer, core.json says {self.over} + {iters} x {self.L} - {zs} x {self.save}"
         v, resp = await self.read(self.rm["ITERATIONS"])
-        assert resp == AxiResp.OKAY and v & 0xFFFF == iters and (v >> 16) & 1 == int(r.met[0]), (v, iters)
+        assert resp == AxiResp.OKAY and v & 0xFFFF == iters and (v >> 16) & 1 == int(r.met[0]) \
+            and (v >> 17) & 1 == zs, (v, iters, zs)
         return r
 
 
@@ -74,7 +84,7 @@ async def bitexact_random(dut):
             r = await tb.check(tb.random_w(outside=0.1), f"solve {i}")
             iters.append(int(r.iterations[0]))
             v, _ = await tb.read(tb.rm["LAST_CYCLES"])
-            assert v == tb.core["issue_cycles"]["F"] + iters[-1] * tb.L, (v, iters[-1])
+            assert v == tb.last_cycles(r), (v, iters[-1], bool(r.zero_start[0]))
         tb.backpressure(False)
         measure({"test": "bitexact_random", "module": tb.core["module"], "cases": solves, "iterations": iters})
     await with_timeout(body(), TIMEOUT_MS, "ms")
@@ -82,19 +92,44 @@ async def bitexact_random(dut):
 
 @cocotb.test()
 async def cycle_contract(dut):
-    """LAST_CYCLES and the answer's cycle for IMAX = 1, 2, 3 (the test cannot hold that early on a cold start at a
-    state with active constraints) and for the default IMAX"""
+    """LAST_CYCLES, ITERATIONS and the answer's cycle for cold starts (zero starts) at IMAX = 1, 2, 3 (the test
+    cannot hold that early at a state with active constraints), then warm starts at the default IMAX at states
+    outside the box (saturated to its corners), at least one of them from a nonzero dual"""
     async def body():
         tb = await _start(dut, seed=3)
         await tb.set_ctrl(warm=False)
         for imax in (1, 2, 3):
             await tb.set_imax(imax)
-            r = await tb.check(tb.random_w(), f"imax {imax}")
+            r = await tb.check(tb.random_w(), f"cold, imax {imax}")
+            assert r.zero_start[0], "a cold start that is not a zero start"
             v, _ = await tb.read(tb.rm["LAST_CYCLES"])
-            assert v == tb.core["issue_cycles"]["F"] + int(r.iterations[0]) * tb.L, (v, int(r.iterations[0]))
+            assert v == tb.last_cycles(r), (v, int(r.iterations[0]))
+        # a state whose cold solve at IMAX = 1 leaves a nonzero dual (the unconstrained optimum z = e violates a
+        # row), then warm starts: the first from that dual
+        probe = DgpFixed(tb.cfg)
+        ws = [tb.random_w(outside=0.5) for _ in range(200)]
+        ys = probe.solve_batch(np.array(ws), imax=1).y
+        hot = next((w for w, y in zip(ws, ys) if y.any()), None)
+        if hot is None:
+            # CORE_NONZERO_START=0: a plant none of whose rows binds anywhere in the box (every dual stays zero)
+            assert os.environ.get("CORE_NONZERO_START") == "0", \
+                "no state of 200 leaves a nonzero dual: the full first iteration untested"
+        else:
+            await tb.set_imax(1)
+            await tb.check(hot, "cold, nonzero dual after")
+            await tb.set_ctrl(warm=True)
+            await tb.set_imax(tb.core["iterations"])
+            starts = []
+            for i in range(4):
+                r = await tb.check(hot if i == 0 else tb.random_w(outside=0.5), f"warm {i}")
+                starts.append(bool(r.zero_start[0]))
+                v, _ = await tb.read(tb.rm["LAST_CYCLES"])
+                assert v == tb.last_cycles(r), (v, int(r.iterations[0]), starts[-1])
+            assert not starts[0], "a warm start from a nonzero dual taken as a zero start"
         v, _ = await tb.read(tb.rm["CYCLES_PER_ITER"])
         assert v == tb.L
-        measure({"test": "cycle_contract", "cycles_per_iteration": tb.L, "overhead": tb.over})
+        measure({"test": "cycle_contract", "cycles_per_iteration": tb.L, "overhead": tb.over,
+                 "zero_start_saving_cycles": tb.save})
     await with_timeout(body(), TIMEOUT_MS, "ms")
 
 

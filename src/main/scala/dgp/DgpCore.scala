@@ -38,8 +38,10 @@ class DgpCore(val p: DgpParams) extends Module {
 
   val itersR = RegInit(0.U(16.W))
   val metR   = RegInit(false.B)
+  val zeroR  = RegInit(false.B)
   val regs = new SolverRegs(s_axil, DgpRegs.map(p),
-    coreSources = Map("ITERATIONS.COUNT" -> itersR, "ITERATIONS.MET" -> metR.asUInt))
+    coreSources = Map("ITERATIONS.COUNT" -> itersR, "ITERATIONS.MET" -> metR.asUInt,
+      "ITERATIONS.ZERO_START" -> zeroR.asUInt))
   val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi)))
   frameIn.io.s_axis <> s_axis
   frameIn.io.hold    := regs.frameHold
@@ -95,6 +97,13 @@ class DgpCore(val p: DgpParams) extends Module {
   val betaR = Reg(SInt(p.betaW.W))
   val iter  = Reg(UInt(16.W))
   val imax  = Reg(UInt(16.W))
+  /** the stored dual y is all zero (the element stage's flags, taken at every decision) */
+  val yZero  = RegInit(true.B)
+  /** a zero start: the solve's starting dual is all zero (a cold start, or a warm one from a zero y), so its first
+    * iteration's z is e, which the first pass writes to z with e, and its pass K is skipped */
+  val zSolve = RegInit(false.B)
+  /** zSolve while the first pass issues: the slot lookahead then takes pass G's slots after the first pass's */
+  val zTable = RegInit(false.B)
   val solveSat = RegInit(false.B)
   val solveOvf = RegInit(false.B)
   val ovfU     = Wire(Vec(P, Bool()))
@@ -108,6 +117,8 @@ class DgpCore(val p: DgpParams) extends Module {
   // the gap and of the restart test
   val gapW   = 2 * W + 8
   val violU  = RegInit(VecInit(Seq.fill(P)(false.B)))
+  /** per iteration and unit: some row of y_new is nonzero */
+  val nzU    = RegInit(VecInit(Seq.fill(P)(false.B)))
   val gapU   = RegInit(VecInit(Seq.fill(P)(0.S(gapW.W))))
   val rstU   = RegInit(VecInit(Seq.fill(P)(0.S(gapW.W))))
 
@@ -133,6 +144,9 @@ class DgpCore(val p: DgpParams) extends Module {
     Cat(c.U(chunkW.W), f.B, l.B, e.B)
   }
   private val slotAhead = VecInit((0 to p.matRows).map(a => bitsOf(a + 3)))
+  /** a zero start's slot order: pass G's slots follow the first pass's */
+  private def zMap(a: Int): Int = if (a >= p.baseK) p.baseG + a - p.baseK else a
+  private val slotAheadZ = VecInit((0 to p.matRows).map(a => bitsOf(zMap(a + 3))))
   val nx1 = RegInit(bitsOf(1))
   val nx2 = RegInit(bitsOf(2))
   // chunk and pass are set through their next values (chunkD, passD), from which each operand lane keeps copies
@@ -163,19 +177,23 @@ class DgpCore(val p: DgpParams) extends Module {
   val take = st === St.idle && frameIn.io.full
   frameIn.io.take := take
   val warmNow = regs.ctrlWarm && regs.warmValid
+  val zeroNow = !warmNow || yZero
   // The start's resets and warm start act a cycle after the take, per unit from its own copies (they reach every
   // register of the duals): the first pass reads none of them, and it takes at least one cycle
   val startU = unitRegs(take)
   val warmU  = unitRegs(warmNow)
+  val zsU    = if (acc) Nil else unitRegs(zSolve)
   when(take) {
     wReg := frameIn.io.frame
     st := St.issue; passD := 0.U; jump(0); round := 0.U
     iter := 0.U; imax := regs.imaxReg; cycles := 0.U
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
+    zSolve := zeroNow; zTable := zeroNow
+    nx1 := Mux(zeroNow, bitsOf(zMap(1)), bitsOf(1)); nx2 := Mux(zeroNow, bitsOf(zMap(2)), bitsOf(2))
   }
   for (u <- 0 until P) when(startU(u)) {
-    violU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S
+    violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S
     for (h <- 0 until 2; k <- 0 until rG) {
       when(!warmU(u)) { yU(h)(u)(k) := 0.S }
       if (acc) wyEU(h)(u)(k) := Mux(warmU(u), yU(h)(u)(k), 0.S)
@@ -197,11 +215,15 @@ class DgpCore(val p: DgpParams) extends Module {
     lastC  := nx1(1)
     endC   := nx1(0)
     nx1    := nx2
-    nx2    := slotAhead(addr)
+    nx2    := Mux(zTable, slotAheadZ(addr), slotAhead(addr))
     when(lastC) { round := Mux(endC, 0.U, round + 1.U) }
     when(endC) {
       switch(pass) {
-        is(0.U) { passD := 1.U }                       // pass K follows the first pass at once
+        is(0.U) {
+          // pass K follows the first pass at once; on a zero start, pass G after gapZ
+          passD := 1.U; zTable := false.B
+          when(zTable) { st := St.gap; waitCnt := (p.gapZ - 1).U; gapEnd := (p.gapZ == 1).B; addr := p.baseG.U }
+        }
         is(1.U) { st := St.gap; waitCnt := (p.gapK - 1).U; gapEnd := (p.gapK == 1).B }
         is(2.U) { st := St.gap; waitCnt := (p.gapG - 1).U; gapEnd := (p.gapG == 1).B }
       }
@@ -302,11 +324,15 @@ class DgpCore(val p: DgpParams) extends Module {
     val hi0R = Reg(SInt(W.W))
     lo0R := lo0U(u)(tokPre.round)
     hi0R := hi0U(u)(tokPre.round)
-    // first pass: rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail
+    // first pass: rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail.
+    // e enters z too, the z of a zero start's first iteration (pass K overwrites it otherwise), and the plain form's
+    // Sz on a zero start
     when(rowEU(u)) {
       rotate(eU(u), eNew)
+      rotate(zU(u), eNew)
       ovfU(u) := ofE
     }
+    szU.lift(u).foreach(s => when(rowEU(u) && zsU(u)) { rotate(s, s(0) + eNew) })
     // the bounds' sums are registered, then saturated into their FIFOs a cycle later (they are first read in pass G)
     val bNext = RegNext(rowBU(u), false.B)
     val (loS, hiS) = (Reg(SInt((p.accW.max(W) + 1).W)), Reg(SInt((p.accW.max(W) + 1).W)))
@@ -365,7 +391,9 @@ class DgpCore(val p: DgpParams) extends Module {
       // E3: the test's sums against the threshold
       val e3 = RegNext(e1b, false.B)
       val nv3 = RegNext(VecInit(nv))
+      val yN3 = RegNext(VecInit(yNew))
       when(e3 && (nv3(0) > tThr || nv3(1) > tThr)) { violU(u) := true.B }
+      when(e3 && (yN3(0) =/= 0.S || yN3(1) =/= 0.S)) { nzU(u) := true.B }
     }
     restartU(u) := false.B
     if (acc) {
@@ -377,6 +405,7 @@ class DgpCore(val p: DgpParams) extends Module {
       // E3: y rotates, its old value kept for dy
       val yOld = yU.map(_(u)(0))
       when(e2) { for (h <- 0 until 2) rotate(yU(h)(u), yN2(h)) }
+      when(e2 && (yN2(0) =/= 0.S || yN2(1) =/= 0.S)) { nzU(u) := true.B }
       val e3 = RegNext(e2, false.B)
       val yN3 = RegNext(yN2)
       val yO3 = RegNext(VecInit(yOld))
@@ -421,6 +450,8 @@ class DgpCore(val p: DgpParams) extends Module {
   val gapSum  = reduce[SInt](gapU, _ + _)
   val rstSum  = reduce[SInt](rstU, _ + _)
   val stop    = RegNext(!violAll && (if (acc) gapSum >= (-p.eV).S else true.B))
+  /** y_new is all zero: the next warm start is a zero start */
+  val yZeroNext = RegNext(!reduce[Bool](nzU, _ || _))
   // the restart, per unit (it selects every dual word of the unit's rows)
   if (acc) restartU := VecInit(unitRegs(rstSum < 0.S))
   val restart = restartU(0)
@@ -428,7 +459,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val lastIter = RegNext(iter + 1.U === imax, false.B)
   val finish  = stop || lastIter
   val outIdx  = RegInit(0.U(16.W))
-  for (u <- 0 until P) when(decideU(u)) { violU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
+  for (u <- 0 until P) when(decideU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
   // accelerated: the next extrapolated dual, y on a restart, else the candidate. The decision and the restart reach
   // each group of 8 of a unit's rows of each half from copies of their own (FPGA targets: kept registers, loaded
   // with the unit's), so that no register drives a whole vector
@@ -444,13 +475,14 @@ class DgpCore(val p: DgpParams) extends Module {
   val betaInc = RegNext(betaRom(Mux(kAcc >= 253.U, 255.U, kAcc + 2.U)))
   when(st === St.decide) {
     tThr := tThr + p.eg.S
+    yZero := yZeroNext
     if (acc) {
       kAcc  := Mux(restart, 0.U, kInc)
       betaR := Mux(restart, betaRom(1), betaInc)
     }
     when(finish) {
       st := St.out; outIdx := 0.U
-      itersR := iter + 1.U; metR := stop
+      itersR := iter + 1.U; metR := stop; zeroR := zSolve
       regs.solveDone(cycles + 1.U)
     }.otherwise {
       st := St.issue; passD := 1.U; jump(p.baseK); iter := iter + 1.U
@@ -472,7 +504,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val word = Reg(SInt(W.W))
   val wordOk = Wire(Bool())
   if (acc) {
-    // z is final from the decision cycle on (its clamped copy, a cycle behind z, long before): word 0 is loaded
+    // z is final from the decision cycle on (its clamped copy, three cycles behind z, long before): word 0 is loaded
     // there; in the output state the copy shifts a word down as each word leaves, the next word at its head + 1
     // (the load's select: the state a cycle late; z holds through the output state, so loading in its first cycle
     // keeps the value)
@@ -533,7 +565,9 @@ object DgpRegs {
       lastCycles = "cycles of the last solve, first pass to its decision cycle")
     val its = Register("ITERATIONS", ITERATIONS, "the last solve's iterations", Seq(
       Field.status("COUNT", 0, 16, "iterations run by the last solve"),
-      Field.status("MET", 16, 1, "the last solve stopped at the test ((32c) of 003; accelerated: with the gap test)")))
+      Field.status("MET", 16, 1, "the last solve stopped at the test ((32c) of 003; accelerated: with the gap test)"),
+      Field.status("ZERO_START", 17, 1, "the last solve started from an all-zero dual (every cold start) and skipped " +
+        "its first pass K: its cycles are those of core.json's zero_start_saving_cycles fewer")))
     RegMap(p.moduleName, s"DGP core ${p.moduleName}: control and status; the problem data are fixed at generation. " +
       SolverRegs.rules, shared :+ its, Nil)
   }

@@ -19,6 +19,7 @@ object DgpMain extends App {
       "gap_cycles" -> ujson.Obj("K" -> p.gapK, "G" -> p.gapG),
       "tree_depth" -> p.depth, "row_latency" -> p.rowLat,
       "cycles_per_iteration" -> p.cyclesPerIteration, "solve_overhead_cycles" -> p.solveOverhead,
+      "zero_start_gap" -> p.gapZ, "zero_start_saving_cycles" -> p.zeroStartSaving,
       "div_cycles" -> p.divCycles, "multipliers" -> p.multipliers, "matrix_rows" -> p.matRows,
       "axil_addr_width" -> p.axiAddrW, "stream_width" -> p.streamW,
       "registers" -> regJson, "regions" -> regions), indent = 2)

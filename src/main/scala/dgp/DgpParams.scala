@@ -140,6 +140,15 @@ case class DgpParams(
   val gapG: Int = rowLat + elementLat + unitDepth
   /** one iteration: pass K, gap, pass G, gap, the decision cycle */
   val cyclesPerIteration: Int = issueK + gapK + issueG + gapG + 1
+  /** issue cycles of the first pass's rows of Lw (the bounds, after the rows of Fe) */
+  val issueFB: Int = schedLw.map(_.length).sum
+  /** A zero start (the starting dual all zero: every cold start) skips the first iteration's pass K, whose z is e
+    * (v = 0), written to z with e in the first pass. Idle cycles from the first pass to pass G: e's last row is in z
+    * rowLat after its issue, issueFB before the pass's end, and the bounds' FIFOs take their last row a cycle after
+    * its sum, before pass G's first row reads them */
+  val gapZ: Int = math.max(1, rowLat - issueFB)
+  /** cycles a zero start saves: pass K and its gap, less gapZ */
+  val zeroStartSaving: Int = issueK + gapK - gapZ
   /** the averaged primal's dividend 2 Sz + I */
   val divW: Int = sumW + 2
   /** cycles of the plain form's division of an output word (start to the word valid) */
@@ -148,7 +157,8 @@ case class DgpParams(
     * take (2), the first pass's issue (pass K follows at once), and the plain form's first division */
   val solveOverhead: Int = 2 + issueF + divCycles
   /** data-dependent solve: from the handshake of the last input word to the first output word */
-  def cyclesToOutput(iters: Int): Int = solveOverhead + iters * cyclesPerIteration
+  def cyclesToOutput(iters: Int, zeroStart: Boolean): Int =
+    solveOverhead + iters * cyclesPerIteration - (if (zeroStart) zeroStartSaving else 0)
   val multipliers: Int = units * (lanes + (if (accelerated) 6 else 0))
 
   val moduleName: String =
