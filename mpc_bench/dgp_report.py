@@ -65,6 +65,7 @@ def dgp_rows(cores: list, loop, sw: dict | None) -> list[dict]:
              "b": cj["frac_bits"], "int_bits": cj["int_bits"], "width": cj["data_format"]["width"],
              "imax": cj["iterations"], "lat_add": cj["lat_add"], "lat_mul": cj["lat_mul"], "target": cj["target"],
              "cycles_per_iteration": L, "overhead": over, "cycles_at_imax": cj["cycles_at_imax"],
+             "zero_start_saving": cj["zero_start_saving_cycles"],
              "issue_K": cj["issue_cycles"]["K"], "issue_G": cj["issue_cycles"]["G"],
              "issue_F": cj["issue_cycles"]["F"], "div_cycles": cj["div_cycles_per_word"],
              "multipliers": cj["multipliers"], "mult18_products": c.mult18,
@@ -76,7 +77,7 @@ def dgp_rows(cores: list, loop, sw: dict | None) -> list[dict]:
         f = r["fmax_mhz"]
         r["worst_us"] = latency_us(cj["cycles_at_imax"], f)
         if loop is not None and c.role in loop.iters:
-            save = r["zero_start_saving"] = cj["zero_start_saving_cycles"]
+            save = r["zero_start_saving"]
             _case(r, "loop", loop.iters[c.role], loop.met[c.role], over, L, f, loop.zero.get(c.role), save)
             _case(r, "cold", loop.cold_iters[c.role], loop.cold_met[c.role], over, L, f, loop.cold_zero.get(c.role),
                   save)
@@ -120,16 +121,19 @@ def _form(r: dict) -> str:
 def _cycles_part(rows: list[dict]) -> list[str]:
     L = ["### Cycles", "",
          "core.json's contract: overhead + I x cycles per iteration from the last input word to the first answer "
-         "word, I the iterations run (1..Imax); cycles per iteration = pass K (ceil(n / P) ceil(mc / lanes)) + its "
-         "pipeline + pass G (ceil(mc / P) ceil(n / lanes)) + its pipeline + 1. Measured: the cocotb test `cycle_contract` of "
-         "verif/dgp/tb.py in Verilator, which asserts every answer's cycle against the contract (Imax = 1, 2, 3, cold "
-         "start) and reads CYCLES_PER_ITER.", ""]
+         "word, I the iterations run (1..Imax), less the zero start's saving when the starting dual is all zero "
+         "(every cold start: the first pass K skipped); cycles per iteration = pass K (at most ceil(n / P) "
+         "ceil(mc / lanes) issue cycles) + its pipeline + pass G (at most ceil(mc / P) ceil(n / lanes)) + its "
+         "pipeline + 1. Measured: the cocotb test `cycle_contract` of verif/dgp/tb.py in Verilator, which asserts "
+         "every answer's cycle against the contract (cold zero starts at Imax = 1, 2, 3; warm starts, the first "
+         "from a nonzero dual) and reads CYCLES_PER_ITER.", ""]
     body = [[r["tag"], f"{r['issue_K']} + {r['issue_G']}", str(r["cycles_per_iteration"]), str(r["overhead"]),
+             _n(r.get("zero_start_saving")),
              f"{_n(r['measured_overhead'])} + I x {_n(r['measured_cycles_per_iteration'])}"
              if r["measured_cycles_per_iteration"] is not None else "not run",
              _f(r["measured_equals_corejson"], "{}", "-"), f"{r['cycles_at_imax']} ({r['imax']})",
              str(r["multipliers"]), str(r["mult18_products"])] for r in rows]
-    L += _table(["core", "issue K + G", "cycles / iteration", "overhead", "measured", "= core.json",
+    L += _table(["core", "issue K + G", "cycles / iteration", "overhead", "zero start saves", "measured", "= core.json",
                  "cycles at Imax (Imax)", "multipliers", "MULT18X18D of the products"], body)
     return L + [""]
 
@@ -178,8 +182,9 @@ def _iterations_part(rows: list[dict], loop) -> list[str]:
                      for role, warm in mt.get("warm", {}).items())
          + f" as its design starts. Cold: {mt['states']} random states of the accepted box and random references, "
          "y = 0. Met: the stopping "
-         "test held (otherwise the solve ran to Imax). Latency: overhead + I x cycles per iteration; us at the core's "
-         "placed Fmax.", ""]
+         "test held (otherwise the solve ran to Imax). Zero starts: the solves whose starting dual was all zero (every "
+         "cold start; warm, after a solve that ended with no row active), which skip the first pass K. Latency: "
+         "overhead + I x cycles per iteration, less the zero start's saving; us at the core's placed Fmax.", ""]
     body = []
     for r in rows:
         warm = loop.meta.get("warm", {}).get(r["role"])
@@ -187,11 +192,11 @@ def _iterations_part(rows: list[dict], loop) -> list[str]:
                           ("cold", "random states, cold")):
             if f"{key}_solves" not in r:
                 continue
-            body.append([r["tag"], what, f"{r[f'{key}_met']} / {r[f'{key}_solves']}",
+            body.append([r["tag"], what, f"{r[f'{key}_met']} / {r[f'{key}_solves']}", str(r[f"{key}_zero_starts"]),
                          f"{r[f'{key}_iter_median']:g} / {r[f'{key}_iter_p99']:.1f} / {r[f'{key}_iter_max']}",
                          f"{r[f'{key}_cycles_median']:.0f} / {r[f'{key}_cycles_p99']:.0f} / {r[f'{key}_cycles_max']}",
                          " / ".join(_f(r[f"{key}_us_{s}"], "{:.1f}") for s in ("median", "p99", "max"))])
-    L += _table(["core", "case", "met", "iterations median / p99 / max", "cycles median / p99 / max",
+    L += _table(["core", "case", "met", "zero starts", "iterations median / p99 / max", "cycles median / p99 / max",
                  "us median / p99 / max"], body)
     L += ["", "At Imax (the bound the core never exceeds): "
           + "; ".join(f"{r['tag']} {r['cycles_at_imax']} cycles" + (f", {r['worst_us']:.0f} us" if r["worst_us"]

@@ -9,7 +9,8 @@ For every (M, N) of the grid:
               instance does not fit
   latency     one closed loop of the plant under the core's golden controller (mpc_bench.dgp.closed_loop: warm
               start, references held `HOLD` steps): iterations per step to the stopping test (32c) or Imax, cycles
-              (core.json's overhead + I x cycles_per_iteration) and us at the clock the sweep states
+              (core.json's overhead + I x cycles_per_iteration, less zero_start_saving_cycles on a zero start) and
+              us at the clock the sweep states
   software    DAQP (hot start, every row a general constraint) and OSQP (warm start) on the same QPs by their own
               timers (mpc_bench.dgp's StateQp solvers), one pinned CPU: median, p99 and max; the error of u0 against
               the QP's optimum (OSQP at eps 1e-9)
