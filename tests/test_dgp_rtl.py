@@ -1,8 +1,9 @@
 """RTL of the generated DGP core (iteration (35) of 003) against its bit-exact golden model in Verilator: the words
-and the status word of every answer, the latency solve_overhead + I x cycles_per_iteration - Z x zero_start_saving_cycles with I the
-iterations run and Z the zero start (the starting dual all zero), backpressure, reset in the middle of a solve, HOLD and saturation, the output words clamped to the input box
-(verif/dgp/tb.py; the plain case and masses_state have answers outside the box); the issue's example
-through `make verilog`'s flow with its design report."""
+and the status word of every answer, the latency solve_overhead + I x cycles_per_iteration - Z x
+zero_start_saving_cycles with I the iterations run and Z the zero start (the starting dual all zero), backpressure,
+reset in the middle of a solve, HOLD and saturation, the output words clamped to the input box (verif/dgp/tb.py; the
+plain case and masses_state have answers outside the box); the issue's example through `make verilog`'s flow with its
+design report."""
 from __future__ import annotations
 
 import pytest
@@ -70,7 +71,8 @@ def dgp_cores():
 def test_rtl_bitexact(dgp_cores, cid):
     d, core = dgp_cores[cid]
     out = BUILD / cid
-    env = {"CORE_OUT": str(out), "CORE_RANDOM": str(CASES[cid][2]), "CORE_NONZERO_START": str(int(cid not in NO_BINDING))}
+    env = {"CORE_OUT": str(out), "CORE_RANDOM": str(CASES[cid][2]),
+           "CORE_NONZERO_START": str(int(cid not in NO_BINDING))}
     ran, failed = run_cocotb(out / core["sv"], core["module"], "verif.dgp.tb", out / "sim", env)
     assert (ran, failed) == (SCENARIOS, 0), f"{cid}: {failed} of {ran} scenarios failed (see {out}/sim/sim.log)"
 

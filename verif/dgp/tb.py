@@ -93,8 +93,8 @@ async def bitexact_random(dut):
 @cocotb.test()
 async def cycle_contract(dut):
     """LAST_CYCLES, ITERATIONS and the answer's cycle for cold starts (zero starts) at IMAX = 1, 2, 3 (the test
-    cannot hold that early at a state with active constraints), then warm starts at the default IMAX at states
-    outside the box (saturated to its corners), at least one of them from a nonzero dual"""
+    cannot hold that early at a state with active constraints), then warm starts at the default IMAX (half the
+    words outside the box, saturated to its faces), the first from a nonzero dual"""
     async def body():
         tb = await _start(dut, seed=3)
         await tb.set_ctrl(warm=False)
