@@ -262,8 +262,9 @@ def main(argv=None) -> None:
              "an estimate.", "",
              *scaling_dgp.table(dgp), "",
              "Core us: overhead + I x cycles per iteration (core.json's contract), I the iterations the golden model "
-             "ran (warm start), less the zero start's saving where the starting dual was all zero. DAQP: every row a general constraint, hot start; OSQP: warm start; their own timers "
-             "on the same QPs.", "", *_verdict(dgp), "",
+             "ran (warm start), less the zero start's saving where the starting dual was all zero. DAQP: every row a "
+             "general constraint, hot start; OSQP: warm start; their own timers on the same QPs.", "",
+             *_verdict(dgp), "",
              "Design choices: " + "; ".join(notes) + ".", "", "Plot: scaling.png."]
     (out / "scaling.md").write_text("\n".join(lines) + "\n")
     if a.docs:

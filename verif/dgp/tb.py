@@ -54,7 +54,7 @@ class DgpTB(TB):
         if cycles:
             lat = self.out_start[-1] - self.in_done[n_in]
             assert lat == self.over + iters * self.L - zs * self.save, \
-                f"{tag}: {lat} cycles to the answer, core.json says {self.over} + {iters} x {self.L} - {zs} x {self.save}"
+                f"{tag}: {lat} cycles to the answer, core.json: {self.over} + {iters} x {self.L} - {zs} x {self.save}"
         v, resp = await self.read(self.rm["ITERATIONS"])
         assert resp == AxiResp.OKAY and v & 0xFFFF == iters and (v >> 16) & 1 == int(r.met[0]) \
             and (v >> 17) & 1 == zs, (v, iters, zs)
