@@ -131,9 +131,10 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def row_latency(self) -> int:
-        """issue to the row's sum: memory read and its output register (2), the tree, the accumulator (1)"""
+        """issue to the row's sum: the address and chunk copies at the memories and lanes (1), the memory read and
+        its output register (2), the tree, the accumulator (1)"""
         depth = math.ceil(math.log2(self.lanes)) if self.lanes > 1 else 0
-        return 2 + self.lat_mul + self.lat_add * depth + 1
+        return 3 + self.lat_mul + self.lat_add * depth + 1
 
     @property
     def element_latency(self) -> int:
@@ -171,7 +172,9 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def solve_overhead(self) -> int:
-        return 2 + self.issue_cycles["F"] + self.div_cycles
+        """the frame's take (2), the first pass's issue, the plain form's first division; accelerated, the answer's
+        output queue (1) (DgpParams.solveOverhead)"""
+        return 2 + self.issue_cycles["F"] + self.div_cycles + (1 if self.accelerated else 0)
 
     def cycles_to_output(self, iters, zero_start=False):
         """from the handshake of the last input word to the first output word, for a solve of `iters` iterations

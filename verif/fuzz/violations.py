@@ -46,8 +46,8 @@ async def _survived(dut, what: str):
 
 @cocotb.test()
 async def stream_valid_dropped(dut):
-    """The answer's valid falls while it waits, without tready (FGM, ADMM: the output queue emptied or the
-    sequencer sent back to idle; DGP: its state sent back to idle)."""
+    """The answer's valid falls while it waits, without tready (FGM, ADMM, accelerated DGP: the output queue
+    emptied or the sequencer sent back to idle; plain DGP: its state sent back to idle)."""
     k = await _held_answer(dut)
     k.force_valid_drop(dut)
     await _survived(dut, "tvalid dropped")
@@ -55,8 +55,9 @@ async def stream_valid_dropped(dut):
 
 @cocotb.test()
 async def stream_data_changed(dut):
-    """The answer's word changes while the first waits and tlast rises without tready (FGM, ADMM: the head of the
-    output queue, or the output index moved to the last word; DGP: its output index moved to the status word)."""
+    """The answer's word changes while the first waits and tlast rises without tready (FGM, ADMM, accelerated
+    DGP: the head of the output queue, or the output index moved to the last word; plain DGP: its output index
+    moved to the status word)."""
     k = await _held_answer(dut, out_all=True)
     k.force_payload_change(dut)
     await _survived(dut, "tdata changed")

@@ -159,7 +159,7 @@ class DgpCore(val p: DgpParams) extends Module {
   // The chunk of a jump's slot is loaded ahead, not by the jump (whose condition comes late in its cycle): the
   // first slot's while idle (a take jumps there), pass K's first slot's in the gap before the decision and in the
   // decision (the next iteration jumps there); outside the issue and these, chunk holds
-  when(st === St.idle) { chunkD := slotBits(0)._1.U }
+  when(st === St.idle) { chunkD := slotBits(0)._1.U; passD := 0.U }
   when((st === St.gap && pass === 2.U) || st === St.decide) { chunkD := slotBits(p.baseK)._1.U }
   def jump(a: Int): Unit = {
     addr := a.U; firstC := slotBits(a)._2.B; lastC := slotBits(a)._3.B
@@ -185,7 +185,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val zsU    = if (acc) Nil else unitRegs(zSolve)
   when(take) {
     wReg := frameIn.io.frame
-    st := St.issue; passD := 0.U; jump(0); round := 0.U
+    st := St.issue; jump(0); round := 0.U
     iter := 0.U; imax := regs.imaxReg; cycles := 0.U
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
@@ -241,12 +241,13 @@ class DgpCore(val p: DgpParams) extends Module {
   val decideU = unitRegs(toDecide)
 
   // ------------------------------------------------------------------ row units
-  // Issue (cycle 0): the matrix address and the operand chunk. Cycle 1: the chunk registered (pass K: the two
-  // duals' chunks, subtracted after the register), the memory read. Cycle 2: the memory's output register and the
-  // chunk's copy at the unit: the tree's inputs.
+  // Issue (cycle 0): the matrix address and the operand chunk in the sequencer's registers. Cycle 1: the address in
+  // copies beside each memory's blocks (the memory's read), the chunk and the pass in copies at each lane (their
+  // select). Cycle 2: the chunk registered (pass K: the two duals' chunks, subtracted after the register), the
+  // memory's data. Cycle 3: the memory's output register and the chunk's copy at the unit: the tree's inputs.
   val matRam = (0 until P).map { u =>
     val r = Module(new InitRam(s"${p.moduleName}_mat$u", p.matRows, p.lanes, p.coefW, p.matInit(u), outReg = true,
-      ecp5 = p.target == Target.Ecp5 && p.matRows <= 1024))
+      ecp5 = p.target == Target.Ecp5 && p.matRows <= 1024, raddrAhead = true))
     r.io.clock := clock
     r.io.wen   := false.B
     r.io.waddr := 0.U
@@ -264,11 +265,19 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the token at stage `d` (>= 1) per unit: split, a kept copy each of the token a stage earlier */
   def unitTok(d: Int): Seq[Tok] = if (split) Seq.fill(P)(KeepReg(tokAt(d - 1))) else Seq.fill(P)(tokAt(d))
 
-  // the operand chunk: w (first pass), wy+ - wy- (K), z (G). Each lane selects its word by copies of its own of the
-  // chunk and the pass (FPGA targets: kept registers loaded with them), so that no register drives every lane
+  // the operand chunk: w (first pass), wy+ - wy- (K), z (G). Each lane selects its word in cycle 1 by copies of its
+  // own of the chunk and the pass (FPGA targets: kept registers, loaded from kept copies of a group of lanes, which
+  // the next values load), so that no register or decoder drives every lane
   val fpga   = p.target != Target.Generic
-  val chunkL = if (fpga) Seq.fill(p.lanes)(KeepReg(chunkD)) else Seq.fill(p.lanes)(chunk)
-  val passL  = if (fpga) Seq.fill(p.lanes)(KeepReg(passD)) else Seq.fill(p.lanes)(pass)
+  /** lanes per first-level copy of the chunk and the pass */
+  private val laneGroup = 4
+  private def laneCopies[T <: Data](next: T, now: T): Seq[T] =
+    if (fpga) {
+      val groups = Seq.fill((p.lanes + laneGroup - 1) / laneGroup)(KeepReg(next))
+      (0 until p.lanes).map(l => KeepReg(groups(l / laneGroup)))
+    } else Seq.fill(p.lanes)(RegNext(now))
+  val chunkL = laneCopies(chunkD, chunk)
+  val passL  = laneCopies(passD, pass)
   /** lane l's word of the chunk: x(j lanes + l) at chunk j */
   def laneWord(x: Seq[SInt], cs: Int, l: Int): SInt =
     VecInit((0 until cs).map(j => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))(chunkL(l))
@@ -277,16 +286,16 @@ class DgpCore(val p: DgpParams) extends Module {
     Mux(passL(l) === 2.U, zw, Mux(passL(l) === 1.U, yw, ww))
   }))
   val opM  = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
-  val op1  = VecInit((0 until p.lanes).map(l => Mux(tokAt(1).pass === 1.U, (opR(l) -& opM(l))(p.opW - 1, 0).asSInt, opR(l))))
+  val op1  = VecInit((0 until p.lanes).map(l => Mux(tokAt(2).pass === 1.U, (opR(l) -& opM(l))(p.opW - 1, 0).asSInt, opR(l))))
   val opU  = KeepReg.copies(op1, P, split)
-  val tokTU = unitTok(2 + p.treeLat)
+  val tokTU = unitTok(3 + p.treeLat)
   val tokRU = unitTok(p.rowLat)
   val accR  = Seq.fill(P)(Reg(SInt(p.accW.W)))
-  val tok2  = tokAt(2)
+  val tok3  = tokAt(3)
   val tree = (0 until P).map { u =>
     val t = Module(new DotProductTree(DotProductParams(p.lanes, p.coefW, p.opW, p.accW, b, p.latMul, p.latAdd,
       Rounding.Nearest, p.target)))
-    t.io.inValid := tok2.valid
+    t.io.inValid := tok3.valid
     t.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(p.lanes, SInt(p.coefW.W)))
     t.io.op      := opU(u)
     when(tokTU(u).valid) { accR(u) := Mux(tokTU(u).first, 0.S, accR(u)) + t.io.sum }
@@ -460,13 +469,17 @@ class DgpCore(val p: DgpParams) extends Module {
   val finish  = stop || lastIter
   val outIdx  = RegInit(0.U(16.W))
   for (u <- 0 until P) when(decideU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
-  // accelerated: the next extrapolated dual, y on a restart, else the candidate. The decision and the restart reach
-  // each group of 8 of a unit's rows of each half from copies of their own (FPGA targets: kept registers, loaded
-  // with the unit's), so that no register drives a whole vector
-  if (acc) for (u <- 0 until P; h <- 0 until 2; g <- 0 until rG by 8) {
-    val (dec, rs) = if (fpga) (KeepReg(toDecide), KeepReg(rstSum < 0.S)) else (decideU(u), restartU(u))
-    when(dec) {
-      for (k <- g until math.min(g + 8, rG)) wyEU(h)(u)(k) := Mux(rs, yU(h)(u)(k), wycU(h)(u)(k))
+  // accelerated: the next extrapolated dual, y on a restart, else the candidate, loaded in the cycle after the
+  // decision (pass K's first operand select is a cycle after its issue). The decision and the restart reach each
+  // group of 8 of a unit's rows of each half from copies of their own (FPGA targets: kept registers loaded from the
+  // unit's), so that no register drives a whole vector
+  if (acc) for (u <- 0 until P) {
+    val (decN, rsN) = (RegNext(decideU(u), false.B), RegNext(restartU(u)))
+    for (h <- 0 until 2; g <- 0 until rG by 8) {
+      val (dec, rs) = if (fpga) (KeepReg(decideU(u)), KeepReg(restartU(u))) else (decN, rsN)
+      when(dec) {
+        for (k <- g until math.min(g + 8, rG)) wyEU(h)(u)(k) := Mux(rs, yU(h)(u)(k), wycU(h)(u)(k))
+      }
     }
   }
   // the counter and beta of the next iteration without a restart, registered from kAcc (which changes at the
@@ -503,22 +516,48 @@ class DgpCore(val p: DgpParams) extends Module {
   }
   val word = Reg(SInt(W.W))
   val wordOk = Wire(Bool())
+  /** accelerated: an answer is in the output queue */
+  val queued = WireDefault(false.B)
   if (acc) {
-    // z is final from the decision cycle on (its clamped copy, three cycles behind z, long before): word 0 is loaded
-    // there; in the output state the copy shifts a word down as each word leaves, the next word at its head + 1
-    // (the load's select: the state a cycle late; z holds through the output state, so loading in its first cycle
-    // keeps the value)
-    // (the clamp's compares and its select in registered steps: z is final long before)
+    // z is final from the decision cycle on; its clamped copy zcl (the clamp's compares and its select in
+    // registered steps, three cycles behind z) loads the answer register zc until the decision that finishes. The
+    // words then move into a four-word output queue (shell.AnswerQueue) at `shift`, a register decided a cycle
+    // ahead from the state and the queue's room (from the decision on), zc shifting a word down at each: the
+    // stream's tready meets only the queue. Each word of zc takes its load and shift from kept copies of its own
+    // (FPGA targets), not one register driving every word's bits.
     val zcl = RegNext(VecInit((0 until n).map(i => clampRegistered(z(i), i))))
-    val outR = RegNext(st === St.out, false.B)
     val zc = Reg(Vec(n, SInt(W.W)))
-    when(m_axis.fire) {
-      for (i <- 0 until n - 1) zc(i) := zc(i + 1)
-    }.elsewhen(!outR) {
-      zc := zcl
+    val ansQ = Module(new shell.AnswerQueue(p.streamW))
+    val shift = RegInit(false.B)
+    /** the word the next shift moves is the status word */
+    val pushStatus = RegInit(false.B)
+    /** the status word has been decided: no more shifts this answer */
+    val sentAll = RegInit(false.B)
+    val answering = (st === St.decide && finish) || st === St.out
+    val shiftA = answering && !sentAll && ansQ.io.room
+    val countW = Mux(regs.ctrlOutAll, n.U, nu.U)
+    shift := shiftA
+    // outIdx: the words decided; the status word follows the data words
+    when(shiftA) {
+      outIdx := outIdx + 1.U
+      pushStatus := outIdx === countW
+      sentAll := outIdx === countW
     }
-    when(st === St.decide && finish) { word := zc(0) }
-    when(m_axis.fire) { word := zc.lift(1).getOrElse(zc(0)) }
+    // the answer register loads while no answer is on its way (a cycle ahead: not in the next cycle's output state)
+    val outNext = answering && !(shift && pushStatus)
+    val loads  = if (fpga) Seq.fill(n)(KeepReg(!outNext)) else Seq.fill(n)(RegNext(!outNext, true.B))
+    val shifts = if (fpga) Seq.fill(n)(KeepReg(shiftA)) else Seq.fill(n)(shift)
+    for (i <- 0 until n)
+      when(shifts(i)) { zc(i) := zc.lift(i + 1).getOrElse(zc(i)) }.elsewhen(loads(i)) { zc(i) := zcl(i) }
+    ansQ.io.push := shift
+    ansQ.io.data := Mux(pushStatus, statusWord.pad(p.streamW), zc(0).pad(p.streamW).asUInt)
+    ansQ.io.last := pushStatus
+    when(shift && pushStatus) { st := St.idle; outIdx := 0.U; sentAll := false.B; pushStatus := false.B }
+    m_axis.tvalid := ansQ.io.deq.valid
+    m_axis.tdata  := ansQ.io.deq.bits.data
+    m_axis.tlast  := ansQ.io.deq.bits.last
+    ansQ.io.deq.ready := m_axis.tready
+    queued := ansQ.io.deq.valid
     wordOk := true.B
   } else {
     // zbar_i = floor((2 Sz_i + I) / (2 I)): Sz / I rounded to nearest
@@ -536,15 +575,17 @@ class DgpCore(val p: DgpParams) extends Module {
     when(m_axis.fire) { have := false.B }
     wordOk := have
   }
-  m_axis.tvalid := st === St.out && (statusNow || wordOk)
-  m_axis.tdata  := Mux(statusNow, statusWord.pad(p.streamW), word.pad(p.streamW).asUInt)
-  m_axis.tlast  := statusNow
-  when(m_axis.fire) {
-    outIdx := outIdx + 1.U
-    when(statusNow) { st := St.idle }
+  if (!acc) {
+    m_axis.tvalid := st === St.out && (statusNow || wordOk)
+    m_axis.tdata  := Mux(statusNow, statusWord.pad(p.streamW), word.pad(p.streamW).asUInt)
+    m_axis.tlast  := statusNow
+    when(m_axis.fire) {
+      outIdx := outIdx + 1.U
+      when(statusNow) { st := St.idle }
+    }
   }
   bus.Protocol.streamOut("m_axis", m_axis)
-  regs.busy := st =/= St.idle || frameIn.io.full || frameIn.io.partial || s_axis.fire
+  regs.busy := st =/= St.idle || queued || frameIn.io.full || frameIn.io.partial || s_axis.fire
 }
 
 /** The register map of a DGP core: the shared registers and ITERATIONS; the data are fixed at generation. */

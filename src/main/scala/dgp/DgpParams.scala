@@ -124,9 +124,10 @@ case class DgpParams(
   val depth: Int = log2Ceil(lanes)
   /** dot-product tree: l_M + l_A ceil(log2 lanes) */
   val treeLat: Int = latMul + latAdd * depth
-  /** from a chunk's issue (matrix address, operand select) to its row's sum in the accumulator register (row
-    * result stage): RAM read with its output register and the operand registers 2, tree, accumulator 1 */
-  val rowLat: Int = 2 + treeLat + 1
+  /** from a chunk's issue (matrix address and chunk in the sequencer's registers) to its row's sum in the
+    * accumulator register (row result stage): the address and chunk copies at the memories and lanes 1, the RAM
+    * read with its output register and the operand registers 2, the tree, the accumulator 1 */
+  val rowLat: Int = 3 + treeLat + 1
   /** registered levels that add the units' sums of the stopping and restart tests */
   val unitDepth: Int = log2Ceil(units)
   /** idle cycles after pass K: its last z is written at its result stage, pass G's first operand reads it after */
@@ -154,8 +155,9 @@ case class DgpParams(
   /** cycles of the plain form's division of an output word (start to the word valid) */
   val divCycles: Int = if (accelerated) 0 else divW + 2
   /** from the handshake of the last input word to the first output word, besides the iterations: the frame's
-    * take (2), the first pass's issue (pass K follows at once), and the plain form's first division */
-  val solveOverhead: Int = 2 + issueF + divCycles
+    * take (2), the first pass's issue (pass K follows at once), and the plain form's first division; accelerated,
+    * the answer's output queue (1) */
+  val solveOverhead: Int = 2 + issueF + divCycles + (if (accelerated) 1 else 0)
   /** data-dependent solve: from the handshake of the last input word to the first output word */
   def cyclesToOutput(iters: Int, zeroStart: Boolean): Int =
     solveOverhead + iters * cyclesPerIteration - (if (zeroStart) zeroStartSaving else 0)
