@@ -110,8 +110,9 @@ class DgpCore(val p: DgpParams) extends Module {
   ovfU.foreach(_ := false.B)
   /** the first pass's bounds' flags, a cycle later than the row results' */
   val ovfB     = Wire(Vec(P, Bool()))
-  // the units' overflow flags, ORed a cycle later (the flags are read at the status word, long after)
-  val ovfNow   = RegNext(ovfU.asUInt.orR || ovfB.asUInt.orR, false.B)
+  // the units' overflow flags, registered per unit and ORed a cycle later (the flags are read at the status word,
+  // long after)
+  val ovfNow   = RegNext(VecInit((0 until P).map(u => RegNext(ovfU(u) || ovfB(u), false.B))).asUInt.orR, false.B)
   when(ovfNow) { solveOvf := true.B; regs.stOvf := true.B }
   // per iteration and unit: the test's violations (plain: some Sg_i > T; accelerated: some g_i > eg), the sums of
   // the gap and of the restart test
