@@ -58,6 +58,8 @@ class DgpCore(val p: DgpParams) extends Module {
   /** per unit, FPGA target, P > 1: each unit's registers take their controls and operands from kept copies of
     * their own (mem.KeepReg), so that no register drives all units across the device */
   val split = P > 1 && p.target != Target.Generic
+  /** an FPGA target: kept copies of the controls per lane and per group of rows */
+  val fpga  = p.target != Target.Generic
 
   // ------------------------------------------------------------------ state
   // The vectors read row by row are, per unit, rotating FIFOs read at their head (as the FGM's, Fig. 1 of 002):
@@ -86,11 +88,10 @@ class DgpCore(val p: DgpParams) extends Module {
   val z     = flat(zU, n)
   /** the operand dual of pass K, flat */
   val wyOp: Seq[Seq[SInt]] = wyEU.map(flat(_, mc))
-  /** one step of a rotating FIFO: the head leaves, `in` enters at the tail */
-  def rotate(q: Vec[SInt], in: SInt): Unit = {
-    for (i <- 0 until q.length - 1) q(i) := q(i + 1)
-    q(q.length - 1) := in
-  }
+  /** one step of a rotating FIFO: the head leaves, `in` enters at the tail; each group of rowGroup rows where its
+    * enable (`en`, one per group) is high */
+  def rotate(q: Vec[SInt], in: SInt, en: Seq[Bool]): Unit =
+    for (i <- 0 until q.length) when(en(i / rowGroup)) { q(i) := (if (i + 1 < q.length) q(i + 1) else in) }
   val tThr = Reg(SInt(p.sumW.W))
   val kAcc = RegInit(0.U(8.W))
   val betaRom = VecInit(p.beta.map(x => x.S(p.betaW.W)))
@@ -106,14 +107,8 @@ class DgpCore(val p: DgpParams) extends Module {
   val zTable = RegInit(false.B)
   val solveSat = RegInit(false.B)
   val solveOvf = RegInit(false.B)
-  val ovfU     = Wire(Vec(P, Bool()))
-  ovfU.foreach(_ := false.B)
-  /** the first pass's bounds' flags, a cycle later than the row results' */
-  val ovfB     = Wire(Vec(P, Bool()))
-  // the units' overflow flags, registered per unit and ORed a cycle later (the flags are read at the status word,
-  // long after)
-  val ovfNow   = RegNext(VecInit((0 until P).map(u => RegNext(ovfU(u) || ovfB(u), false.B))).asUInt.orR, false.B)
-  when(ovfNow) { solveOvf := true.B; regs.stOvf := true.B }
+  /** per unit, the overflow flags of its stages (each a condition of one cycle) */
+  val ovfFlags = Seq.fill(P)(scala.collection.mutable.ArrayBuffer[Bool]())
   // per iteration and unit: the test's violations (plain: some Sg_i > T; accelerated: some g_i > eg), the sums of
   // the gap and of the restart test
   val gapW   = 2 * W + 8
@@ -175,14 +170,27 @@ class DgpCore(val p: DgpParams) extends Module {
   /** per unit, `d` registered: a kept copy each when split, else one register for all */
   def unitRegs[T <: Data](d: T): Seq[T] = KeepReg.copies(d, P, split)
 
-  val take = st === St.idle && frameIn.io.full
+  // the take decided a cycle ahead, a flip-flop (it loads w, the sequencer and the frame buffer)
+  val take = RegInit(false.B)
+  take := st === St.idle && frameIn.io.full && !take
   frameIn.io.take := take
   val warmNow = regs.ctrlWarm && regs.warmValid
   val zeroNow = !warmNow || yZero
-  // The start's resets and warm start act a cycle after the take, per unit from its own copies (they reach every
-  // register of the duals): the first pass reads none of them, and it takes at least one cycle
+  // The start's resets act a cycle after the take, per unit from its own copies; those of the duals and sums (and
+  // the warm start) a cycle later, per group of rowGroup rows from copies of their own: the first pass reads none
+  // of them, and pass K's first operand select comes at least two cycles after the take
   val startU = unitRegs(take)
   val warmU  = unitRegs(warmNow)
+  /** rows per group of a FIFO that takes its enables from copies of its own */
+  val rowGroup = 8
+  def groups(len: Int): Int = (len + rowGroup - 1) / rowGroup
+  /** per unit and group of rows of a FIFO of `len`, `x` (a unit's register) registered once more: kept copies per
+    * group (FPGA targets), so that no register drives a whole vector */
+  def groupRegs(x: Seq[Bool], len: Int): Seq[Seq[Bool]] =
+    x.map(r => if (fpga) Seq.fill(groups(len))(KeepReg(r)) else Seq.fill(groups(len))(RegNext(r, false.B)))
+  val startG = groupRegs(startU, rG)
+  val warmG  = groupRegs(warmU, rG)
+  val startGK = if (acc) Nil else groupRegs(startU, rK)
   val zsU    = if (acc) Nil else unitRegs(zSolve)
   when(take) {
     wReg := frameIn.io.frame
@@ -193,14 +201,16 @@ class DgpCore(val p: DgpParams) extends Module {
     zSolve := zeroNow; zTable := zeroNow
     nx1 := Mux(zeroNow, bitsOf(zMap(1)), bitsOf(1)); nx2 := Mux(zeroNow, bitsOf(zMap(2)), bitsOf(2))
   }
-  for (u <- 0 until P) when(startU(u)) {
-    violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S
-    for (h <- 0 until 2; k <- 0 until rG) {
-      when(!warmU(u)) { yU(h)(u)(k) := 0.S }
-      if (acc) wyEU(h)(u)(k) := Mux(warmU(u), yU(h)(u)(k), 0.S)
+  for (u <- 0 until P) {
+    when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
+    for (k <- 0 until rG) when(startG(u)(k / rowGroup)) {
+      for (h <- 0 until 2) {
+        when(!warmG(u)(k / rowGroup)) { yU(h)(u)(k) := 0.S }
+        if (acc) wyEU(h)(u)(k) := Mux(warmG(u)(k / rowGroup), yU(h)(u)(k), 0.S)
+        if (!acc) sgU(h)(u)(k) := 0.S
+      }
     }
-    szU.lift(u).foreach(_.foreach(_ := 0.S))
-    if (!acc) sgU.foreach(_(u).foreach(_ := 0.S))
+    szU.lift(u).foreach(s => for (k <- 0 until rK) when(startGK(u)(k / rowGroup)) { s(k) := 0.S })
   }
   // a frame's saturation belongs to its solve (the frame may arrive while the previous one runs)
   val frameSat = RegInit(false.B)
@@ -269,7 +279,6 @@ class DgpCore(val p: DgpParams) extends Module {
   // the operand chunk: w (first pass), wy+ - wy- (K), z (G). Each lane selects its word in cycle 1 by copies of its
   // own of the chunk and the pass (FPGA targets: kept registers, loaded from kept copies of a group of lanes, which
   // the next values load), so that no register or decoder drives every lane
-  val fpga   = p.target != Target.Generic
   /** lanes per first-level copy of the chunk and the pass */
   private val laneGroup = 4
   private def laneCopies[T <: Data](next: T, now: T): Seq[T] =
@@ -318,10 +327,26 @@ class DgpCore(val p: DgpParams) extends Module {
     val c = pre.valid && pre.last && f(pre)
     if (split) Seq.fill(P)(KeepReg(c)) else Seq.fill(P)(RegNext(c, false.B))
   }
-  val rowEU  = rowFlag(t => t.pass === 0.U && t.round < rK.U)    // first pass, a row of Fe
-  val rowBU  = rowFlag(t => t.pass === 0.U && t.round >= rK.U)   // first pass, a row of Lw
-  val rowKU  = rowFlag(_.pass === 1.U)
-  val rowGU  = rowFlag(_.pass === 2.U)
+  val isE: Tok => Bool = t => t.pass === 0.U && t.round < rK.U    // first pass, a row of Fe
+  val isB: Tok => Bool = t => t.pass === 0.U && t.round >= rK.U   // first pass, a row of Lw
+  val isK: Tok => Bool = _.pass === 1.U
+  val isG: Tok => Bool = _.pass === 2.U
+  val rowEU  = rowFlag(isE)
+  val rowKU  = rowFlag(isK)
+  val rowGU  = rowFlag(isG)
+  /** per unit and group of rows of a FIFO of `len`, the condition `f` on the token at stage `d` (the last chunk of a
+    * valid row) as flip-flops: kept copies per group (FPGA targets), loaded from kept copies per unit, which load
+    * the condition two stages earlier; the FIFOs' rotate enables, no register driving more than a group */
+  def rowEnables(d: Int, len: Int, f: Tok => Bool): Seq[Seq[Bool]] = {
+    val pre = tokAt(d - 2)
+    val c = pre.valid && pre.last && f(pre)
+    groupRegs(if (fpga) Seq.fill(P)(KeepReg(c)) else Seq.fill(P)(RegNext(c, false.B)), len)
+  }
+  val rowL = p.rowLat
+  val enE = rowEnables(rowL, rK, isE)
+  val enK = rowEnables(rowL, rK, isK)
+  val enB = rowEnables(rowL + 1, rG, isB)
+  val enG = rowEnables(rowL, rG, isG)
   for (u <- 0 until P) {
     val tokR  = tokRU(u)
     val a     = accR(u)
@@ -337,35 +362,29 @@ class DgpCore(val p: DgpParams) extends Module {
     // first pass: rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail.
     // e enters z too, the z of a zero start's first iteration (pass K overwrites it otherwise), and the plain form's
     // Sz on a zero start
-    when(rowEU(u)) {
-      rotate(eU(u), eNew)
-      rotate(zU(u), eNew)
-      ovfU(u) := ofE
-    }
-    szU.lift(u).foreach(s => when(rowEU(u) && zsU(u)) { rotate(s, s(0) + eNew) })
+    rotate(eU(u), eNew, enE(u))
+    rotate(zU(u), eNew, enE(u))
+    ovfFlags(u) += rowEU(u) && ofE
+    szU.lift(u).foreach(s => rotate(s, s(0) + eNew, enE(u).map(_ && zsU(u))))
     // the bounds' sums are registered, then saturated into their FIFOs a cycle later (they are first read in pass G)
-    val bNext = RegNext(rowBU(u), false.B)
+    val bNext = enB(u).head
     val (loS, hiS) = (Reg(SInt((p.accW.max(W) + 1).W)), Reg(SInt((p.accW.max(W) + 1).W)))
     loS := lo0R +& a
     hiS := hi0R +& a
     val (loNew, ofL) = sat(loS)
     val (hiNew, ofH) = sat(hiS)
-    ovfB(u) := bNext && (ofL || ofH)
-    when(bNext) { rotate(loU(u), loNew); rotate(hiU(u), hiNew) }
-    when(rowKU(u)) {
-      rotate(zU(u), zNew)
-      ovfU(u) := ofZ
-      rotate(eU(u), eU(u)(0))
-      szU.lift(u).foreach(s => rotate(s, s(0) + zNew))
-    }
+    ovfFlags(u) += bNext && (ofL || ofH)
+    rotate(loU(u), loNew, enB(u)); rotate(hiU(u), hiNew, enB(u))
+    rotate(zU(u), zNew, enK(u))
+    ovfFlags(u) += rowKU(u) && ofZ
+    rotate(eU(u), eU(u)(0), enK(u))
+    szU.lift(u).foreach(s => rotate(s, s(0) + zNew, enK(u)))
 
     // pass G. E0: s = sat(G z), the bounds of the row (lo and hi rotate here) and its dual box, registered
     val (sNow, ofS) = sat(a)
     val rowG = rowGU(u)
-    when(rowG) {
-      rotate(loU(u), loU(u)(0)); rotate(hiU(u), hiU(u)(0))
-      when(ofS) { ovfU(u) := true.B }
-    }
+    rotate(loU(u), loU(u)(0), enG(u)); rotate(hiU(u), hiU(u)(0), enG(u))
+    ovfFlags(u) += rowG && ofS
     val e0  = RegNext(rowG, false.B)
     val s0  = Reg(SInt(W.W))
     s0 := sNow
@@ -376,7 +395,7 @@ class DgpCore(val p: DgpParams) extends Module {
     // E1: g = (s - hi, lo - s)
     val (gpNow, ofGp) = sat(s0 -& hi0)
     val (gmNow, ofGm) = sat(lo0 -& s0)
-    when(e0 && (ofGp || ofGm)) { ovfU(u) := true.B }
+    ovfFlags(u) += e0 && (ofGp || ofGm)
     val e1 = RegNext(e0, false.B)
     val g1 = RegNext(VecInit(gpNow, gmNow))
     val u1 = RegNext(u0)
@@ -392,12 +411,15 @@ class DgpCore(val p: DgpParams) extends Module {
       val c = wy2(h) +& gmu(h)
       Mux(t < 0.S, 0.S, Mux(c >= 0.S, u1b(h), t))(W - 1, 0).asSInt
     }
+    // the rotate enables of the element stage's FIFOs, per group: y_new (E2: plain y; accelerated, the
+    // extrapolated dual), y (accelerated: E3), the extrapolated dual's candidate (accelerated: E6)
+    val en2 = rowEnables(rowL + 3, rG, isG)(u)
     if (acc) {
-      when(e1b) { for (h <- 0 until 2) rotate(wyEU(h)(u), wyEU(h)(u)(0)) }
+      for (h <- 0 until 2) rotate(wyEU(h)(u), wyEU(h)(u)(0), en2)
       when(e1b && (g1b(0) > p.eg.S || g1b(1) > p.eg.S)) { violU(u) := true.B }
     } else {
       val nv = (0 until 2).map(h => sgU(h)(u)(0) + g1b(h))
-      when(e1b) { for (h <- 0 until 2) { rotate(yU(h)(u), yNew(h)); rotate(sgU(h)(u), nv(h)) } }
+      for (h <- 0 until 2) { rotate(yU(h)(u), yNew(h), en2); rotate(sgU(h)(u), nv(h), en2) }
       // E3: the test's sums against the threshold
       val e3 = RegNext(e1b, false.B)
       val nv3 = RegNext(VecInit(nv))
@@ -414,7 +436,8 @@ class DgpCore(val p: DgpParams) extends Module {
       val u2  = RegNext(u1b)
       // E3: y rotates, its old value kept for dy
       val yOld = yU.map(_(u)(0))
-      when(e2) { for (h <- 0 until 2) rotate(yU(h)(u), yN2(h)) }
+      val en3 = rowEnables(rowL + 4, rG, isG)(u)
+      for (h <- 0 until 2) rotate(yU(h)(u), yN2(h), en3)
       when(e2 && (yN2(0) =/= 0.S || yN2(1) =/= 0.S)) { nzU(u) := true.B }
       val e3 = RegNext(e2, false.B)
       val yN3 = RegNext(yN2)
@@ -446,11 +469,18 @@ class DgpCore(val p: DgpParams) extends Module {
       when(e6) {
         gapU(u) := gapU(u) + sGap
         rstU(u) := rstU(u) + sRst
-        // a row past the unit's last has ud = 0, so its candidate is 0
-        for (h <- 0 until 2) rotate(wycU(h)(u), clip(tExt(h), u6(h)))
       }
+      // a row past the unit's last has ud = 0, so its candidate is 0
+      val en6 = rowEnables(rowL + 7 + p.latMul, rG, isG)(u)
+      for (h <- 0 until 2) rotate(wycU(h)(u), clip(tExt(h), u6(h)), en6)
     }
   }
+
+  // the units' overflow flags, each registered, ORed per unit and registered, then over the units (the flag is read
+  // at the status word, long after)
+  val ovfNow = RegNext(VecInit((0 until P).map(u =>
+    RegNext(VecInit(ovfFlags(u).toSeq.map(RegNext(_, false.B))).asUInt.orR, false.B))).asUInt.orR, false.B)
+  when(ovfNow) { solveOvf := true.B; regs.stOvf := true.B }
 
   // ------------------------------------------------------------------ decision
   // the units' flags and sums added in registered levels (unitDepth), then the test's flags registered
