@@ -545,52 +545,13 @@ class DgpCore(val p: DgpParams) extends Module {
     val (xr, below, above) = (RegNext(x), RegNext(x < l), RegNext(x > h))
     Mux(below, l, Mux(above, h, xr))
   }
-  val word = Reg(SInt(W.W))
-  val wordOk = Wire(Bool())
-  /** accelerated: an answer is in the output queue */
-  val queued = WireDefault(false.B)
-  if (acc) {
-    // z is final from the decision cycle on; its clamped copy zcl (the clamp's compares and its select in
-    // registered steps, three cycles behind z) loads the answer register zc until the decision that finishes. The
-    // words then move into a four-word output queue (shell.AnswerQueue) at `shift`, a register decided a cycle
-    // ahead from the state and the queue's room (from the decision on), zc shifting a word down at each: the
-    // stream's tready meets only the queue. Each word of zc takes its load and shift from kept copies of its own
-    // (FPGA targets), not one register driving every word's bits.
-    val zcl = RegNext(VecInit((0 until n).map(i => clampRegistered(z(i), i))))
-    val zc = Reg(Vec(n, SInt(W.W)))
-    val ansQ = Module(new shell.AnswerQueue(p.streamW))
-    val shift = RegInit(false.B)
-    /** the word the next shift moves is the status word */
-    val pushStatus = RegInit(false.B)
-    /** the status word has been decided: no more shifts this answer */
-    val sentAll = RegInit(false.B)
-    val answering = (st === St.decide && finish) || st === St.out
-    val shiftA = answering && !sentAll && ansQ.io.room
-    val countW = Mux(regs.ctrlOutAll, n.U, nu.U)
-    shift := shiftA
-    // outIdx: the words decided; the status word follows the data words
-    when(shiftA) {
-      outIdx := outIdx + 1.U
-      pushStatus := outIdx === countW
-      sentAll := outIdx === countW
-    }
-    // the answer register loads while no answer is on its way (a cycle ahead: not in the next cycle's output state)
-    val outNext = answering && !(shift && pushStatus)
-    val loads  = if (fpga) Seq.fill(n)(KeepReg(!outNext)) else Seq.fill(n)(RegNext(!outNext, true.B))
-    val shifts = if (fpga) Seq.fill(n)(KeepReg(shiftA)) else Seq.fill(n)(shift)
-    for (i <- 0 until n)
-      when(shifts(i)) { zc(i) := zc.lift(i + 1).getOrElse(zc(i)) }.elsewhen(loads(i)) { zc(i) := zcl(i) }
-    ansQ.io.push := shift
-    ansQ.io.data := Mux(pushStatus, statusWord.pad(p.streamW), zc(0).pad(p.streamW).asUInt)
-    ansQ.io.last := pushStatus
-    when(shift && pushStatus) { st := St.idle; outIdx := 0.U; sentAll := false.B; pushStatus := false.B }
-    m_axis.tvalid := ansQ.io.deq.valid
-    m_axis.tdata  := ansQ.io.deq.bits.data
-    m_axis.tlast  := ansQ.io.deq.bits.last
-    ansQ.io.deq.ready := m_axis.tready
-    queued := ansQ.io.deq.valid
-    wordOk := true.B
-  } else {
+  /** accelerated: an answer is in the output queue (DgpAnswer) */
+  val queued: Bool = if (acc) chisel3.experimental.noPrefix {
+    DgpAnswer(p, fpga, VecInit((0 until n).map(i => clampRegistered(z(i), i))),
+      (st === St.decide && finish) || st === St.out, regs.ctrlOutAll, outIdx, statusWord, m_axis, () => st := St.idle)
+  } else false.B
+  if (!acc) {
+    val word = Reg(SInt(W.W))
     // zbar_i = floor((2 Sz_i + I) / (2 I)): Sz / I rounded to nearest
     val div = Module(new SerialDivider(p.divW, 18))
     val have = RegInit(false.B)
@@ -604,10 +565,7 @@ class DgpCore(val p: DgpParams) extends Module {
     val qHi = RegNext(VecInit(p.outHi.map(_.S(W.W)))(outIdx))
     when(div.io.done) { have := true.B; word := Mux(q < qLo, qLo, Mux(q > qHi, qHi, q)) }
     when(m_axis.fire) { have := false.B }
-    wordOk := have
-  }
-  if (!acc) {
-    m_axis.tvalid := st === St.out && (statusNow || wordOk)
+    m_axis.tvalid := st === St.out && (statusNow || have)
     m_axis.tdata  := Mux(statusNow, statusWord.pad(p.streamW), word.pad(p.streamW).asUInt)
     m_axis.tlast  := statusNow
     when(m_axis.fire) {
@@ -617,30 +575,4 @@ class DgpCore(val p: DgpParams) extends Module {
   }
   bus.Protocol.streamOut("m_axis", m_axis)
   regs.busy := st =/= St.idle || queued || frameIn.io.full || frameIn.io.partial || s_axis.fire
-}
-
-/** The register map of a DGP core: the shared registers and ITERATIONS; the data are fixed at generation. */
-object DgpRegs {
-  val ITERATIONS = SolverRegs.FirstCoreReg
-
-  def map(p: DgpParams): RegMap = {
-    val shared = SolverRegs.registers("DGP1",
-      config0 = Seq(Field.const("n", 0, 16, p.n, "decision variables n = N nu"),
-        Field.const("m", 16, 16, 2 * p.mc, "one-sided constraints (dual words)")),
-      config1 = Seq(Field.const("nw", 0, 16, p.nw, "parameter words per solve, w = (x, r)"),
-        Field.const("frac_bits", 16, 8, p.fracBits, "fraction bits of the data and stream words"),
-        Field.const("nu", 24, 8, p.nu, "inputs per stage")),
-      ctrl = SolverRegs.ctrlFields(p.warmDefault, p.outAllDefault, "u0 (nu words)",
-        warmText = "start from the previous solve's dual (unshifted) when STATUS.WARM_VALID, else from y = 0"),
-      status = SolverRegs.statusFields(unused = Set("WRITE_REJECTED")),
-      cyclesPerIteration = p.cyclesPerIteration, imaxDefault = p.imaxDefault,
-      lastCycles = "cycles of the last solve, first pass to its decision cycle")
-    val its = Register("ITERATIONS", ITERATIONS, "the last solve's iterations", Seq(
-      Field.status("COUNT", 0, 16, "iterations run by the last solve"),
-      Field.status("MET", 16, 1, "the last solve stopped at the test ((32c) of 003; accelerated: with the gap test)"),
-      Field.status("ZERO_START", 17, 1, "the last solve started from an all-zero dual (every cold start) and skipped " +
-        "its first pass K: its cycles are those of core.json's zero_start_saving_cycles fewer")))
-    RegMap(p.moduleName, s"DGP core ${p.moduleName}: control and status; the problem data are fixed at generation. " +
-      SolverRegs.rules, shared :+ its, Nil)
-  }
 }

@@ -1,0 +1,53 @@
+package dgp
+
+import chisel3._
+import bus.AxiStreamIO
+import mem.KeepReg
+
+/** The accelerated DGP core's answer path. z is final from the decision cycle on; its clamped copy (`clamped`, the
+  * clamp's compares and select in registered steps, registered once more here: three cycles behind z) loads the
+  * answer register zc until the decision that finishes. The words then move into a four-word output queue
+  * (shell.AnswerQueue) at `shift`, a register decided a cycle ahead from the state and the queue's room (from the
+  * decision on), zc shifting a word down at each: the stream's tready meets only the queue. Each word of zc takes
+  * its load and shift from kept copies of its own (FPGA targets), not one register driving every word's bits.
+  */
+object DgpAnswer {
+  /** Drives `port`; `answering`: the decision that finishes or the output state; `outIdx`: the core's word index
+    * (the words decided; the status word follows the nu, or n with `outAll`, data words); `done` runs as the
+    * status word enters the queue. Returns whether an answer waits in the queue. */
+  def apply(p: DgpParams, fpga: Boolean, clamped: Vec[SInt], answering: Bool, outAll: Bool, outIdx: UInt,
+      statusWord: UInt, port: AxiStreamIO, done: () => Unit): Bool = {
+    val n = p.n
+    val zcl = RegNext(clamped)
+    val zc = Reg(Vec(n, SInt(p.dataW.W)))
+    val ansQ = Module(new shell.AnswerQueue(p.streamW))
+    val shift = RegInit(false.B)
+    /** the word the next shift moves is the status word */
+    val pushStatus = RegInit(false.B)
+    /** the status word has been decided: no more shifts this answer */
+    val sentAll = RegInit(false.B)
+    val shiftA = answering && !sentAll && ansQ.io.room
+    val countW = Mux(outAll, n.U, p.nu.U)
+    shift := shiftA
+    when(shiftA) {
+      outIdx := outIdx + 1.U
+      pushStatus := outIdx === countW
+      sentAll := outIdx === countW
+    }
+    // the answer register loads while no answer is on its way (a cycle ahead: not in the next cycle's output state)
+    val outNext = answering && !(shift && pushStatus)
+    val loads  = if (fpga) Seq.fill(n)(KeepReg(!outNext)) else Seq.fill(n)(RegNext(!outNext, true.B))
+    val shifts = if (fpga) Seq.fill(n)(KeepReg(shiftA)) else Seq.fill(n)(shift)
+    for (i <- 0 until n)
+      when(shifts(i)) { zc(i) := zc.lift(i + 1).getOrElse(zc(i)) }.elsewhen(loads(i)) { zc(i) := zcl(i) }
+    ansQ.io.push := shift
+    ansQ.io.data := Mux(pushStatus, statusWord.pad(p.streamW), zc(0).pad(p.streamW).asUInt)
+    ansQ.io.last := pushStatus
+    when(shift && pushStatus) { done(); outIdx := 0.U; sentAll := false.B; pushStatus := false.B }
+    port.tvalid := ansQ.io.deq.valid
+    port.tdata  := ansQ.io.deq.bits.data
+    port.tlast  := ansQ.io.deq.bits.last
+    ansQ.io.deq.ready := port.tready
+    ansQ.io.deq.valid
+  }
+}
