@@ -131,10 +131,10 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def row_latency(self) -> int:
-        """issue to the row's sum: the address and chunk copies at the memories and lanes (1), the memory read and
-        its output register (2), the tree, the accumulator (1)"""
+        """issue to the row's sum: the chunk's copies at the lanes (1), the lanes' words and their pass select (2),
+        the operand's copies at the units (1; the memory's read runs beside), the tree, the accumulator (1)"""
         depth = math.ceil(math.log2(self.lanes)) if self.lanes > 1 else 0
-        return 3 + self.lat_mul + self.lat_add * depth + 1
+        return 4 + self.lat_mul + self.lat_add * depth + 1
 
     @property
     def element_latency(self) -> int:

@@ -252,10 +252,13 @@ class DgpCore(val p: DgpParams) extends Module {
   val decideU = unitRegs(toDecide)
 
   // ------------------------------------------------------------------ row units
-  // Issue (cycle 0): the matrix address and the operand chunk in the sequencer's registers. Cycle 1: the address in
-  // copies beside each memory's blocks (the memory's read), the chunk and the pass in copies at each lane (their
-  // select). Cycle 2: the chunk registered (pass K: the two duals' chunks, subtracted after the register), the
-  // memory's data. Cycle 3: the memory's output register and the chunk's copy at the unit: the tree's inputs.
+  // Issue (cycle 0): the matrix address and the operand chunk in the sequencer's registers. Cycle 1: the chunk and
+  // the pass in copies at each lane, which selects its word of each vector (registered). Cycle 2: the address in
+  // copies beside each memory's blocks (the memory's read); each lane selects by the pass (pass K: the two duals'
+  // words subtracted), registered. Cycle 3: the operand chunk copied to each unit, the memory's data. Cycle 4: the
+  // memory's output register and the unit's copy of the chunk: the tree's inputs.
+  /** the address a cycle after its issue: the memories register it in copies beside their blocks */
+  val addrR = RegNext(addr)
   val matRam = (0 until P).map { u =>
     val r = Module(new InitRam(s"${p.moduleName}_mat$u", p.matRows, p.lanes, p.coefW, p.matInit(u), outReg = true,
       ecp5 = p.target == Target.Ecp5 && p.matRows <= 1024, raddrAhead = true))
@@ -264,7 +267,7 @@ class DgpCore(val p: DgpParams) extends Module {
     r.io.waddr := 0.U
     r.io.wmask := 0.U
     r.io.wdata := 0.U
-    r.io.raddr := addr
+    r.io.raddr := addrR
     r
   }
   class Tok extends Bundle {
@@ -276,9 +279,11 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the token at stage `d` (>= 1) per unit: split, a kept copy each of the token a stage earlier */
   def unitTok(d: Int): Seq[Tok] = if (split) Seq.fill(P)(KeepReg(tokAt(d - 1))) else Seq.fill(P)(tokAt(d))
 
-  // the operand chunk: w (first pass), wy+ - wy- (K), z (G). Each lane selects its word in cycle 1 by copies of its
-  // own of the chunk and the pass (FPGA targets: kept registers, loaded from kept copies of a group of lanes, which
-  // the next values load), so that no register or decoder drives every lane
+  // the operand chunk: w (first pass), wy+ - wy- (K), z (G). Each lane selects its word of each vector in cycle 1 by
+  // copies of its own of the chunk and the pass (FPGA targets: kept registers, loaded from kept copies of a group of
+  // lanes, which the next values load), so that no register or decoder drives every lane; the words are registered
+  // where they are read (a lane's words of z and of the duals belong to one unit when P divides the lanes), and the
+  // pass's select and subtraction follow in cycle 2
   /** lanes per first-level copy of the chunk and the pass */
   private val laneGroup = 4
   private def laneCopies[T <: Data](next: T, now: T): Seq[T] =
@@ -291,21 +296,23 @@ class DgpCore(val p: DgpParams) extends Module {
   /** lane l's word of the chunk: x(j lanes + l) at chunk j */
   def laneWord(x: Seq[SInt], cs: Int, l: Int): SInt =
     VecInit((0 until cs).map(j => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))(chunkL(l))
-  val opR  = RegNext(VecInit((0 until p.lanes).map { l =>
-    val (zw, yw, ww) = (laneWord(z, p.cG, l), laneWord(wyOp(0), p.cK, l), laneWord(wReg, p.cF, l))
-    Mux(passL(l) === 2.U, zw, Mux(passL(l) === 1.U, yw, ww))
+  val zwR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(z, p.cG, l))))
+  val ypR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(0), p.cK, l))))
+  val ymR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
+  val wwR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wReg, p.cF, l))))
+  val opR = RegNext(VecInit((0 until p.lanes).map { l =>
+    val pl = RegNext(passL(l))
+    Mux(pl === 2.U, zwR(l), Mux(pl === 1.U, (ypR(l) -& ymR(l))(p.opW - 1, 0).asSInt, wwR(l)))
   }))
-  val opM  = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
-  val op1  = VecInit((0 until p.lanes).map(l => Mux(tokAt(2).pass === 1.U, (opR(l) -& opM(l))(p.opW - 1, 0).asSInt, opR(l))))
-  val opU  = KeepReg.copies(op1, P, split)
-  val tokTU = unitTok(3 + p.treeLat)
+  val opU  = KeepReg.copies(opR, P, split)
+  val tokTU = unitTok(4 + p.treeLat)
   val tokRU = unitTok(p.rowLat)
   val accR  = Seq.fill(P)(Reg(SInt(p.accW.W)))
-  val tok3  = tokAt(3)
+  val tok4  = tokAt(4)
   val tree = (0 until P).map { u =>
     val t = Module(new DotProductTree(DotProductParams(p.lanes, p.coefW, p.opW, p.accW, b, p.latMul, p.latAdd,
       Rounding.Nearest, p.target)))
-    t.io.inValid := tok3.valid
+    t.io.inValid := tok4.valid
     t.io.coef    := matRam(u).io.rdata.asTypeOf(Vec(p.lanes, SInt(p.coefW.W)))
     t.io.op      := opU(u)
     when(tokTU(u).valid) { accR(u) := Mux(tokTU(u).first, 0.S, accR(u)) + t.io.sum }

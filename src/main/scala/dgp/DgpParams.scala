@@ -125,9 +125,10 @@ case class DgpParams(
   /** dot-product tree: l_M + l_A ceil(log2 lanes) */
   val treeLat: Int = latMul + latAdd * depth
   /** from a chunk's issue (matrix address and chunk in the sequencer's registers) to its row's sum in the
-    * accumulator register (row result stage): the address and chunk copies at the memories and lanes 1, the RAM
-    * read with its output register and the operand registers 2, the tree, the accumulator 1 */
-  val rowLat: Int = 3 + treeLat + 1
+    * accumulator register (row result stage): the chunk's copies at the lanes and the address register 1, the
+    * lanes' words and their pass select 2 (the address's copies at the memories and the RAM read), the operand's
+    * copies at the units and the RAM's output register 1, the tree, the accumulator 1 */
+  val rowLat: Int = 4 + treeLat + 1
   /** registered levels that add the units' sums of the stopping and restart tests */
   val unitDepth: Int = log2Ceil(units)
   /** idle cycles after pass K: its last z is written at its result stage, pass G's first operand reads it after */
