@@ -35,7 +35,7 @@ from mpc_cores.errors import DesignError
 from mpc_cores.fixed import bits_for, quantize
 from mpc_cores.problem import MpcProblem
 from mpc_cores.schema import PART, PART_BLOCKS, PART_MULTS
-from mpc_cores.target import dp16kd, dsp_count
+from mpc_cores.target import dp16kd, dsp_count, min_lat_mul
 
 ALPHA = 2.0
 BETA_TABLE = 256          # accelerated form: beta_k = k / (k + 3) for k < 256, then beta_255
@@ -137,9 +137,18 @@ class DgpDesign(FixedPointDesign):
         return 4 + self.lat_mul + self.lat_add * depth + 1
 
     @property
+    def element_lat_mul(self) -> int:
+        """stages of the accelerated element stage's products (DgpParams.latMulE): l_M, and where the target sums
+        partial products, at least 2 beyond its DSP pipeline (the DSP outputs land in fabric registers)"""
+        w = self.widths
+        need = min_lat_mul(self.target, [(w["data"], w["data"]), (w["beta"], w["data"])])
+        return max(self.lat_mul, need + 2) if need >= 4 else self.lat_mul
+
+    @property
     def element_latency(self) -> int:
-        """from a row of pass G's sum to the test's sums that count it: plain 5; accelerated 8 + l_M (DgpParams)"""
-        return 8 + self.lat_mul if self.accelerated else 5
+        """from a row of pass G's sum to the test's sums that count it: plain 5; accelerated 8 + element_lat_mul
+        (DgpParams)"""
+        return 8 + self.element_lat_mul if self.accelerated else 5
 
     @property
     def gap_cycles(self) -> dict:

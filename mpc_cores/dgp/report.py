@@ -72,7 +72,9 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
         f"row accumulator {d.widths['acc']}, sums of the test {d.widths['sum']}, stream {d.widths['stream']} bits",
         f"  Row units: P = {d.P} of {d.lanes} lanes, rows per unit K {d.rounds['K']}, G {d.rounds['G']}; chunks per "
         f"row F {d.chunks['F']}, K {d.chunks['K']}, G {d.chunks['G']}, issued where a round's rows have a nonzero "
-        f"(F {i['F']}, K {i['K']}, G {i['G']} of {', '.join(map(str, d.dense_issue_cycles.values()))}); l_A = {d.lat_add}, l_M = {d.lat_mul}",
+        f"(F {i['F']}, K {i['K']}, G {i['G']} of {', '.join(map(str, d.dense_issue_cycles.values()))}); l_A = {d.lat_add}, l_M = {d.lat_mul}"
+        + (f" (the element stage's products {d.element_lat_mul}: their DSP outputs land in fabric registers)"
+           if d.accelerated and d.element_lat_mul != d.lat_mul else ""),
         report_line(d.target, d.lat_mul, d.products(), _counts(d)),
         f"  Cycles per iteration: {d.cycles_per_iteration} = pass K {i['K']} + {g['K']} + pass G {i['G']} + {g['G']}"
         f" + 1",

@@ -459,14 +459,14 @@ class DgpCore(val p: DgpParams) extends Module {
       val g4  = RegNext(g3)
       val w4  = RegNext(w3)
       val u4  = RegNext(u3)
-      def prod(x: SInt, c: SInt): SInt = FixedOps.mulRoundPipelined(x, c, p.latMul, b, Rounding.Nearest, p.target)
+      def prod(x: SInt, c: SInt): SInt = FixedOps.mulRoundPipelined(x, c, p.latMulE, b, Rounding.Nearest, p.target)
       val pGap = (0 until 2).map(h => prod(w4(h), g4(h)))
       val pRst = (0 until 2).map(h => prod(g4(h), dy4(h)))
       val pExt = (0 until 2).map(h => prod(betaR, dy4(h)))
-      // E5 (l_M later): the products' sums, and the extrapolation before its clip
-      val e5  = ShiftRegister(e4, p.latMul, false.B, true.B)
-      val yN5 = ShiftRegister(yN4, p.latMul)
-      val u5  = ShiftRegister(u4, p.latMul)
+      // E5 (latMulE later): the products' sums, and the extrapolation before its clip
+      val e5  = ShiftRegister(e4, p.latMulE, false.B, true.B)
+      val yN5 = ShiftRegister(yN4, p.latMulE)
+      val u5  = ShiftRegister(u4, p.latMulE)
       val e6   = RegNext(e5, false.B)
       val u6   = RegNext(u5)
       val sGap = RegNext(pGap(0) +& pGap(1))
@@ -478,7 +478,7 @@ class DgpCore(val p: DgpParams) extends Module {
         rstU(u) := rstU(u) + sRst
       }
       // a row past the unit's last has ud = 0, so its candidate is 0
-      val en6 = rowEnables(rowL + 7 + p.latMul, rG, isG)(u)
+      val en6 = rowEnables(rowL + 7 + p.latMulE, rG, isG)(u)
       for (h <- 0 until 2) rotate(wycU(h)(u), clip(tExt(h), u6(h)), en6)
     }
   }

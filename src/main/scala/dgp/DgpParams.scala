@@ -133,10 +133,17 @@ case class DgpParams(
   val unitDepth: Int = log2Ceil(units)
   /** idle cycles after pass K: its last z is written at its result stage, pass G's first operand reads it after */
   val gapK: Int = rowLat
+  /** stages of the element stage's products (accelerated): l_M, and where the target sums a product's partial
+    * products, at least 2 beyond its DSP pipeline, so that the DSP outputs land in fabric registers before their sum
+    * (FixedOps.mulStages) */
+  val latMulE: Int = {
+    val need = Seq(target.minLatency(dataW, dataW), target.minLatency(betaW, dataW)).max
+    if (need >= 4) math.max(latMul, need + 2) else latMul
+  }
   /** from a row of pass G's sum to the test's sums that count it (the element stage): s and the row's bounds (1),
     * g (1), g - ud (1), y_new and plain: Sg (1), the threshold's compare (1); accelerated: y rotated (1), dy (1),
-    * the products (l_M), their sums and the extrapolation (1), the accumulators and the extrapolated dual (1) */
-  val elementLat: Int = if (accelerated) 8 + latMul else 5
+    * the products (latMulE), their sums and the extrapolation (1), the accumulators and the extrapolated dual (1) */
+  val elementLat: Int = if (accelerated) 8 + latMulE else 5
   /** idle cycles after pass G before the decision: the element stage, the sums over the units (unitDepth
     * registered levels) and the registered test flags (1, counted in the decision's cycle) */
   val gapG: Int = rowLat + elementLat + unitDepth
