@@ -182,8 +182,8 @@ class DgpDesign(FixedPointDesign):
     @property
     def solve_overhead(self) -> int:
         """the frame's take (3), the first pass's issue, the plain form's first division; accelerated, the answer's
-        output queue (1) (DgpParams.solveOverhead)"""
-        return 3 + self.issue_cycles["F"] + self.div_cycles + (1 if self.accelerated else 0)
+        flag and its output queue (2) (DgpParams.solveOverhead)"""
+        return 3 + self.issue_cycles["F"] + self.div_cycles + (2 if self.accelerated else 0)
 
     def cycles_to_output(self, iters, zero_start=False):
         """from the handshake of the last input word to the first output word, for a solve of `iters` iterations

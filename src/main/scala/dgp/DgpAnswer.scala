@@ -7,15 +7,16 @@ import mem.KeepReg
 /** The accelerated DGP core's answer path. z is final from the decision cycle on; its clamped copy (`clamped`, the
   * clamp's compares and select in registered steps, registered once more here: three cycles behind z) loads the
   * answer register zc until the decision that finishes. The words then move into a four-word output queue
-  * (shell.AnswerQueue) at `shift`, a register decided a cycle ahead from the state and the queue's room (from the
-  * decision on), zc shifting a word down at each: the stream's tready meets only the queue. Each word of zc takes
+  * (shell.AnswerQueue) at `shift`, a register decided a cycle ahead from a flag of its own (the answer is going out:
+  * from the cycle after that decision until the status word enters the queue) and the queue's room, zc shifting a
+  * word down at each: the stream's tready meets only the queue. Each word of zc takes
   * its load and shift from kept copies of its own (FPGA targets), not one register driving every word's bits.
   */
 object DgpAnswer {
-  /** Drives `port`; `answering`: the decision that finishes or the output state; `outIdx`: the core's word index
+  /** Drives `port`; `finishing`: the decision that finishes; `outIdx`: the core's word index
     * (the words decided; the status word follows the nu, or n with `outAll`, data words); `done` runs as the
     * status word enters the queue. Returns whether an answer waits in the queue. */
-  def apply(p: DgpParams, fpga: Boolean, clamped: Vec[SInt], answering: Bool, outAll: Bool, outIdx: UInt,
+  def apply(p: DgpParams, fpga: Boolean, clamped: Vec[SInt], finishing: Bool, outAll: Bool, outIdx: UInt,
       statusWord: UInt, port: AxiStreamIO, done: () => Unit): Bool = {
     val n = p.n
     val zcl = RegNext(clamped)
@@ -26,7 +27,9 @@ object DgpAnswer {
     val pushStatus = RegInit(false.B)
     /** the status word has been decided: no more shifts this answer */
     val sentAll = RegInit(false.B)
-    val shiftA = answering && !sentAll && ansQ.io.room
+    /** the answer is going out (the core's output state) */
+    val on = RegInit(false.B)
+    val shiftA = on && !sentAll && ansQ.io.room
     val countW = Mux(outAll, n.U, p.nu.U)
     shift := shiftA
     when(shiftA) {
@@ -35,7 +38,8 @@ object DgpAnswer {
       sentAll := outIdx === countW
     }
     // the answer register loads while no answer is on its way (a cycle ahead: not in the next cycle's output state)
-    val outNext = answering && !(shift && pushStatus)
+    val outNext = finishing || (on && !(shift && pushStatus))
+    on := outNext
     val loads  = if (fpga) Seq.fill(n)(KeepReg(!outNext)) else Seq.fill(n)(RegNext(!outNext, true.B))
     val shifts = if (fpga) Seq.fill(n)(KeepReg(shiftA)) else Seq.fill(n)(shift)
     for (i <- 0 until n)

@@ -555,7 +555,7 @@ class DgpCore(val p: DgpParams) extends Module {
   /** accelerated: an answer is in the output queue (DgpAnswer) */
   val queued: Bool = if (acc) chisel3.experimental.noPrefix {
     DgpAnswer(p, fpga, VecInit((0 until n).map(i => clampRegistered(z(i), i))),
-      (st === St.decide && finish) || st === St.out, regs.ctrlOutAll, outIdx, statusWord, m_axis, () => st := St.idle)
+      st === St.decide && finish, regs.ctrlOutAll, outIdx, statusWord, m_axis, () => st := St.idle)
   } else false.B
   if (!acc) {
     val word = Reg(SInt(W.W))

@@ -164,8 +164,8 @@ case class DgpParams(
   val divCycles: Int = if (accelerated) 0 else divW + 2
   /** from the handshake of the last input word to the first output word, besides the iterations: the frame's
     * take (3: the frame buffer's full flag, the take decided a cycle ahead), the first pass's issue (pass K follows
-    * at once), and the plain form's first division; accelerated, the answer's output queue (1) */
-  val solveOverhead: Int = 3 + issueF + divCycles + (if (accelerated) 1 else 0)
+    * at once), and the plain form's first division; accelerated, the answer's flag and its output queue (2) */
+  val solveOverhead: Int = 3 + issueF + divCycles + (if (accelerated) 2 else 0)
   /** data-dependent solve: from the handshake of the last input word to the first output word */
   def cyclesToOutput(iters: Int, zeroStart: Boolean): Int =
     solveOverhead + iters * cyclesPerIteration - (if (zeroStart) zeroStartSaving else 0)
