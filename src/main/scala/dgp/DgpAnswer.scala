@@ -37,10 +37,10 @@ object DgpAnswer {
       pushStatus := outIdx === countW
       sentAll := outIdx === countW
     }
-    // the answer register loads while no answer is on its way (a cycle ahead: not in the next cycle's output state)
-    val outNext = finishing || (on && !(shift && pushStatus))
-    on := outNext
-    val loads  = if (fpga) Seq.fill(n)(KeepReg(!outNext)) else Seq.fill(n)(RegNext(!outNext, true.B))
+    on := finishing || (on && !(shift && pushStatus))
+    // the answer register loads while no answer is on its way, and in the answer's first cycle (z holds from before
+    // the decision until the next take; the first shift comes a cycle later): its loads are copies of the flag
+    val loads  = if (fpga) Seq.fill(n)(KeepReg(!on)) else Seq.fill(n)(RegNext(!on, true.B))
     val shifts = if (fpga) Seq.fill(n)(KeepReg(shiftA)) else Seq.fill(n)(shift)
     for (i <- 0 until n)
       when(shifts(i)) { zc(i) := zc.lift(i + 1).getOrElse(zc(i)) }.elsewhen(loads(i)) { zc(i) := zcl(i) }

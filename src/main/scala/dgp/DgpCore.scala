@@ -524,6 +524,8 @@ class DgpCore(val p: DgpParams) extends Module {
   // take and the decisions only, an iteration apart): kNew = min(kAcc + 1, 255), beta at min(kNew + 1, 255)
   val kInc    = RegNext(Mux(kAcc === 255.U, 255.U, kAcc + 1.U))
   val betaInc = RegNext(betaRom(Mux(kAcc >= 253.U, 255.U, kAcc + 2.U)))
+  // The decision sets up the next iteration whether or not it finishes (after an answer, the take sets up the
+  // next solve), so that the test reaches only the state and the registers of the finished solve
   when(st === St.decide) {
     tThr := tThr + p.eg.S
     yZero := yZeroNext
@@ -531,12 +533,11 @@ class DgpCore(val p: DgpParams) extends Module {
       kAcc  := Mux(restart, 0.U, kInc)
       betaR := Mux(restart, betaRom(1), betaInc)
     }
+    passD := 1.U; jump(p.baseK); iter := iter + 1.U; outIdx := 0.U
+    st := Mux(finish, St.out, St.issue)
     when(finish) {
-      st := St.out; outIdx := 0.U
       itersR := iter + 1.U; metR := stop; zeroR := zSolve
       regs.solveDone(cycles + 1.U)
-    }.otherwise {
-      st := St.issue; passD := 1.U; jump(p.baseK); iter := iter + 1.U
     }
   }
 
