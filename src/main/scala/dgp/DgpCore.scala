@@ -411,13 +411,13 @@ class DgpCore(val p: DgpParams) extends Module {
     val g1b = RegNext(g1)
     val u1b = RegNext(u1)
     val gmu = RegNext(VecInit((0 until 2).map(h => g1(h) -& u1(h) - 1.S)))
-    // E2: y_new = clip(wy + g, 0, ud) (plain: y rotates here, and Sg with the test's sum)
+    // E2: y_new = clip(wy + g, 0, ud) (plain: y rotates here, and Sg with the test's sum; accelerated: the two
+    // sums registered, y_new selected by their signs in E3)
     val wy2 = wyEU.map(_(u)(0))
-    val yNew = (0 until 2).map { h =>
-      val t = wy2(h) +& g1b(h)
-      val c = wy2(h) +& gmu(h)
-      Mux(t < 0.S, 0.S, Mux(c >= 0.S, u1b(h), t))(W - 1, 0).asSInt
-    }
+    val tSum = (0 until 2).map(h => wy2(h) +& g1b(h))
+    val cSum = (0 until 2).map(h => wy2(h) +& gmu(h))
+    def clipNew(t: SInt, c: SInt, ud: SInt): SInt = Mux(t < 0.S, 0.S, Mux(c >= 0.S, ud, t))(W - 1, 0).asSInt
+    val yNew = (0 until 2).map(h => clipNew(tSum(h), cSum(h), u1b(h)))
     // the rotate enables of the element stage's FIFOs, per group: y_new (E2: plain y; accelerated, the
     // extrapolated dual), y (accelerated: E3), the extrapolated dual's candidate (accelerated: E6)
     val en2 = rowEnables(rowL + 3, rG, isG)(u)
@@ -437,17 +437,18 @@ class DgpCore(val p: DgpParams) extends Module {
     restartU(u) := false.B
     if (acc) {
       val e2  = RegNext(e1b, false.B)
-      val yN2 = RegNext(VecInit(yNew))
       val g2  = RegNext(g1b)
       val w2  = RegNext(VecInit(wy2))
       val u2  = RegNext(u1b)
+      val (t2, c2) = (RegNext(VecInit(tSum)), RegNext(VecInit(cSum)))
+      val yN2 = (0 until 2).map(h => clipNew(t2(h), c2(h), u2(h)))
       // E3: y rotates, its old value kept for dy
       val yOld = yU.map(_(u)(0))
       val en3 = rowEnables(rowL + 4, rG, isG)(u)
       for (h <- 0 until 2) rotate(yU(h)(u), yN2(h), en3)
-      when(e2 && (yN2(0) =/= 0.S || yN2(1) =/= 0.S)) { nzU(u) := true.B }
       val e3 = RegNext(e2, false.B)
-      val yN3 = RegNext(yN2)
+      val yN3 = RegNext(VecInit(yN2))
+      when(e3 && (yN3(0) =/= 0.S || yN3(1) =/= 0.S)) { nzU(u) := true.B }
       val yO3 = RegNext(VecInit(yOld))
       val g3 = RegNext(g2)
       val w3 = RegNext(w2)
