@@ -54,7 +54,6 @@ class DgpCore(val p: DgpParams) extends Module {
   regs.writes()
 
   def sat(x: SInt): (SInt, Bool) = FixedOps.saturate(x, W)
-  def clip(t: SInt, u: SInt): SInt = Mux(t < 0.S, 0.S, Mux(t > u, u, t))(W - 1, 0).asSInt
   /** per unit, FPGA target, P > 1: each unit's registers take their controls and operands from kept copies of
     * their own (mem.KeepReg), so that no register drives all units across the device */
   val split = P > 1 && p.target != Target.Generic
@@ -161,7 +160,9 @@ class DgpCore(val p: DgpParams) extends Module {
     addr := a.U; firstC := slotBits(a)._2.B; lastC := slotBits(a)._3.B
     endC := slotBits(a)._4.B; nx1 := bitsOf(a + 1); nx2 := bitsOf(a + 2)
   }
-  val round   = RegInit(0.U(16.W))
+  /** the round of rows within the pass (at most rK + rG - 1, in the first pass) */
+  private val roundW = log2Ceil(rK + rG + 1)
+  val round   = RegInit(0.U(roundW.W))
   val waitCnt = RegInit(0.U(16.W))
   /** the gap's last cycle: waitCnt === 0, registered as the count is loaded or stepped */
   val gapEnd  = RegInit(false.B)
@@ -189,7 +190,8 @@ class DgpCore(val p: DgpParams) extends Module {
   def groupRegs(x: Seq[Bool], len: Int): Seq[Seq[Bool]] =
     x.map(r => if (fpga) Seq.fill(groups(len))(KeepReg(r)) else Seq.fill(groups(len))(RegNext(r, false.B)))
   val startG = groupRegs(startU, rG)
-  val warmG  = groupRegs(warmU, rG)
+  /** the start's clear of the duals (a cold start), a flip-flop per group of rows: their resets need no gate */
+  val clearG = groupRegs(startU.zip(warmU).map { case (s, w) => s && !w }, rG)
   val startGK = if (acc) Nil else groupRegs(startU, rK)
   val zsU    = if (acc) Nil else unitRegs(zSolve)
   when(take) {
@@ -203,11 +205,14 @@ class DgpCore(val p: DgpParams) extends Module {
   }
   for (u <- 0 until P) {
     when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
-    for (k <- 0 until rG) when(startG(u)(k / rowGroup)) {
-      for (h <- 0 until 2) {
-        when(!warmG(u)(k / rowGroup)) { yU(h)(u)(k) := 0.S }
-        if (acc) wyEU(h)(u)(k) := Mux(warmG(u)(k / rowGroup), yU(h)(u)(k), 0.S)
+    for (k <- 0 until rG; h <- 0 until 2) {
+      when(startG(u)(k / rowGroup)) {
+        if (acc) wyEU(h)(u)(k) := yU(h)(u)(k)
         if (!acc) sgU(h)(u)(k) := 0.S
+      }
+      when(clearG(u)(k / rowGroup)) {
+        yU(h)(u)(k) := 0.S
+        if (acc) wyEU(h)(u)(k) := 0.S
       }
     }
     szU.lift(u).foreach(s => for (k <- 0 until rK) when(startGK(u)(k / rowGroup)) { s(k) := 0.S })
@@ -271,7 +276,7 @@ class DgpCore(val p: DgpParams) extends Module {
     r
   }
   class Tok extends Bundle {
-    val valid = Bool(); val pass = UInt(2.W); val round = UInt(16.W); val first = Bool(); val last = Bool()
+    val valid = Bool(); val pass = UInt(2.W); val round = UInt(roundW.W); val first = Bool(); val last = Bool()
   }
   val tok0 = Wire(new Tok)
   tok0.valid := issuing; tok0.pass := pass; tok0.round := round; tok0.first := firstC; tok0.last := lastC
@@ -457,6 +462,8 @@ class DgpCore(val p: DgpParams) extends Module {
       val e4  = RegNext(e3, false.B)
       val yN4 = RegNext(yN3)
       val dy4 = RegNext(VecInit((0 until 2).map(h => (yN3(h) -& yO3(h))(W - 1, 0).asSInt)))
+      /** y_new - ud - 1: the extrapolation's clip tests t > ud from the sign of t - ud - 1 (E6) */
+      val yu4 = RegNext(VecInit((0 until 2).map(h => (yN3(h) -& u3(h)) -& 1.S)))
       val g4  = RegNext(g3)
       val w4  = RegNext(w3)
       val u4  = RegNext(u3)
@@ -467,12 +474,14 @@ class DgpCore(val p: DgpParams) extends Module {
       // E5 (latMulE later): the products' sums, and the extrapolation before its clip
       val e5  = ShiftRegister(e4, p.latMulE, false.B, true.B)
       val yN5 = ShiftRegister(yN4, p.latMulE)
+      val yu5 = ShiftRegister(yu4, p.latMulE)
       val u5  = ShiftRegister(u4, p.latMulE)
       val e6   = RegNext(e5, false.B)
       val u6   = RegNext(u5)
       val sGap = RegNext(pGap(0) +& pGap(1))
       val sRst = RegNext(pRst(0) +& pRst(1))
       val tExt = RegNext(VecInit((0 until 2).map(h => yN5(h) +& pExt(h))))
+      val dExt = RegNext(VecInit((0 until 2).map(h => yu5(h) +& pExt(h))))
       // E6: the sums, and the extrapolated dual, which stays in [0, ud] (so the gap test bounds V(z) - V*)
       when(e6) {
         gapU(u) := gapU(u) + sGap
@@ -480,7 +489,7 @@ class DgpCore(val p: DgpParams) extends Module {
       }
       // a row past the unit's last has ud = 0, so its candidate is 0
       val en6 = rowEnables(rowL + 7 + p.latMulE, rG, isG)(u)
-      for (h <- 0 until 2) rotate(wycU(h)(u), clip(tExt(h), u6(h)), en6)
+      for (h <- 0 until 2) rotate(wycU(h)(u), clipNew(tExt(h), dExt(h), u6(h)), en6)
     }
   }
 
