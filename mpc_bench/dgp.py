@@ -336,6 +336,9 @@ class Section(QpSection):
     def add_arguments(ap: argparse.ArgumentParser) -> None:
         ap.add_argument("--dgp-place-all", action="store_true",
                         help="DGP: place the spec's default designs too (hours per seed), not only the row-unit core")
+        ap.add_argument("--dgp-seeds", default=None,
+                        help="DGP: comma-separated nextpnr seeds of a full run (default "
+                             f"{','.join(map(str, FMAX_SEEDS))}; QUICK takes the cache's)")
         ap.add_argument("--dgp-no-place", action="store_true",
                         help="DGP: Yosys resources only, no nextpnr (the accelerated masses_state core nearly "
                              "fills the LFE5U-85F and routes slowly)")
@@ -345,6 +348,11 @@ class Section(QpSection):
         self.repeats = getattr(a, "repeats", None) or (2 if a.quick else 6)
         self.place = not (getattr(a, "no_place", False) or getattr(a, "dgp_no_place", False))
         self.place_all = bool(getattr(a, "dgp_place_all", False))
+        seeds = getattr(a, "dgp_seeds", None)
+        try:
+            self.seeds = tuple(int(x) for x in seeds.split(",")) if seeds else FMAX_SEEDS
+        except ValueError:
+            raise SystemExit(f"--dgp-seeds must be comma-separated integers: got {seeds!r}") from None
         self.steps = STEPS_QUICK if a.quick else STEPS_FULL
         self.states = COLD_QUICK if a.quick else COLD_FULL
         self.date = self.run.info.get("date") or datetime.datetime.now(datetime.timezone.utc).strftime(
@@ -360,7 +368,7 @@ class Section(QpSection):
 
         root = Path(self.run.out).resolve() / "dgp"
         problem, spec = load_spec(SPEC), SPEC.read_bytes()
-        seeds = FMAX_SEEDS_QUICK if self.quick else FMAX_SEEDS
+        seeds = FMAX_SEEDS_QUICK if self.quick else self.seeds
         for role in ROLES:
             tag = f"{problem.name}_{role}_{TARGET}"
             try:
