@@ -81,7 +81,7 @@ def _est_lat_text(recs: list[dict]) -> str:
 
 def admm_rows(cores: list[Core], sw: dict | None, est_fmax: float | None) -> list[dict]:
     """One flat record per ADMM core (masses_rate_soft sweep and the small problem placed and routed)."""
-    med = {r.name: r.median_us for r in sw["solvers"]} if sw else {}
+    med = {r.name: r.ref_median_us for r in sw["solvers"]} if sw else {}
     # the estimate's core runs at its own latencies: the sweep's cycles move by the change of eq. (24)
     est_lat = next(((e.core["lat_add"], e.core["lat_mul"]) for e in cores if e.role == "fmax" and e.pnr), None)
     out = []

@@ -25,7 +25,7 @@ def stats(v) -> tuple[float, float, float]:
 
 
 def mean_us(s) -> float:
-    """A solver's time per solve over the loop solved back to back: the smallest of the replays' means."""
+    """A solver's wall time per solve over the loop solved back to back: the smallest of the replays' means."""
     return float(np.mean(s.times_us, axis=1).min())
 
 
@@ -88,8 +88,8 @@ def dgp_rows(cores: list, loop, sw: dict | None) -> list[dict]:
 
 
 def _sw_columns(r: dict, sw: dict | None) -> None:
-    """Per solver: its median and p99 wall time per solve, their ratios to the core's median and p99 latency over
-    the loop, the throughput ratio (the core's solves per second over the solver's, both on the loop solved back
+    """Per solver: its median and p99 wall time per solve, and, by its own timer where it has one (else by wall time),
+    their ratios to the core's median and p99 latency over the loop, the throughput ratio (the core's solves per second over the solver's, both on the loop solved back
     to back: the solver's mean time over the core's mean latency), and the break-even clocks in MHz (the core's
     cycles over the solver's us: median, p99, mean), which need no Fmax."""
     med, p99, mean = r.get("loop_us_median"), r.get("loop_us_p99"), r.get("loop_us_mean")
@@ -98,14 +98,14 @@ def _sw_columns(r: dict, sw: dict | None) -> None:
     for s in (sw or {}).get("solvers", []):
         k = slug(s.name)
         r.update({f"{k}_median_us": s.median_us, f"{k}_p99_us": s.p99_us, f"{k}_mean_us": mean_us(s),
-                  f"{k}_error_max": s.u_err,
-                  f"{k}_median_over_core": s.median_us / med if med else None,
-                  f"{k}_p99_over_core": s.p99_us / p99 if p99 else None,
-                  f"{k}_throughput_ratio": mean_us(s) / mean if mean else None})
+                  f"{k}_error_max": s.u_err, f"{k}_basis": s.basis,
+                  f"{k}_median_over_core": s.ref_median_us / med if med else None,
+                  f"{k}_p99_over_core": s.ref_p99_us / p99 if p99 else None,
+                  f"{k}_throughput_ratio": s.ref_mean_us / mean if mean else None})
         if "loop_cycles_median" in r:
-            r.update({f"{k}_breakeven_mhz_median": r["loop_cycles_median"] / s.median_us,
-                      f"{k}_breakeven_mhz_p99": r["loop_cycles_p99"] / s.p99_us,
-                      f"{k}_breakeven_mhz_mean": r["loop_cycles_mean"] / mean_us(s)})
+            r.update({f"{k}_breakeven_mhz_median": r["loop_cycles_median"] / s.ref_median_us,
+                      f"{k}_breakeven_mhz_p99": r["loop_cycles_p99"] / s.ref_p99_us,
+                      f"{k}_breakeven_mhz_mean": r["loop_cycles_mean"] / s.ref_mean_us})
 
 
 # ----------------------------------------------------------------------------------------- report
@@ -226,13 +226,14 @@ def _software_part(rows: list[dict], sw: dict) -> list[str]:
             it = f"{np.median(s.iters):.0f} / {max(s.iters)}" if s.iters else "-"
             body.append([r["tag"], f"{r['loop_cycles_median']:.0f} / {r['loop_cycles_p99']:.0f}",
                          " / ".join(_f(r[f"loop_us_{q}"], "{:.1f}") for q in ("median", "p99")),
-                         _f(r["core_solves_per_s"], "{:.0f}"), s.name, f"{s.median_us:.1f}", f"{s.p99_us:.1f}", it,
+                         _f(r["core_solves_per_s"], "{:.0f}"), s.name, s.basis, f"{s.ref_median_us:.1f}",
+                         f"{s.ref_p99_us:.1f}", it,
                          _f(r.get(f"{k}_median_over_core"), "{:.2f}x"), _f(r.get(f"{k}_p99_over_core"), "{:.2f}x"),
                          _f(r.get(f"{k}_throughput_ratio"), "{:.2f}x"),
                          " / ".join(_f(r.get(f"{k}_breakeven_mhz_{q}"), "{:.0f}") for q in ("median", "p99", "mean"))])
     if body:
         L += _table(["core", "core cycles median / p99", "core us median / p99", "core solves/s", "solver",
-                     "median us", "p99 us", "iterations median / max", "median / core median", "p99 / core p99",
+                     "timer", "median us", "p99 us", "iterations median / max", "median / core median", "p99 / core p99",
                      "throughput core / solver", "break-even MHz median / p99 / mean"], body)
         L += ["", "The core's latency per QP of the loop, one QP in flight, in cycles and in us at its placed Fmax "
               "(none when not placed); its solves per second: the loop solved back to back (1 / mean latency; the "
@@ -288,13 +289,14 @@ def summary_lines(rows: list[dict], sw: dict | None) -> list[str]:
             line += f"; loop latency {r['loop_us_median']:.1f} us median, {r['loop_us_p99']:.1f} us p99"
         L.append(line)
     if sw:
-        L.append("  software on the loop's QPs (median / p99 us; per core: median over the core's median latency "
-                 "at its Fmax, and the clock at which the core's median cycles take the solver's median):")
+        L.append("  software on the loop's QPs (median / p99 us by the solver's own timer where it has one; per core: "
+                 "median over the core's median latency at its Fmax, and the clock at which the core's median cycles "
+                 "take the solver's median):")
         for s in sw["solvers"]:
             k = slug(s.name)
             cmp = ", ".join(f"{r['role']} " + (f"{r[f'{k}_median_over_core']:.2f}x, " if r.get(f"{k}_median_over_core")
                                                 else "") + f"break-even {r[f'{k}_breakeven_mhz_median']:.0f} MHz"
                             for r in rows if r.get(f"{k}_breakeven_mhz_median") is not None)
-            L.append(f"    {s.name}: {s.median_us:.1f} / {s.p99_us:.1f} us, error {s.u_err:.1e}"
+            L.append(f"    {s.name}: {s.ref_median_us:.1f} / {s.ref_p99_us:.1f} us ({s.basis}), error {s.u_err:.1e}"
                      + (f"; {cmp}" if cmp else ""))
     return L

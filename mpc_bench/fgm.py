@@ -130,7 +130,7 @@ def fgm_rows(cores: list[Core], sw: dict | None, loops: dict | None = None) -> l
     """One flat record per FGM core: the CSV rows and the source of every FGM table; `loops`: core tag ->
     iterations per step over the software loop, for the cores with the exit test (loop_columns)."""
     loops = loops or {}
-    med = {r.name: r.median_us for r in sw["solvers"]} if sw else {}
+    med = {r.name: r.ref_median_us for r in sw["solvers"]} if sw else {}
     out = []
     for c in cores:
         cj = c.core
@@ -459,7 +459,7 @@ class Section(QpSection):
                 "L_F meas: cycles per iteration measured in Verilator (eq. (23) of 002 in brackets). mult. ours: "
                 "`multipliers` of core.json, P (max(n, nw) + 2); Table I of 002: P (N n_u + 2). latency: measured "
                 "cycles per solve / Fmax. V6/S6: our measured cycles at 400/230 MHz, Table III(a) of 002 in "
-                "brackets. x / core: median software time per solve on this CPU over the core's latency on the ECP5; "
+                "brackets. x / core: median software time per solve on this CPU (the solver's own timer where it has one) over the core's latency on the ECP5; "
                 "fastest solver: the software solver with the lowest median, its median and p99 over the core's "
                 "latency (all solvers: FGM section, Software on this CPU). MAC use: (n^2 + 2n) / (multipliers x L_F).",
                 ""]

