@@ -236,6 +236,14 @@ def test_rows_latency_and_ratios():
     assert p["daqp_hot_start_breakeven_mhz_p99"] == pytest.approx(np.percentile(cyc_p, 99) / 8.0)
     # at the break-even clock the core's latency is the solver's time
     assert latency_us(a["loop_cycles_median"], a["daqp_hot_start_breakeven_mhz_median"]) == pytest.approx(8.0)
+    # a solver with a timer of its own: every ratio and break-even takes it, the wall time stays in median_us
+    daqp.own_us, daqp.timer = np.full((2, 10), 2.0), "info solve_time"
+    a2, _ = dgp_report.dgp_rows([acc, plain], _loop(its_a, its_p, zero_a), sw)
+    assert a2["daqp_hot_start_basis"] == "own" and a2["osqp_warm_basis"] == "wall"
+    assert a2["daqp_hot_start_median_us"] == pytest.approx(8.0) and a2["daqp_hot_start_own_median_us"] == 2.0
+    assert a2["daqp_hot_start_median_over_core"] == pytest.approx(2.0 / (np.median(cyc) / 100.0))
+    assert a2["daqp_hot_start_p99_over_core"] == pytest.approx(2.0 / (np.percentile(cyc, 99) / 100.0))
+    assert a2["daqp_hot_start_breakeven_mhz_median"] == pytest.approx(np.median(cyc) / 2.0)
 
 
 def test_fit_names_what_is_over():
