@@ -195,10 +195,10 @@ class Section(qp.QpSection):
                 "V6/S6: our cycles at 400/230 MHz, Table III(b) of 002 in brackets. us est.: our cycles (at the "
                 f"small cores' latencies, {_est_lat_text(big)}) at "
                 f"{_f(est, '{:.0f}')} MHz, the ECP5 Fmax of the small ADMM problem below (an estimate, the masses "
-                "core fits no ECP5). x / core: median software time per solve on this CPU (the solver's own timer where it has one) over the core's latency, "
-                "at the estimate / at 400 MHz; fastest solver: the software solver with the lowest median, its "
-                "median and p99 over the core's latency at the estimate (all solvers: ADMM section, Software on this "
-                "CPU). MAC use: n_A^2 / (multipliers x L_A).", ""]
+                "core fits no ECP5). x / core: median software time per solve on this CPU (the solver's own timer "
+                "where it has one) over the core's latency, at the estimate / at 400 MHz; fastest solver: the "
+                "software solver with the lowest median, its median and p99 over the core's latency at the estimate "
+                "(all solvers: ADMM section, Software on this CPU). MAC use: n_A^2 / (multipliers x L_A).", ""]
 
     def fmax_rows(self) -> list[dict]:
         return [r for r in self.rows if r["role"] == "fmax"]

@@ -24,11 +24,6 @@ def stats(v) -> tuple[float, float, float]:
     return float(np.median(v)), float(np.percentile(v, 99)), float(v.max())
 
 
-def mean_us(s) -> float:
-    """A solver's wall time per solve over the loop solved back to back: the smallest of the replays' means."""
-    return float(np.mean(s.times_us, axis=1).min())
-
-
 def fit_85f(ecp5: dict | None) -> str | None:
     """Whether Yosys's ECP5 resources fit the LFE5U-85F (mpc_bench.minres.logic_fit); None when not synthesised."""
     from mpc_bench.minres import logic_fit
@@ -88,16 +83,17 @@ def dgp_rows(cores: list, loop, sw: dict | None) -> list[dict]:
 
 
 def _sw_columns(r: dict, sw: dict | None) -> None:
-    """Per solver: its median and p99 wall time per solve, and, by its own timer where it has one (else by wall time),
-    their ratios to the core's median and p99 latency over the loop, the throughput ratio (the core's solves per second over the solver's, both on the loop solved back
-    to back: the solver's mean time over the core's mean latency), and the break-even clocks in MHz (the core's
-    cycles over the solver's us: median, p99, mean), which need no Fmax."""
+    """Per solver: its median and p99 wall time per solve, and, by its own timer where it has one (else by wall
+    time), their ratios to the core's median and p99 latency over the loop, the throughput ratio (the core's solves
+    per second over the solver's, both on the loop solved back to back: the solver's mean time over the core's mean
+    latency), and the break-even clocks in MHz (the core's cycles over the solver's us: median, p99, mean), which
+    need no Fmax."""
     med, p99, mean = r.get("loop_us_median"), r.get("loop_us_p99"), r.get("loop_us_mean")
     r["core_solves_per_s"] = 1e6 / mean if mean else None
     r.update(own_columns(sw, {"median": med, "p99": p99, "max": r.get("loop_us_max")}))
     for s in (sw or {}).get("solvers", []):
         k = slug(s.name)
-        r.update({f"{k}_median_us": s.median_us, f"{k}_p99_us": s.p99_us, f"{k}_mean_us": mean_us(s),
+        r.update({f"{k}_median_us": s.median_us, f"{k}_p99_us": s.p99_us, f"{k}_mean_us": s.mean_us,
                   f"{k}_error_max": s.u_err, f"{k}_basis": s.basis,
                   f"{k}_median_over_core": s.ref_median_us / med if med else None,
                   f"{k}_p99_over_core": s.ref_p99_us / p99 if p99 else None,
@@ -233,8 +229,8 @@ def _software_part(rows: list[dict], sw: dict) -> list[str]:
                          " / ".join(_f(r.get(f"{k}_breakeven_mhz_{q}"), "{:.0f}") for q in ("median", "p99", "mean"))])
     if body:
         L += _table(["core", "core cycles median / p99", "core us median / p99", "core solves/s", "solver",
-                     "timer", "median us", "p99 us", "iterations median / max", "median / core median", "p99 / core p99",
-                     "throughput core / solver", "break-even MHz median / p99 / mean"], body)
+                     "timer", "median us", "p99 us", "iterations median / max", "median / core median",
+                     "p99 / core p99", "throughput core / solver", "break-even MHz median / p99 / mean"], body)
         L += ["", "The core's latency per QP of the loop, one QP in flight, in cycles and in us at its placed Fmax "
               "(none when not placed); its solves per second: the loop solved back to back (1 / mean latency; the "
               "input words and the answer's later words not counted). Throughput core / solver: the solver's mean "

@@ -459,9 +459,10 @@ class Section(QpSection):
                 "L_F meas: cycles per iteration measured in Verilator (eq. (23) of 002 in brackets). mult. ours: "
                 "`multipliers` of core.json, P (max(n, nw) + 2); Table I of 002: P (N n_u + 2). latency: measured "
                 "cycles per solve / Fmax. V6/S6: our measured cycles at 400/230 MHz, Table III(a) of 002 in "
-                "brackets. x / core: median software time per solve on this CPU (the solver's own timer where it has one) over the core's latency on the ECP5; "
-                "fastest solver: the software solver with the lowest median, its median and p99 over the core's "
-                "latency (all solvers: FGM section, Software on this CPU). MAC use: (n^2 + 2n) / (multipliers x L_F).",
+                "brackets. x / core: median software time per solve on this CPU (the solver's own timer where it "
+                "has one) over the core's latency on the ECP5; fastest solver: the software solver with the lowest "
+                "median, its median and p99 over the core's latency (all solvers: FGM section, Software on this "
+                "CPU). MAC use: (n^2 + 2n) / (multipliers x L_F).",
                 ""]
 
     def fmax_rows(self) -> list[dict]:

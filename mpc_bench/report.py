@@ -148,7 +148,8 @@ def report_md(sections: list, info: dict) -> str:
     m = info["machine"]
     body = [s for s in sections if not s.appendix]
     cores = [c for s in body for c in s.cores]
-    runs = [t for t in (s.run_text(info) for s in sections) if t] + (["no Xilinx synthesis"] if not info["xilinx"] else [])
+    runs = [t for t in (s.run_text(info) for s in sections) if t]
+    runs += [] if info["xilinx"] else ["no Xilinx synthesis"]
     lats = sorted({f"l_A = {c.core.get('lat_add')}, l_M = {c.core.get('lat_mul')}" for c in cores})
     L = [
         "# Benchmark of the solver cores",
