@@ -7,14 +7,14 @@ This is the driver. Each core kind has its section in the module its registry en
 P and b, and a small problem for Fmax) and mpc_bench.minres (masses over P, and a small problem for Fmax); their
 interface and the order of the steps are in mpc_bench.section. The tools and their cache are mpc_bench.tools,
 the software baselines mpc_bench.baselines and mpc_bench.baselines_minres, the outputs mpc_bench.report and
-mpc_bench.plots.
+mpc_bench.plots. A full run of both fgm and dgp ends with the scaling sweep (mpc_bench.scaling) at their placed clocks.
 
-Writes report.md, one CSV per kind (fgm.csv, admm.csv, minres.csv) and PNG plots into the output folder
-(build/bench), and copies report.md to docs/bench/<YYYY-MM-DD>-<quick|full>.md and docs/bench/latest.md.
+Writes report.md, one CSV per kind (fgm.csv, admm.csv, minres.csv, ..., scaling.csv) and PNG plots into the output
+folder (build/bench), and copies report.md to docs/bench/<YYYY-MM-DD>-<quick|full>.md and docs/bench/latest.md.
 
     python -m mpc_bench.bench [--quick] [--out build/bench] [--jobs 2] [--cores fgm,admm,minres] [--P 1,2,4,8]
                               [--b 12,16] [--admm-P 1,2,4,8] [--admm-b 18,16] [--admm-small-P 1,2] [--no-xilinx]
-                              [--docs docs/bench | --no-docs]
+                              [--scaling auto|on|off] [--docs docs/bench | --no-docs]
 """
 from __future__ import annotations
 
@@ -46,6 +46,11 @@ def report_md(cores: list, fgm: list[dict], admm: list[dict], sw: dict, info: di
     return report.report_md(sections, info)
 
 
+def wants_scaling(option: str, quick: bool, selected: set) -> bool:
+    """Whether the run ends with the scaling sweep: --scaling on, or auto in a full run of both fgm and dgp"""
+    return option == "on" or (option == "auto" and not quick and {"fgm", "dgp"} <= selected)
+
+
 def main(argv=None) -> None:
     classes = section_classes()
     ap = argparse.ArgumentParser(prog="python -m mpc_bench.bench", description=__doc__.split("\n\n")[0])
@@ -59,6 +64,9 @@ def main(argv=None) -> None:
     for cls in classes.values():
         cls.add_arguments(ap)
     ap.add_argument("--no-xilinx", action="store_true", help="skip synth_xilinx")
+    ap.add_argument("--scaling", choices=("auto", "on", "off"), default="auto",
+                    help="the scaling sweep (mpc_bench.scaling) after the sections, at their placed clocks; auto: "
+                         "in a full run that selects both fgm and dgp")
     ap.add_argument("--repeats", type=int, default=None,
                     help="replays of the loop per software solver, half before and half after the jobs")
     ap.add_argument("--docs", default=str(REPO / "docs/bench"),
@@ -78,6 +86,9 @@ def main(argv=None) -> None:
             "errors": [], "sw_seconds": {}}
     run = Run(a, out, log, info)
     sections = [cls(run) for name, cls in classes.items() if name in selected]
+    if wants_scaling(a.scaling, a.quick, selected):
+        from mpc_bench import scaling
+        sections.append(scaling.Section(run, sections))
     m = info["machine"]
     log("; ".join([f"bench on {m['cpu']}, {m['cores']} cores"] + [t for t in (s.log_text() for s in sections) if t]
                   + [f"Xilinx synthesis {'on' if info['xilinx'] else 'off'}"]))

@@ -1,5 +1,6 @@
-"""How the FGM and DGP cores' cost grows with the problem, against DAQP and OSQP on the same QPs (`make scaling`; also
-`python -m mpc_bench.scaling [--quick] [--out build/bench] [--clock-mhz F]`).
+"""How the FGM and DGP cores' cost grows with the problem, against DAQP and OSQP on the same QPs: the last part of a
+full `make bench` (Section below), and alone `make scaling` (`python -m mpc_bench.scaling [--quick] [--out
+build/bench] [--clock-mhz F]`).
 
 The plants: a chain of M masses between two walls (examples/masses.yaml for M = 4: nx = 2M, nu = M, the M positions
 tracked), horizon N, so n = N M variables. For every (M, N) of the grid:
@@ -10,29 +11,32 @@ tracked), horizon N, so n = N M variables. For every (M, N) of the grid:
               LFE5U-85F (156 and 208); no P that fits: the instance does not fit
   latency     one closed loop of the plant (mpc_bench.baselines.closed_loop_qps, references held 30 steps), the
               core's golden model warm-started step after step: its iterations per step, its cycles per step
-              (core.json's overhead + I L_F), in us at the clock --clock-mhz (default: the placed Fmax of the FGM
-              section's exit-test core in <out>/fgm.csv, else 200 MHz, the constraint; the report says which)
+              (core.json's overhead + I L_F), in us at the FGM clock
   software    DAQP (hot start) and OSQP (tuned) on the same condensed QPs, single-threaded on one pinned CPU: median,
               p99 and max per solve by their own timers (C level), and the error of u0 against OSQP at eps 1e-9
 
 The state-constrained rows (mpc_bench.scaling_dgp): the same chains with hard position limits at every stage, the
-DGP core against DAQP and OSQP on the state-constrained QPs; no DGP core is placed, so its us are at the FGM
-section's clock as well (an estimate the report names).
+DGP core against DAQP and OSQP on the state-constrained QPs, its us at the DGP clock.
 
-Writes scaling.csv (a `core` column: fgm or dgp), scaling.png and scaling.md into --out, and with --docs DIR a dated
-copy of scaling.md there.
+The clocks: in `make bench`, the placed Fmax of the run's FGM exit-test core and of its DGP row-unit core; alone, the
+same from --out's fgm.csv and dgp.csv, or --clock-mhz for both; 200 MHz (the constraint) for a kind with no placed
+core. The sweep's cores are not placed themselves, so their us are estimates, and the report says which clock each
+kind's rows take.
+
+Writes scaling.csv (a `core` column: fgm or dgp), scaling.png and, alone, scaling.md into --out, and with --docs DIR a
+dated copy of scaling.md there.
 """
 from __future__ import annotations
 
 import argparse
 import csv
 import datetime
-import math
 from pathlib import Path
 
 import numpy as np
 
 from mpc_bench.chains import NoLoop, chain, references_held
+from mpc_bench.section import Section as BenchSection
 
 GRID_FULL = ((2, 4, 6, 8), (5, 10, 20, 30))      # masses M, horizons N
 GRID_QUICK = ((2, 4), (5, 10))
@@ -132,7 +136,7 @@ def measure(M: int, N: int, steps: int, clock: float, repeats: int, log) -> dict
     return r
 
 
-def table(rows: list[dict], clock_text: str) -> list[str]:
+def table(rows: list[dict]) -> list[str]:
     from mpc_bench.report import _table, loop_cells
 
     body = []
@@ -148,7 +152,7 @@ def table(rows: list[dict], clock_text: str) -> list[str]:
                    "DAQP / core med / p99 / max", "OSQP tuned own us med / p99 / max", "error max core / DAQP"], body)
 
 
-def plot(rows: list[dict], path: Path, clock_text: str) -> None:
+def plot(rows: list[dict], path: Path, clocks: dict) -> None:
     """Latency against n: the FGM core on the input box (left), the DGP core with state constraints (right), each
     beside DAQP's own timer on the same QPs"""
     import matplotlib
@@ -171,7 +175,7 @@ def plot(rows: list[dict], path: Path, clock_text: str) -> None:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("decision variables n = N M")
-        ax.set_title(f"{core.upper()} core ({clock_text}), {what}", fontsize=10)
+        ax.set_title(f"{core.upper()} core at {clocks[core][0]:.1f} MHz, {what}", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
@@ -193,79 +197,156 @@ def _verdict(rows: list[dict]) -> list[str]:
             + (f"n = {max(r['n'] for r in fits)}" if fits else "none") + "."]
 
 
-def placed_clock(out: Path) -> float | None:
-    """The placed Fmax of the FGM section's exit-test core, from <out>/fgm.csv"""
-    path = out / "fgm.csv"
-    if not path.exists():
-        return None
-    for r in csv.DictReader(path.open()):
-        if r.get("role") == "fmax" and r.get("early_exit") == "True" and r.get("fmax_mhz"):
-            return float(r["fmax_mhz"])
-    return None
+def placed_clocks(fgm_rows: list[dict], dgp_rows: list[dict]) -> dict:
+    """{"fgm": MHz, "dgp": MHz} of the placed cores the sweep's cores are estimated at: the FGM section's exit-test
+    core (role fmax) and the DGP section's row-unit core (role units), from their records or CSV rows; a kind
+    with no placed core is left out"""
+    clocks = {}
+    for r in fgm_rows:
+        if r.get("role") == "fmax" and str(r.get("early_exit")) == "True" and r.get("fmax_mhz"):
+            clocks["fgm"] = float(r["fmax_mhz"])
+            break
+    for r in dgp_rows:
+        if r.get("role") == "units" and r.get("fmax_mhz"):
+            clocks["dgp"] = float(r["fmax_mhz"])
+    return clocks
+
+
+def csv_rows(path: Path) -> list[dict]:
+    return list(csv.DictReader(path.open())) if path.exists() else []
+
+
+CLOCK_SOURCE = {"fgm": "the placed Fmax of the FGM section's exit-test masses core (P = 1)",
+                "dgp": "the placed Fmax of the DGP section's row-unit masses_state core (P = 2 x 20 lanes)"}
+
+
+def clock_texts(clocks: dict, given: float | None) -> dict:
+    """{"fgm": (MHz, text), "dgp": (MHz, text)}: the clock of each kind's rows and where it comes from"""
+    out = {}
+    for core in ("fgm", "dgp"):
+        if given:
+            out[core] = (given, f"at {given:.1f} MHz (given)")
+        elif core in clocks:
+            out[core] = (clocks[core], f"at {clocks[core]:.1f} MHz ({CLOCK_SOURCE[core]}: an estimate for these "
+                                       "cores, which are not placed)")
+        else:
+            out[core] = (200.0, "at 200.0 MHz (the constraint: no placed core of this kind in the run)")
+    return out
+
+
+def sweep(quick: bool, clocks: dict, repeats: int, log) -> tuple[list[dict], list[str]]:
+    """The grid's rows (FGM, then DGP) and the design choices made on the way; `clocks` as clock_texts gives"""
+    from tqdm import tqdm
+
+    from mpc_bench import scaling_dgp
+
+    Ms, Ns = GRID_QUICK if quick else GRID_FULL
+    steps = STEPS_QUICK if quick else STEPS_FULL
+    rows, notes = [], []
+    grid = [(core, M, N) for core in ("fgm", "dgp") for M in Ms for N in Ns]
+    for core, M, N in tqdm(grid, desc="scaling", unit="instance", disable=None):
+        log(f"scaling: {core.upper()} M = {M}, N = {N}")
+        clock = clocks[core][0]
+        try:
+            rows.append(measure(M, N, steps, clock, repeats, notes.append) if core == "fgm" else
+                        scaling_dgp.measure(M, N, steps, HOLD, clock, repeats, TARGET_GAP, notes.append))
+        except NoLoop as e:
+            rows.append({"core": core, "M": M, "N": N, "n": M * N, "P": 0, "note": f"no closed loop: {e}"})
+    return rows, notes
+
+
+def report_lines(rows: list[dict], notes: list[str], clocks: dict, quick: bool, level: int, origin: str) -> list[str]:
+    """The sweep's part of a report: a title at heading `level`, the FGM and DGP tables and verdicts, the choices"""
+    from mpc_bench import scaling_dgp
+
+    h = "#" * level
+    steps = STEPS_QUICK if quick else STEPS_FULL
+    fgm = [r for r in rows if r["core"] == "fgm"]
+    dgp = [r for r in rows if r["core"] == "dgp"]
+    return [f"{h} FGM and DGP cores against DAQP as the problem grows ({'QUICK' if quick else 'full'})", "",
+            f"{origin}; {steps} closed-loop steps per instance, references held {HOLD} steps. The FGM rows "
+            f"{clocks['fgm'][1]}; the DGP rows {clocks['dgp'][1]}.", "",
+            f"{h}# Input box: the FGM core", "",
+            f"Design: TARGET=ecp5, b = 15, l_A = 1, l_M = 5, the exit test, Imax and EXIT_TOL from the design check "
+            f"at {TARGET_GAP:g} %, P the largest power of two whose MULT18X18D and DP16KD estimates fit the "
+            "LFE5U-85F.", "",
+            *table(fgm), "",
+            "Core us: overhead + I L_F cycles (core.json's contract) per loop step, I the iterations the golden "
+            "model ran. DAQP and OSQP: their own solve timers (C level), hot-started / warm-started on the same "
+            "QPs, one pinned CPU. DAQP / core: above 1x the core is ahead. Error: max over the loop of |u0 - u0*|, "
+            "u0* from OSQP at eps 1e-9.", "", *_verdict(fgm), "",
+            f"{h}# Input box and hard position limits: the DGP core", "",
+            f"The same chains with |p_i| <= {scaling_dgp.POSITION_LIMIT} at stages 1..N (examples/masses_state.yaml "
+            f"generalised). Design: TARGET=ecp5, accelerated, b = 15, P = 2 row units, `lanes: fit` (the most "
+            f"multipliers per unit that fit the LFE5U-85F), Imax from the design check at {TARGET_GAP:g} %, the "
+            "stopping test (32c) at eps_g = eps_V = 1e-3.", "",
+            *scaling_dgp.table(dgp), "",
+            "Core us: overhead + I x cycles per iteration (core.json's contract), I the iterations the golden model "
+            "ran (warm start), less the zero start's saving where the starting dual was all zero. DAQP: every row a "
+            "general constraint, hot start; OSQP: warm start; their own timers on the same QPs.", "",
+            *_verdict(dgp), "",
+            "Design choices: " + "; ".join(notes) + ".", "", "Plot: scaling.png."]
+
+
+class Section(BenchSection):
+    """The sweep as the last part of a full `make bench`: after the kinds' sections, at their placed clocks."""
+    name, label = "scaling", "scaling"
+    appendix = True
+    plot_files = ("scaling.png",)
+
+    def __init__(self, run, sources: list):
+        self.sources = {s.name: s for s in sources}
+        self.notes: list[str] = []
+        self.clocks: dict = {}
+        super().__init__(run)
+
+    def log_text(self) -> str:
+        return "scaling sweep (chains of M masses over horizons N, FGM and DGP, at their sections' placed Fmax)"
+
+    def finish(self) -> None:
+        import time
+
+        t = time.perf_counter()
+        src = {k: self.sources[k].rows if k in self.sources else [] for k in ("fgm", "dgp")}
+        self.clocks = clock_texts(placed_clocks(src["fgm"], src["dgp"]), None)
+        self.quick = bool(self.run.args.quick)
+        self.rows, self.notes = sweep(self.quick, self.clocks, 2, self.log)
+        self.log(f"scaling sweep done in {(time.perf_counter() - t) / 60:.1f} min")
+
+    def appendix_md(self) -> list[str]:
+        if not self.rows:
+            return []
+        return report_lines(self.rows, self.notes, self.clocks, self.quick, 2, "The bench's scaling part")
+
+    def plots(self, plt, out: Path) -> list[Path]:
+        if not self.rows:
+            return []
+        plot(self.rows, out / "scaling.png", self.clocks)
+        return [out / "scaling.png"]
 
 
 def main(argv=None) -> None:
-    from tqdm import tqdm
-
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="M in {2, 4}, N in {5, 10}, 60 loop steps")
     ap.add_argument("--out", default="build/bench")
-    ap.add_argument("--clock-mhz", type=float, default=None)
+    ap.add_argument("--clock-mhz", type=float, default=None,
+                    help="the clock of both kinds' rows (default: their sections' placed Fmax in --out's CSVs)")
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--docs", default=None, help="folder for a dated copy of scaling.md (e.g. docs/bench)")
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    Ms, Ns = GRID_QUICK if a.quick else GRID_FULL
-    steps = STEPS_QUICK if a.quick else STEPS_FULL
-    placed = placed_clock(out)
-    clock = a.clock_mhz or placed or 200.0
-    clock_text = (f"at {clock:.1f} MHz" + (" (given)" if a.clock_mhz else " (the placed Fmax of the FGM section's "
-                  "masses core, P = 1, in fgm.csv: an estimate for these cores, not placed)" if placed else
-                  " (the constraint: no placed FGM core in this folder)"))
-    from mpc_bench import scaling_dgp
-
-    rows, notes = [], []
-    grid = [(core, M, N) for core in ("fgm", "dgp") for M in Ms for N in Ns]
-    for core, M, N in tqdm(grid, desc="scaling", unit="instance", disable=None):
-        try:
-            rows.append(measure(M, N, steps, clock, a.repeats, notes.append) if core == "fgm" else
-                        scaling_dgp.measure(M, N, steps, HOLD, clock, a.repeats, TARGET_GAP, notes.append))
-        except NoLoop as e:
-            rows.append({"core": core, "M": M, "N": N, "n": M * N, "P": 0, "note": f"no closed loop: {e}"})
+    clocks = clock_texts(placed_clocks(csv_rows(out / "fgm.csv"), csv_rows(out / "dgp.csv")), a.clock_mhz)
+    rows, notes = sweep(a.quick, clocks, a.repeats, lambda msg: None)
     keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in ("core", "M", "N", "n", "P"), k))
     with (out / "scaling.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
         w.writerows(rows)
-    plot(rows, out / "scaling.png", f"{clock:g} MHz")
+    plot(rows, out / "scaling.png", clocks)
     when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    fgm = [r for r in rows if r["core"] == "fgm"]
-    dgp = [r for r in rows if r["core"] == "dgp"]
-    lines = [f"# FGM and DGP cores against DAQP as the problem grows ({'QUICK' if a.quick else 'full'})", "",
-             f"{when}; `python -m mpc_bench.scaling{' --quick' if a.quick else ''}`; {steps} closed-loop steps per "
-             f"instance, references held {HOLD} steps; the cores {clock_text}.", "",
-             "## Input box: the FGM core", "",
-             f"Design: TARGET=ecp5, b = 15, l_A = 1, l_M = 5, the exit test, Imax and EXIT_TOL from the design check "
-             f"at {TARGET_GAP:g} %, P the largest power of two whose MULT18X18D and DP16KD estimates fit the "
-             "LFE5U-85F.", "",
-             *table(fgm, clock_text), "",
-             "Core us: overhead + I L_F cycles (core.json's contract) per loop step, I the iterations the golden "
-             "model ran. DAQP and OSQP: their own solve timers (C level), hot-started / warm-started on the same "
-             "QPs, one pinned CPU. DAQP / core: above 1x the core is ahead. Error: max over the loop of |u0 - u0*|, "
-             "u0* from OSQP at eps 1e-9.", "", *_verdict(fgm), "",
-             "## Input box and hard position limits: the DGP core", "",
-             f"The same chains with |p_i| <= {scaling_dgp.POSITION_LIMIT} at stages 1..N (examples/masses_state.yaml "
-             f"generalised). Design: TARGET=ecp5, accelerated, b = 15, P = 2 row units, `lanes: fit` (the most "
-             f"multipliers per unit that fit the LFE5U-85F), Imax from the design check at {TARGET_GAP:g} %, the "
-             "stopping test (32c) at eps_g = eps_V = 1e-3. No DGP core is placed: its us are at the clock above, "
-             "an estimate.", "",
-             *scaling_dgp.table(dgp), "",
-             "Core us: overhead + I x cycles per iteration (core.json's contract), I the iterations the golden model "
-             "ran (warm start), less the zero start's saving where the starting dual was all zero. DAQP: every row a "
-             "general constraint, hot start; OSQP: warm start; their own timers on the same QPs.", "",
-             *_verdict(dgp), "",
-             "Design choices: " + "; ".join(notes) + ".", "", "Plot: scaling.png."]
+    lines = report_lines(rows, notes, clocks, a.quick, 1,
+                         f"{when}; `python -m mpc_bench.scaling{' --quick' if a.quick else ''}`")
     (out / "scaling.md").write_text("\n".join(lines) + "\n")
     if a.docs:
         dest = Path(a.docs) / f"{datetime.date.today().isoformat()}-scaling{'-quick' if a.quick else ''}.md"

@@ -464,7 +464,8 @@ def test_fgm_fmax_core_list():
 def test_scaling_sweep_parts(tmp_path):
     """mpc_bench.scaling: the chain of 4 masses at N = 10 is examples/masses.yaml's plant and QP, and with the hard
     position limits examples/masses_state.yaml's state-constrained QP; the report's tables, verdicts and plot from
-    canned rows (an instance that does not fit says so); the clock from a placed core's CSV."""
+    canned rows (an instance that does not fit says so); each kind's clock from its placed core (records or CSV
+    rows), given, or the constraint."""
     from mpc_bench import scaling, scaling_dgp
     from mpc_cores.dgp.problem import dgp_qp
     from mpc_cores.problem import condense, load_spec
@@ -476,16 +477,17 @@ def test_scaling_sweep_parts(tmp_path):
     s, t = dgp_qp(scaling_dgp.chain_state(4, 10)), dgp_qp(load_spec(REPO / "examples/masses_state.yaml"))
     for f in ("Q", "Phi", "G", "lo0", "hi0", "Lw"):
         assert np.allclose(getattr(s, f), getattr(t, f)), f
-    row = {"M": 2, "N": 5, "n": 10, "P": 8, "mult18x18d": 96, "dp16kd_est": 96, "imax": 4, "cycles_per_iteration": 20,
-           "core_error_max": 0.03, "daqp_error_max": 1e-10}
+    row = {"core": "fgm", "M": 2, "N": 5, "n": 10, "P": 8, "mult18x18d": 96, "dp16kd_est": 96, "imax": 4,
+           "cycles_per_iteration": 20, "core_error_max": 0.03, "daqp_error_max": 1e-10}
     for q, v in (("median", 1), ("p99", 3), ("max", 4)):
         row.update({f"core_iter_{q}": v, f"core_us_{q}": 0.1 * v, f"daqp_own_{q}_us": 0.2 * v,
                     f"daqp_own_{q}_over_core": 2.0, f"osqp_tuned_own_{q}_us": 2.0 * v})
     far = {"M": 8, "N": 30, "n": 240, "P": 0, "note": "does not fit at P = 1: 484 MULT18X18D, 300 DP16KD"}
-    text = "\n".join(scaling.table([row, far], "at 200 MHz"))
+    text = "\n".join(scaling.table([row, far]))
     assert "| 2 | 5 | 10 | 8 | 96 / 96, Imax 4, L_F 20 | 1 / 3 / 4 | 0.10 / 0.30 / 0.40 |" in text
     assert "does not fit at P = 1" in text
-    scaling.plot([row, far], tmp_path / "s.png", "200 MHz")
+    clocks = scaling.clock_texts({"fgm": 217.7, "dgp": 130.3}, None)
+    scaling.plot([row, far], tmp_path / "s.png", clocks)
     assert (tmp_path / "s.png").stat().st_size > 1000
     drow = dict(row, core="dgp", P=2, lanes=29, mc=80, imax=1, cycles_per_iteration=178, active_input_fraction=0.25,
                 active_state_fraction=0.0)
@@ -495,10 +497,32 @@ def test_scaling_sweep_parts(tmp_path):
     assert "| 2 | 5 | 10 | 2 x 29 | 96 / 96, 80 rows, Imax 1, 178 cycles / iteration | 25 % / 0 % | 1 / 3 / 4 |" in text
     assert scaling._verdict([drow])[0].endswith("none.") and scaling._verdict([row])[0].endswith("(n = 10).")
     assert scaling._verdict([drow, far])[1] == "Largest instance of the grid that fits the LFE5U-85F: n = 10."
-    scaling.plot([row, far, drow], tmp_path / "s2.png", "200 MHz")
+    scaling.plot([row, far, drow], tmp_path / "s2.png", clocks)
     assert (tmp_path / "s2.png").stat().st_size > (tmp_path / "s.png").stat().st_size
     (tmp_path / "fgm.csv").write_text("role,early_exit,fmax_mhz\nsweep,False,90.5\nfmax,True,217.7\n")
-    assert scaling.placed_clock(tmp_path) == 217.7 and scaling.placed_clock(tmp_path / "none") is None
+    (tmp_path / "dgp.csv").write_text("role,fmax_mhz\naccelerated,\nunits,130.259\n")
+    fgm_rows, dgp_rows = scaling.csv_rows(tmp_path / "fgm.csv"), scaling.csv_rows(tmp_path / "dgp.csv")
+    assert scaling.placed_clocks(fgm_rows, dgp_rows) == {"fgm": 217.7, "dgp": 130.259}
+    assert scaling.placed_clocks([{"role": "fmax", "early_exit": True, "fmax_mhz": 201.5}], []) == {"fgm": 201.5}
+    assert scaling.csv_rows(tmp_path / "none.csv") == [] and scaling.placed_clocks([], []) == {}
+    assert clocks["fgm"][0] == 217.7 and "exit-test" in clocks["fgm"][1] and "an estimate" in clocks["fgm"][1]
+    assert clocks["dgp"][0] == 130.3 and "row-unit" in clocks["dgp"][1]
+    given = scaling.clock_texts({"fgm": 217.7}, 150.0)
+    assert given["fgm"] == given["dgp"] == (150.0, "at 150.0 MHz (given)")
+    alone = scaling.clock_texts({"fgm": 217.7}, None)["dgp"]
+    assert alone[0] == 200.0 and "no placed core" in alone[1]
+    md = "\n".join(scaling.report_lines([row, drow], ["x"], clocks, False, 2, "origin"))
+    assert md.startswith("## FGM and DGP cores") and "### Input box: the FGM core" in md
+    assert "The FGM rows at 217.7 MHz" in md and "the DGP rows at 130.3 MHz" in md
+    sec = scaling.Section(None, [])
+    assert sec.appendix and sec.appendix_md() == [] and sec.plots(None, tmp_path) == []
+    sec.rows, sec.notes, sec.clocks, sec.quick = [row, drow], ["x"], clocks, False
+    assert sec.appendix_md()[0] == "## FGM and DGP cores against DAQP as the problem grows (full)"
+    assert sec.plots(None, tmp_path) == [tmp_path / "scaling.png"] and sec.csv_name == "scaling.csv"
+    from mpc_bench.bench import wants_scaling
+    assert wants_scaling("auto", False, {"fgm", "dgp", "ipm"}) and not wants_scaling("auto", True, {"fgm", "dgp"})
+    assert not wants_scaling("auto", False, {"dgp"}) and wants_scaling("on", True, {"dgp"})
+    assert not wants_scaling("off", False, {"fgm", "dgp"})
 
 
 def test_scaling_instance_without_a_holdable_reference():
