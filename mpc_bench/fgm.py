@@ -194,11 +194,13 @@ def exit_table(recs: list[dict], sw: dict | None) -> list[str]:
         qs = ("median", "p99", "max")
         body.append([str(r["P"]), str(r["b"]), _f(r["fmax_mhz"], "{:.1f}"), f"{r['exit_tol']:.3g}",
                      " / ".join(f"{r[f'loop_iter_{q}']:g}" for q in qs),
+                     _f(100 * r["loop_exit_share"] if r.get("loop_exit_share") is not None else None, "{:.0f} %"),
                      " / ".join(_f(r[f"loop_us_{q}"], "{:.2f}") for q in qs),
                      " / ".join(_f(r.get(f"{k}_own_{q}_us") if k else None, "{:.2f}") for q in qs),
                      " / ".join(_f(r.get(f"{k}_own_{q}_over_core") if k else None, "{:.1f}x") for q in qs)])
     return ["", "### The exit test over the software loop", ""] + _table(
-        ["P", "b", "Fmax MHz", "EXIT_TOL", "iterations median / p99 / max", "core us median / p99 / max",
+        ["P", "b", "Fmax MHz", "EXIT_TOL", "iterations median / p99 / max", "solves ended by the test",
+         "core us median / p99 / max",
          "DAQP own us median / p99 / max", "DAQP own / core"], body) + [
         "", f"The same {recs[0]['loop_solves']} QPs as the software timing, in the loop's order: the core's golden "
         "model, warm-started step after step, ends each solve at the exit test (docs/fgm.md) or at Imax; core us: "

@@ -255,6 +255,13 @@ def sweep(quick: bool, clocks: dict, repeats: int, log) -> tuple[list[dict], lis
     return rows, notes
 
 
+def notes_md(rows: list[dict]) -> list[str]:
+    """The whole note of every instance without a core (the tables cut it): why it does not fit or was refused"""
+    out = [f"- M = {r['M']}, N = {r['N']} (n = {r['n']}): {r['note']}" for r in rows
+           if "core_us_median" not in r and r.get("note")]
+    return ["The instances without a core:", "", *out, ""] if out else []
+
+
 def report_lines(rows: list[dict], notes: list[str], clocks: dict, quick: bool, level: int, origin: str) -> list[str]:
     """The sweep's part of a report: a title at heading `level`, the FGM and DGP tables and verdicts, the choices"""
     from mpc_bench import scaling_dgp
@@ -270,7 +277,7 @@ def report_lines(rows: list[dict], notes: list[str], clocks: dict, quick: bool, 
             f"Design: TARGET=ecp5, b = 15, l_A = 1, l_M = 5, the exit test, Imax and EXIT_TOL from the design check "
             f"at {TARGET_GAP:g} %, P the largest power of two whose MULT18X18D and DP16KD estimates fit the "
             "LFE5U-85F.", "",
-            *table(fgm), "",
+            *table(fgm), "", *notes_md(fgm),
             "Core us: overhead + I L_F cycles (core.json's contract) per loop step, I the iterations the golden "
             "model ran. DAQP and OSQP: their own solve timers (C level), hot-started / warm-started on the same "
             "QPs, one pinned CPU. DAQP / core: above 1x the core is ahead. Error: max over the loop of |u0 - u0*|, "
@@ -280,7 +287,7 @@ def report_lines(rows: list[dict], notes: list[str], clocks: dict, quick: bool, 
             f"generalised). Design: TARGET=ecp5, accelerated, b = 15, P = 2 row units, `lanes: fit` (the most "
             f"multipliers per unit that fit the LFE5U-85F), Imax from the design check at {TARGET_GAP:g} %, the "
             "stopping test (32c) at eps_g = eps_V = 1e-3.", "",
-            *scaling_dgp.table(dgp), "",
+            *scaling_dgp.table(dgp), "", *notes_md(dgp),
             "Core us: overhead + I x cycles per iteration (core.json's contract), I the iterations the golden model "
             "ran (warm start), less the zero start's saving where the starting dual was all zero. DAQP: every row a "
             "general constraint, hot start; OSQP: warm start; their own timers on the same QPs.", "",

@@ -511,7 +511,10 @@ def test_scaling_sweep_parts(tmp_path):
     assert given["fgm"] == given["dgp"] == (150.0, "at 150.0 MHz (given)")
     alone = scaling.clock_texts({"fgm": 217.7}, None)["dgp"]
     assert alone[0] == 200.0 and "no placed core" in alone[1]
-    md = "\n".join(scaling.report_lines([row, drow], ["x"], clocks, False, 2, "origin"))
+    long = dict(far, core="fgm", note="check: the closed-loop cost stays 1.8 % from the optimal MPC's at every Imax " + "x" * 80)
+    assert scaling.notes_md([row]) == [] and scaling.notes_md([row, long])[2].endswith("x" * 80)
+    md = "\n".join(scaling.report_lines([row, drow, long], ["x"], clocks, False, 2, "origin"))
+    assert "- M = 8, N = 30 (n = 240): check: the closed-loop cost stays 1.8 %" in md
     assert md.startswith("## FGM and DGP cores") and "### Input box: the FGM core" in md
     assert "The FGM rows at 217.7 MHz" in md and "the DGP rows at 130.3 MHz" in md
     sec = scaling.Section(None, [])

@@ -219,7 +219,9 @@ def test_own_timer_columns_and_the_exit_loop():
     assert rec["loop_us_median"] == pytest.approx((43 + 52) / 100.0)
     assert rec["loop_us_max"] == pytest.approx((43 + 15 * 52) / 100.0)
     assert rec["daqp_hot_start_own_median_over_core"] == pytest.approx(8.8 / 0.95)
-    assert "### The exit test over the software loop" in "\n".join(fgm.exit_table([dict(rec, P=1, b=15)], sw))
+    table = "\n".join(fgm.exit_table([dict(rec, P=1, b=15)], sw))
+    assert "### The exit test over the software loop" in table
+    assert "| 1 / 15 / 15 | 98 % | 0.95 / " in table      # iterations, the share ended by the test, core us
 
 
 @pytest.mark.skipif(not qs.installed(qs.TinyMpc), reason="tinympc not installed (make bench builds it)")
