@@ -145,7 +145,8 @@ bench: setup $(VENV)/.bench-installed
 	$(MPC) bench --out $(BENCH) $(if $(QUICK),--quick) $(BENCH_ARGS)
 
 ## scaling: the FGM and DGP cores against DAQP and OSQP as the problem grows (chains of M masses, horizon N; QUICK=1 for the
-## small grid) into BENCH: scaling.md, scaling.csv, scaling.png (the clock: the FGM section's placed Fmax in BENCH)
+## small grid; the last section of a full make bench) into BENCH: scaling.md, scaling.csv, scaling.png (the clocks: the
+## FGM and DGP sections' placed Fmax in BENCH)
 scaling: setup $(VENV)/.bench-installed
 	$(PY) -m mpc_bench.scaling --out $(BENCH) $(if $(QUICK),--quick) --docs docs/bench
 

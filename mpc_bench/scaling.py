@@ -217,7 +217,7 @@ def csv_rows(path: Path) -> list[dict]:
 
 
 CLOCK_SOURCE = {"fgm": "the placed Fmax of the FGM section's exit-test masses core (P = 1)",
-                "dgp": "the placed Fmax of the DGP section's row-unit masses_state core (P = 2 x 20 lanes)"}
+                "dgp": "the placed Fmax of the DGP section's row-unit masses_state core"}
 
 
 def clock_texts(clocks: dict, given: float | None) -> dict:
