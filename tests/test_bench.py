@@ -541,3 +541,44 @@ def test_scaling_instance_without_a_holdable_reference():
         with chains.references_held():
             raise ValueError("other")
     assert not isinstance(e.value, chains.NoLoop)
+
+
+def test_scaling_is_the_last_part_of_a_full_run(tmp_path, monkeypatch):
+    """The driver's scaling section runs after the kinds' sections (in finish), takes each kind's clock from that
+    kind's section records, and lands in report.md (after the shared tables), scaling.csv and scaling.png."""
+    import argparse
+
+    from mpc_bench import scaling
+    from mpc_bench.section import Run, Section, run_sections
+
+    class Stub(Section):
+        def __init__(self, name, rows, run):
+            self.name, self.stub_rows = name, rows
+            super().__init__(run)
+
+        def finish(self):
+            self.rows = self.stub_rows
+
+    seen = {}
+
+    def sweep(quick, clocks, repeats, log):
+        seen["clocks"] = {k: v[0] for k, v in clocks.items()}
+        row = {"core": "fgm", "M": 2, "N": 5, "n": 10, "P": 0, "note": "does not fit at P = 1: canned"}
+        return [row, dict(row, core="dgp")], ["canned"]
+
+    monkeypatch.setattr(scaling, "sweep", sweep)
+    info = {"machine": {"cpu": "cpu", "cores": 2, "logical": 2, "system": "Linux", "python": "3"}, "date": "d",
+            "quick": False, "xilinx": False, "jobs": 1, "errors": [], "sw_seconds": {}, "runtime_s": 1.0}
+    run = Run(argparse.Namespace(quick=False, jobs=1), tmp_path, lambda m: None, info)
+    kinds = [Stub("fgm", [{"role": "fmax", "early_exit": True, "fmax_mhz": 210.0}], run),
+             Stub("dgp", [{"role": "units", "fmax_mhz": 131.0}], run)]
+    sections = kinds + [scaling.Section(run, kinds)]
+    run_sections(sections, run)
+    assert seen["clocks"] == {"fgm": 210.0, "dgp": 131.0}
+    path = report.write_outputs(tmp_path, sections, info, lambda m: None)
+    md = path.read_text()
+    assert md.index("## Step times") < md.index("## FGM and DGP cores against DAQP as the problem grows (full)")
+    assert "The FGM rows at 210.0 MHz" in md and "the DGP rows at 131.0 MHz" in md
+    assert "- M = 2, N = 5 (n = 10): does not fit at P = 1: canned" in md
+    assert (tmp_path / "scaling.csv").read_text().startswith("core,M,N,n,P")
+    assert (tmp_path / "scaling.png").exists()
