@@ -310,13 +310,15 @@ class Section(BenchSection):
     def log_text(self) -> str:
         return "scaling sweep (chains of M masses over horizons N, FGM and DGP, at their sections' placed Fmax)"
 
+    def configure(self, a) -> None:
+        self.quick = bool(a.quick)
+
     def finish(self) -> None:
         import time
 
         t = time.perf_counter()
         src = {k: self.sources[k].rows if k in self.sources else [] for k in ("fgm", "dgp")}
         self.clocks = clock_texts(placed_clocks(src["fgm"], src["dgp"]), None)
-        self.quick = bool(self.run.args.quick)
         self.rows, self.notes = sweep(self.quick, self.clocks, 2, self.log)
         self.log(f"scaling sweep done in {(time.perf_counter() - t) / 60:.1f} min")
 
@@ -333,6 +335,8 @@ class Section(BenchSection):
 
 
 def main(argv=None) -> None:
+    from mpc_bench.report import write_csv
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="M in {2, 4}, N in {5, 10}, 60 loop steps")
     ap.add_argument("--out", default="build/bench")
@@ -345,11 +349,7 @@ def main(argv=None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     clocks = clock_texts(placed_clocks(csv_rows(out / "fgm.csv"), csv_rows(out / "dgp.csv")), a.clock_mhz)
     rows, notes = sweep(a.quick, clocks, a.repeats, lambda msg: None)
-    keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in ("core", "M", "N", "n", "P"), k))
-    with (out / "scaling.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out / "scaling.csv", rows)       # as make bench writes it
     plot(rows, out / "scaling.png", clocks)
     when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     lines = report_lines(rows, notes, clocks, a.quick, 1,
