@@ -52,9 +52,11 @@ FMAX_LAT = dict(lat_add=1, lat_mul=5, target="ecp5")
 FMAX_B = 15
 # The Fmax cores as (P, K_p, copies): one problem at a time (the latency reference); K_p = 2 problems interleaved
 # on the row units (docs/fgm.md), which keeps every turn busy at P = 1 (K_p ceil(n/P) = 80 >= L_F = 60); and
-# copies of that core placed together on one device (mpc_bench.harness), the throughput one LFE5U-85F gives; and
-# P = 3, the largest P whose multipliers fit the LFE5U-85F (126 of its 156 MULT18X18D), the shortest latency
-FMAX_FULL, FMAX_QUICK = ((1, 1, 1), (1, 2, 1), (1, 2, 2), (3, 1, 1)), ((1, 1, 1),)
+# P = 3, the largest P whose multipliers fit the LFE5U-85F (126 of its 156 MULT18X18D), the shortest latency.
+# Copies of a core placed together on one device (mpc_bench.harness; `--fgm-fmax 1x2x2`), the throughput one
+# LFE5U-85F gives, are not in the default set: two copies of the K_p = 2 core were still routing after 40 minutes
+# with 13k wires overused, for each of three seeds.
+FMAX_FULL, FMAX_QUICK = ((1, 1, 1), (1, 2, 1), (3, 1, 1)), ((1, 1, 1),)
 # The Fmax cores of one problem have the exit test (docs/fgm.md) at EXIT_TOL = 2^-9 (in the units of u, 64 LSB at
 # b = 15): over the software loop their latency is overhead + I L_F with I the iterations the golden model runs
 # there, warm-started step after step as in the loop; Imax bounds the worst case.
@@ -366,7 +368,7 @@ class Section(QpSection):
         ap.add_argument("--b", default=None, help="FGM: comma-separated frac_bits (default 12,16; QUICK 16)")
         ap.add_argument("--fgm-fmax", default=None, help="FGM masses pipelined for Fmax (TARGET=ecp5, b = 15, "
                                                          "l_A = 1, l_M = 5): P, P x K_p or P x K_p x copies items "
-                                                         "(default 1,1x2,1x2x2,3; QUICK 1)")
+                                                         "(default 1,1x2,3; QUICK 1)")
         ap.add_argument("--steps", type=int, default=None, help="closed-loop steps for the FGM software timing")
 
     def configure(self, a) -> None:

@@ -452,9 +452,9 @@ def test_median_of_placement_seeds():
 
 def test_fgm_fmax_core_list():
     """--fgm-fmax: P, P x K_p or P x K_p x copies items; the defaults place one problem and two interleaved at
-    P = 1, and two copies of the interleaved core together."""
+    P = 1, and one problem at P = 3 (copies only when asked)."""
     assert fgm.fmax_cores("1,1x2,3x3,1x2x3", None) == ((1, 1, 1), (1, 2, 1), (3, 3, 1), (1, 2, 3))
-    assert fgm.fmax_cores(None, fgm.FMAX_FULL) == ((1, 1, 1), (1, 2, 1), (1, 2, 2), (3, 1, 1))
+    assert fgm.fmax_cores(None, fgm.FMAX_FULL) == ((1, 1, 1), (1, 2, 1), (3, 1, 1))
     assert fgm.FMAX_QUICK == ((1, 1, 1),)
     for bad in ("1x2x3x4", "0x2", "1xx2"):
         with pytest.raises(ValueError):
