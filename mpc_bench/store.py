@@ -85,6 +85,11 @@ def active() -> Store | None:
     return _active
 
 
+def holds(key: str) -> bool:
+    """Whether this process's store (if any) has a result under `key`."""
+    return _active is not None and _active.has(key)
+
+
 def _shown(p: Path) -> str:
     try:
         return str(Path(p).resolve().relative_to(REPO))

@@ -245,7 +245,7 @@ def run_yosys(c: ToolResults, family: str, log: Log, netlist: bool = False) -> t
     st = store.active()
     if _cached(kf, key, outputs):
         log(f"{c.tag}: {family} synthesis cached")
-    elif st is not None and not netlist and st.has(key):
+    elif not netlist and store.holds(key):
         r = st.get(key)
         log(f"{c.tag}: {family} synthesis from the result store")
         return r["cells"], r["mem"]
@@ -296,18 +296,17 @@ def _pnr_step(c: ToolResults, seed: int = PNR_SEED) -> tuple[Path, list[str], st
 def is_cached(c: ToolResults, step: str) -> bool:
     """Whether a tool step ("ecp5", "xc7": Yosys; "nextpnr") has its results for the core's current SystemVerilog
     in the cache or the result store, so that running it costs nothing (a QUICK run can report them)."""
-    st = store.active()
     if step == "nextpnr":
         if not is_cached(c, "ecp5"):
             return False
         for seed in c.pnr_seeds:
             d, _, key = _pnr_step(c, seed)
             report, plog, kf = _pnr_files(d, seed)
-            if not (_cached(kf, key, [report, plog]) or (st is not None and st.has(key))):
+            if not (_cached(kf, key, [report, plog]) or store.holds(key)):
                 return False
         return True
     d, _, outputs, key = _yosys_step(c, step)
-    return _cached(d / "yosys.key", key, outputs) or (st is not None and st.has(key))
+    return _cached(d / "yosys.key", key, outputs) or store.holds(key)
 
 
 def synth_ecp5_and_pnr(c: ToolResults, log: Log) -> None:
@@ -344,7 +343,7 @@ def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
     st = store.active()
     if _cached(kf, key, [report, plog]):
         log(f"{c.tag}: place and route (seed {seed}) cached")
-    elif st is not None and st.has(key):
+    elif store.holds(key):
         log(f"{c.tag}: place and route (seed {seed}) from the result store")
         return st.get(key)
     else:
