@@ -8,7 +8,7 @@ import numpy as np
 from mpc_bench.baselines import own_columns, slug, software_notes, timer_table
 from mpc_bench.qp import _load_text, _mem_list
 from mpc_bench.report import _f, _table, _tool_columns, latency_us, pnr_cells
-from mpc_bench.tools import PNR_SEED
+from mpc_bench.tools import seeds_phrase
 
 
 def latency_cycles(overhead: int, cycles_per_iteration: int, iters, zero=None, saving: int = 0) -> np.ndarray:
@@ -152,11 +152,8 @@ def _resources_part(cores: list, rows: list[dict]) -> list[str]:
     else:
         L += ["No core was synthesised in this run" + (" (QUICK takes Yosys results from the cache only)."
                                                         if any("QUICK" in (c.pnr_note or "") for c in cores) else ".")]
-    seeds = max((len(c.pnr.get("fmax_seeds", [])) for c in cores if c.pnr), default=1)
-    L += ["", "constraints/dgp_core.lpf (the clock at 200 MHz, LVCMOS33), "
-          + (f"seed {PNR_SEED}" if seeds <= 1 else f"seeds {PNR_SEED} to {PNR_SEED + seeds - 1}: the median run's "
-             "Fmax and critical path, every seed's Fmax in brackets")
-          + ", `--lpf-allow-unconstrained`: register to register.", ""]
+    L += ["", f"constraints/dgp_core.lpf (the clock at 200 MHz, LVCMOS33), {seeds_phrase(cores)}, "
+          "`--lpf-allow-unconstrained`: register to register.", ""]
     L += _table(["core", "Fmax MHz", "TRELLIS_COMB", "critical path (register to register)", "logic cells", "ns"],
                 [[c.tag, *pnr_cells(c, _n(r.get("ecp5_TRELLIS_COMB_pnr")))] for c, r in zip(cores, rows)])
     for c in cores:

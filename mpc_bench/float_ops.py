@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mpc_bench.parsers import ecp5_resources, parse_nextpnr_report, parse_yosys_stat
-from mpc_bench.tools import NEXTPNR_DEVICE, Job, Log, _tool, median_run, run_jobs
+from mpc_bench.tools import NEXTPNR_DEVICE, Job, Log, _tool, median_run, run_jobs, seeds_text
 from mpc_cores.flow import REPO, run_generator
 
 OPS = ("add", "mul", "div", "sqrt")
@@ -154,7 +154,7 @@ def section_md(cores: list[OpCore]) -> list[str]:
             continue
         r = c.ecp5
         out.append(f"| {c.op} | {c.fmt} | {c.target} | {lat} | {r['LUT4']} | {r['CCU2C']} | {r['FF']} | {r['MULT18X18D']} | "
-                   f"{c.pnr['fmax_mhz']:.1f} | {', '.join(f'{f:.1f}' for f in c.pnr['fmax_seeds'])} | {_path(c)} |")
+                   f"{c.pnr['fmax_mhz']:.1f} | {seeds_text(c.pnr) or c.pnr['fmax_seeds'][0]} | {_path(c)} |")
     return out + [""]
 
 

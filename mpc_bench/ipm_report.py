@@ -7,7 +7,7 @@ import numpy as np
 
 from mpc_bench.minres_report import F_001_MHZ, FLOAT_KINDS, mem_list
 from mpc_bench.report import _f, _table, _tool_columns, latency_us, pnr_cells, ratio
-from mpc_bench.tools import PNR_SEED
+from mpc_bench.tools import seeds_phrase
 
 # Table I of 001 (floating-point units of the whole circuit): Stage 1 3i (i parallel instances of Stage 1, 1 for
 # most problems), dot-product block of the linear solver 4M - 3, other linear-solver units 27: 4M + 24 + 3i.
@@ -217,7 +217,8 @@ def _units_part(cores: list, recs: list[dict]) -> list[str]:
     L += [""]
     placed = [(c, r) for c, r in zip(cores, recs) if c.pnr or (c.place and c.pnr_note)]
     L += ["### Fmax (nextpnr-ecp5, LFE5U-85F, CABGA381, speed 8)", "",
-          f"constraints/ipm_core.lpf (the clock only, 001's 150 MHz), seed {PNR_SEED}, `--lpf-allow-unconstrained`: "
+          f"constraints/ipm_core.lpf (the clock only, 001's 150 MHz), {seeds_phrase([c for c, _ in placed])}, "
+          "`--lpf-allow-unconstrained`: "
           "register to register.", ""]
     if placed:
         L += _table(["core", "Fmax MHz", "TRELLIS_COMB", "critical path (register to register)", "logic cells",

@@ -11,7 +11,7 @@ import numpy as np
 from mpc_bench.baselines_minres import SOLVERS, WEIGHTS, median_us
 from mpc_bench.parsers import lpf_frequency
 from mpc_bench.report import _f, _table, _tool_columns, latency_us, pnr_cells, ratio
-from mpc_bench.tools import CONSTRAINTS, PNR_SEED
+from mpc_bench.tools import CONSTRAINTS, seeds_phrase
 
 # 001 section VIII-C: "a clock frequency above 150MHz is achievable" (Virtex-6, post place and route).
 F_001_MHZ = 150.0
@@ -327,7 +327,7 @@ def minres_section(cores: list, recs: list[dict], sw: dict | None, info: dict) -
     L += ["### Fmax and critical path (nextpnr-ecp5, LFE5U-85F, CABGA381, speed 8)", ""]
     tgt = next((r["fmax_target_mhz"] for r in recs if r.get("fmax_target_mhz")), None) \
         or lpf_frequency(CONSTRAINTS.joinpath("minres_core.lpf").read_text())
-    L += [f"constraints/minres_core.lpf (`--freq {_f(tgt, '{:g}')}`, 001's clock), seed {PNR_SEED}, "
+    L += [f"constraints/minres_core.lpf (`--freq {_f(tgt, '{:g}')}`, 001's clock), {seeds_phrase(cores)}, "
           "`--lpf-allow-unconstrained`: the LPF has the clock only, so the Fmax is register to register. "
           + info.get("pnr_text", ""), ""]
     L += _fmax_rows(cores, recs)

@@ -14,7 +14,7 @@ from mpc_bench.baselines import SwCase, merge_software, time_software
 from mpc_bench.parsers import ECP5_85F
 from mpc_bench.report import _f, _table, latency_us, pnr_cells
 from mpc_bench.section import Section
-from mpc_bench.tools import PNR_SEED, Job, ToolResults, run_cycle_test, synth_ecp5_and_pnr, synth_xc7
+from mpc_bench.tools import Job, ToolResults, run_cycle_test, seeds_phrase, synth_ecp5_and_pnr, synth_xc7
 
 # The clocks of Table III of 002 (Virtex-6, Spartan-6).
 F_V6_MHZ, F_S6_MHZ = 400.0, 230.0
@@ -175,10 +175,7 @@ def _memories(cores: list[Core]) -> list[str]:
 
 def _fmax_section(cores: list[Core], recs: list[dict], lpf: str) -> list[str]:
     tgt = next((r["fmax_target_mhz"] for r in recs if r["fmax_target_mhz"]), None)
-    seeds = max((len(c.pnr.get("fmax_seeds", [])) for c in cores if c.pnr), default=1)
-    L = [f"Constraint from constraints/{lpf} (`--freq {_f(tgt, '{:g}')}`), "
-         + (f"seed {PNR_SEED}" if seeds <= 1 else f"seeds {PNR_SEED} to {PNR_SEED + seeds - 1}: the median run's "
-            "Fmax and critical path, every seed's Fmax in brackets") + ", "
+    L = [f"Constraint from constraints/{lpf} (`--freq {_f(tgt, '{:g}')}`), {seeds_phrase(cores)}, "
          "`--lpf-allow-unconstrained`: the LPF sets the clock and the I/O standard (LVCMOS33) but no pin sites, "
          "so nextpnr places the AXI pins itself (the Fmax below is register to register; nextpnr-ecp5 has no I/O "
          "timing constraints). \"units in rows\": each row unit's multipliers and block RAMs pinned to a row of "

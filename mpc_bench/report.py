@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from mpc_bench.qp_solvers import versions as solver_versions
-from mpc_bench.tools import _pkg_version
+from mpc_bench.tools import _pkg_version, seeds_text
 
 # ----------------------------------------------------------------------------------------- cells
 
@@ -82,8 +82,7 @@ def pnr_cells(c, comb: str) -> list[str]:
     cp = (c.pnr or {}).get("critical_path")
     if not c.pnr:
         return ["-", "-", c.pnr_note or "not run", "-", "-"]
-    seeds = c.pnr.get("fmax_seeds") or []
-    fmax = f"{c.pnr['fmax_mhz']:.1f}" + (f" ({', '.join(f'{f:.1f}' for f in seeds)})" if len(seeds) > 1 else "")
+    fmax = f"{c.pnr['fmax_mhz']:.1f}" + (f" ({seeds_text(c.pnr)})" if seeds_text(c.pnr) else "")
     return [fmax, comb,
             f"{cp['from']} ({cp['source_kind']}) -> {cp['to']}" if cp else "-",
             f"{cp['logic_levels']}: " + ", ".join(f"{v} {k}" for k, v in cp["kinds"].items()) if cp else "-",

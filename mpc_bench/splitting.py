@@ -14,7 +14,7 @@ from mpc_bench.admm import FMAX_LAT, SMALL_ADMM, small_admm_problem
 from mpc_bench.qp import Core, measure_cycles
 from mpc_bench.report import _f, _table
 from mpc_bench.section import Section
-from mpc_bench.tools import FMAX_SEEDS, Job, cached_design, is_cached, synth_ecp5_and_pnr
+from mpc_bench.tools import FMAX_SEEDS, Job, cached_design, is_cached, seeds_text, synth_ecp5_and_pnr
 
 
 class SplittingSection(Section):
@@ -61,7 +61,8 @@ class SplittingSection(Section):
                 "cycles_per_iteration_measured": m.get("cycles_per_iteration"),
                 "multipliers": c.core.get("multipliers"), "ecp5_MULT18X18D": e.get("MULT18X18D"),
                 "ecp5_LUT4": e.get("LUT4"), "ecp5_FF": e.get("FF"), "ecp5_DP16KD": e.get("DP16KD"),
-                "fmax_mhz": p.get("fmax_mhz"), "fmax_seeds": p.get("fmax_seeds"), "pnr_note": c.pnr_note})
+                "fmax_mhz": p.get("fmax_mhz"), "fmax_seeds": p.get("fmax_seeds"),
+                "fmax_seeds_text": seeds_text(p) if p else "", "pnr_note": c.pnr_note})
 
     def appendix_md(self) -> list[str]:
         if not self.rows:
@@ -72,8 +73,8 @@ class SplittingSection(Section):
                  f"l_M = {r['lat_mul']} {r['target']}", str(r["cycles_per_iteration"]),
                  _f(r["cycles_per_iteration_measured"], "{}"), str(r["multipliers"]), _f(r["ecp5_MULT18X18D"], "{}"),
                  _f(r["ecp5_LUT4"], "{}"), _f(r["ecp5_FF"], "{}"), _f(r["ecp5_DP16KD"], "{}"),
-                 (_f(r["fmax_mhz"], "{:.1f} MHz") + (f" ({', '.join(f'{v:.1f}' for v in r['fmax_seeds'])})"
-                                                     if r["fmax_seeds"] else "")) if r["fmax_mhz"] else
+                 (_f(r["fmax_mhz"], "{:.1f} MHz") + (f" ({r['fmax_seeds_text']})" if r["fmax_seeds_text"] else ""))
+                 if r["fmax_mhz"] else
                  (r["pnr_note"] or "not placed")] for r in self.rows]
         return [f"## {self.label} on the ADMM datapath", "",
                 f"The method `{self.method}` of the ADMM core (004; docs/methods.md compares the methods' "

@@ -3,7 +3,8 @@
 Synthesis and place and route are deterministic: the same SystemVerilog, script, constraints, options, seed and tool
 versions give the same cells, Fmax and critical path on any machine. mpc_bench.tools keys every step by a digest of
 exactly these inputs (its build-folder cache uses the same keys); this store keeps, per key, what the bench reads
-from the step's outputs: the cell counts and memory mapping of a Yosys run, the parsed report of a nextpnr run. A
+from the step's outputs: the cell counts and memory mapping of a Yosys run, the parsed report of a nextpnr run (or
+{"seed", "unrouted_s"}: not routed within that time limit, mpc_bench.tools.route_limit_s). A
 bench run takes a step's result from here when the key matches and records every result it obtains, so the place
 and route of an unchanged core is done once, and a full run on a fresh clone redoes only what changed. The report's
 header says how many results came from the store. A run with --no-store neither reads nor writes it; changed inputs
@@ -46,6 +47,11 @@ class Store:
             if e is not None:
                 self.reused += 1
             return None if e is None else e["result"]
+
+    def peek(self, key: str) -> dict | None:
+        """The result under `key`, not counted as taken."""
+        e = self.entries.get(key)
+        return None if e is None else e["result"]
 
     def has(self, key: str) -> bool:
         return key in self.entries
@@ -121,6 +127,9 @@ def harvest(root: Path, st: Store) -> int:
         seed = int(sfx[2:]) if sfx.startswith("_s") else 1
         st.put(kf.read_text(), "nextpnr", d.parent.name,
                dict(parse_nextpnr_report(json.loads(report.read_text())), seed=seed), seed=seed)
+    for mf in sorted(Path(root).rglob("nextpnr*.unrouted")):     # runs stopped at their time limit
+        r = json.loads(mf.read_text())
+        st.put(r.pop("key"), "nextpnr", mf.parent.parent.name, r, seed=r["seed"])
     return st.recorded - before
 
 

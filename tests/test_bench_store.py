@@ -126,6 +126,76 @@ def test_placement_from_the_store_and_harvest(tmp_path, st, monkeypatch):
         tools.synth_ecp5_and_pnr(c, lambda m: None)
 
 
+def _synthesised(folder: Path, luts: int = 2) -> Toy:
+    """A core whose Yosys step has run (stat, log, netlist and key in its folder)."""
+    c = _core(folder)
+    d, _, _, ykey = tools._yosys_step(c, "ecp5")
+    d.mkdir()
+    (d / "stat.txt").write_text("=== fmax_harness ===\n\n        0 cells\n\n"
+                                f"=== Top ===\n\n        3 cells\n        {luts}   LUT4\n        1   TRELLIS_FF\n")
+    (d / "yosys.log").write_text("")
+    (d / "netlist.json").write_text("{}")
+    (d / "yosys.key").write_text(ykey)
+    return c
+
+
+def test_a_seed_not_routed_in_time_is_replaced_and_recorded(tmp_path, st, monkeypatch):
+    """nextpnr runs under route_limit_s; a seed that overruns it is stopped, reported and replaced by the next seed,
+    and the store (and the folder, for harvest) keeps it so that no later run with the same limit repeats it; a
+    longer limit tries it again."""
+    calls = []
+
+    def fake_run(argv, cwd=None, timeout=None, **k):
+        seed = int(argv[argv.index("--seed") + 1])
+        calls.append((seed, timeout))
+        if seed == 2:
+            raise subprocess.TimeoutExpired(argv, timeout)
+        report = Path(cwd) / argv[argv.index("--report") + 1]
+        report.write_text(json.dumps({"fmax": {"clk": {"achieved": 170.0 + seed, "constraint": 200.0}}}))
+        (Path(cwd) / argv[argv.index("--log") + 1]).write_text("")
+        return subprocess.CompletedProcess(argv, 0, "")
+
+    monkeypatch.setattr(tools, "ecp5_fit", lambda r: [])
+    a = _synthesised(tmp_path / "run" / "cores" / "toy", luts=20000)
+    a.pnr_seeds = (1, 2, 3)
+    assert tools.route_limit_s(a) == max(tools.ROUTE_LIMIT_MIN_S, 20000 * tools.ROUTE_LIMIT_S_PER_LUT) == 1600
+    monkeypatch.setattr(tools.subprocess, "run", fake_run)
+    log = []
+    tools.synth_ecp5_and_pnr(a, log.append)
+    assert calls == [(1, 1600), (2, 1600), (3, 1600), (4, 1600)]
+    assert a.pnr["seeds_routed"] == [1, 3, 4] and a.pnr["fmax_seeds"] == [171.0, 173.0, 174.0]
+    assert a.pnr["fmax_mhz"] == 173.0 and a.pnr["unrouted"] == "seed 2 not routed in 27 min"
+    assert tools.seeds_text(a.pnr) == "171.0, 173.0, 174.0; seed 2 not routed in 27 min"
+    assert any("seed 2 not routed in 27 min, stopped" in m for m in log)
+    _, _, key2 = tools._pnr_step(a, 2)
+    assert st.peek(key2) == {"seed": 2, "unrouted_s": 1600}
+
+    # a fresh folder: every seed from the store, no tool
+    b = _core(tmp_path / "fresh")
+    b.pnr_seeds = (1, 2, 3)
+    assert tools.is_cached(b, "nextpnr")
+    _no_tools(monkeypatch)
+    tools.synth_ecp5_and_pnr(b, lambda m: None)
+    assert b.pnr["seeds_routed"] == [1, 3, 4] and b.pnr["unrouted"] == a.pnr["unrouted"]
+    # harvest finds the stopped run by its marker
+    other = store.Store(tmp_path / "other.jsonl")
+    assert store.harvest(tmp_path / "run", other) == 5 and other.peek(key2) == {"seed": 2, "unrouted_s": 1600}
+    # a longer limit: seed 2 is tried again
+    monkeypatch.setattr(tools, "ROUTE_LIMIT_MIN_S", 3600)
+    assert not tools.is_cached(b, "nextpnr")
+
+
+def test_no_seed_routed(tmp_path, st, monkeypatch):
+    def stall(argv, cwd=None, timeout=None, **k):
+        raise subprocess.TimeoutExpired(argv, timeout)
+
+    monkeypatch.setattr(tools, "ecp5_fit", lambda r: [])
+    c = _synthesised(tmp_path / "c")
+    monkeypatch.setattr(tools.subprocess, "run", stall)
+    tools.synth_ecp5_and_pnr(c, lambda m: None)
+    assert c.pnr is None and c.pnr_note == "not routed: seed 1 not routed in 20 min, seed 2 not routed in 20 min"
+
+
 def test_store_command_line(tmp_path, capsys):
     with pytest.raises(SystemExit, match="not a folder"):
         store.main([str(tmp_path / "none"), "--store", str(tmp_path / "r.jsonl")])
@@ -140,4 +210,7 @@ def test_the_repository_store_parses():
     for key, e in s.entries.items():
         assert len(key) == 64 and e["step"] in ("yosys_ecp5", "yosys_xc7", "nextpnr")
         r = e["result"]
-        assert ("fmax_mhz" in r and e.get("seed") == r["seed"]) if e["step"] == "nextpnr" else set(r) == {"cells", "mem"}
+        if e["step"] == "nextpnr":
+            assert ("fmax_mhz" in r or r["unrouted_s"] > 0) and e.get("seed") == r["seed"]
+        else:
+            assert set(r) == {"cells", "mem"}
