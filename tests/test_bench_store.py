@@ -4,7 +4,9 @@ miss."""
 from __future__ import annotations
 
 import json
+import signal
 import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -59,6 +61,7 @@ def test_put_get_and_the_file(tmp_path):
     s = store.Store(tmp_path / "r.jsonl")
     s.put("k1", "nextpnr", "core a", {"fmax_mhz": 201.5, "max_net": (0.5, "n")}, seed=2)
     s.put("k1", "nextpnr", "core a", {"fmax_mhz": 201.5, "max_net": (0.5, "n")}, seed=2)   # the same: not again
+    s.put("k1", "nextpnr", "a_folder", {"fmax_mhz": 201.5, "max_net": (0.5, "n")}, seed=2)  # another label only
     s.put("k2", "yosys_ecp5", "core a", {"cells": {"LUT4": 3}, "mem": {}})
     assert len((tmp_path / "r.jsonl").read_text().splitlines()) == 2 and s.recorded == 2
     again = store.Store(tmp_path / "r.jsonl")
@@ -145,11 +148,17 @@ def test_a_seed_not_routed_in_time_is_replaced_and_recorded(tmp_path, st, monkey
     longer limit tries it again."""
     calls = []
 
-    def fake_run(argv, cwd=None, timeout=None, **k):
+    clock = [0.0]
+    monkeypatch.setattr(tools.time, "perf_counter", lambda: clock[0])
+
+    def fake_run(argv, cwd=None, **k):
         seed = int(argv[argv.index("--seed") + 1])
-        calls.append((seed, timeout))
+        limit = int(argv[3])        # sh -c 'ulimit -t "$0" && exec "$@"' limit nextpnr ...
+        calls.append((seed, limit))
+        clock[0] += 100.0
         if seed == 2:
-            raise subprocess.TimeoutExpired(argv, timeout)
+            clock[0] += limit       # the kernel ends it at its CPU limit
+            return subprocess.CompletedProcess(argv, -signal.SIGKILL, "")
         report = Path(cwd) / argv[argv.index("--report") + 1]
         report.write_text(json.dumps({"fmax": {"clk": {"achieved": 170.0 + seed, "constraint": 200.0}}}))
         (Path(cwd) / argv[argv.index("--log") + 1]).write_text("")
@@ -158,17 +167,17 @@ def test_a_seed_not_routed_in_time_is_replaced_and_recorded(tmp_path, st, monkey
     monkeypatch.setattr(tools, "ecp5_fit", lambda r: [])
     a = _synthesised(tmp_path / "run" / "cores" / "toy", luts=20000)
     a.pnr_seeds = (1, 2, 3)
-    assert tools.route_limit_s(a) == max(tools.ROUTE_LIMIT_MIN_S, 20000 * tools.ROUTE_LIMIT_S_PER_LUT) == 1600
+    assert tools.route_limit_s(a) == max(tools.ROUTE_LIMIT_MIN_S, 20000 * tools.ROUTE_LIMIT_S_PER_LUT) == 2000
     monkeypatch.setattr(tools.subprocess, "run", fake_run)
     log = []
     tools.synth_ecp5_and_pnr(a, log.append)
-    assert calls == [(1, 1600), (2, 1600), (3, 1600), (4, 1600)]
+    assert calls == [(1, 2000), (2, 2000), (3, 2000), (4, 2000)]
     assert a.pnr["seeds_routed"] == [1, 3, 4] and a.pnr["fmax_seeds"] == [171.0, 173.0, 174.0]
-    assert a.pnr["fmax_mhz"] == 173.0 and a.pnr["unrouted"] == "seed 2 not routed in 27 min"
-    assert tools.seeds_text(a.pnr) == "171.0, 173.0, 174.0; seed 2 not routed in 27 min"
-    assert any("seed 2 not routed in 27 min, stopped" in m for m in log)
+    assert a.pnr["fmax_mhz"] == 173.0 and a.pnr["unrouted"] == "seed 2 not routed in 33 min"
+    assert tools.seeds_text(a.pnr) == "171.0, 173.0, 174.0; seed 2 not routed in 33 min"
+    assert any("seed 2 not routed in 33 min, stopped" in m for m in log)
     _, _, key2 = tools._pnr_step(a, 2)
-    assert st.peek(key2) == {"seed": 2, "unrouted_s": 1600}
+    assert st.peek(key2) == {"seed": 2, "unrouted_s": 2000}
 
     # a fresh folder: every seed from the store, no tool
     b = _core(tmp_path / "fresh")
@@ -179,21 +188,43 @@ def test_a_seed_not_routed_in_time_is_replaced_and_recorded(tmp_path, st, monkey
     assert b.pnr["seeds_routed"] == [1, 3, 4] and b.pnr["unrouted"] == a.pnr["unrouted"]
     # harvest finds the stopped run by its marker
     other = store.Store(tmp_path / "other.jsonl")
-    assert store.harvest(tmp_path / "run", other) == 5 and other.peek(key2) == {"seed": 2, "unrouted_s": 1600}
+    assert store.harvest(tmp_path / "run", other) == 5 and other.peek(key2) == {"seed": 2, "unrouted_s": 2000}
     # a longer limit: seed 2 is tried again
     monkeypatch.setattr(tools, "ROUTE_LIMIT_MIN_S", 3600)
     assert not tools.is_cached(b, "nextpnr")
 
 
 def test_no_seed_routed(tmp_path, st, monkeypatch):
-    def stall(argv, cwd=None, timeout=None, **k):
-        raise subprocess.TimeoutExpired(argv, timeout)
+    clock = [0.0]
+    monkeypatch.setattr(tools.time, "perf_counter", lambda: clock[0])
+
+    def stall(argv, cwd=None, **k):
+        clock[0] += 1200.0
+        return subprocess.CompletedProcess(argv, -signal.SIGXCPU, "")
 
     monkeypatch.setattr(tools, "ecp5_fit", lambda r: [])
     c = _synthesised(tmp_path / "c")
     monkeypatch.setattr(tools.subprocess, "run", stall)
     tools.synth_ecp5_and_pnr(c, lambda m: None)
     assert c.pnr is None and c.pnr_note == "not routed: seed 1 not routed in 20 min, seed 2 not routed in 20 min"
+
+
+def test_the_limit_is_cpu_time(tmp_path):
+    """The shell line that runs nextpnr ends a command at its CPU limit, with the signal the bench reads."""
+    p = subprocess.run(["/bin/sh", "-c", 'ulimit -t "$0" && exec "$@"', "1", sys.executable, "-c", "while 1: pass"],
+                       timeout=120)
+    assert p.returncode in (-signal.SIGXCPU, -signal.SIGKILL)
+
+
+def test_a_killed_run_before_its_limit_is_a_failure(tmp_path, st, monkeypatch):
+    """A run killed before its limit (not the CPU limit: another signal, out of memory) fails the core; nothing is
+    recorded as not routed."""
+    monkeypatch.setattr(tools, "ecp5_fit", lambda r: [])
+    c = _synthesised(tmp_path / "c")
+    monkeypatch.setattr(tools.subprocess, "run", lambda argv, **k: subprocess.CompletedProcess(argv, -signal.SIGKILL, ""))
+    tools.synth_ecp5_and_pnr(c, lambda m: None)
+    assert c.pnr is None and c.pnr_note == "nextpnr failed: exit -9"
+    assert [e["step"] for e in st.entries.values()] == ["yosys_ecp5"]
 
 
 def test_store_command_line(tmp_path, capsys):
