@@ -43,9 +43,9 @@ from mpc_cores.flow import REPO
 
 MASSES_SOFT = REPO / "examples/masses_rate_soft.yaml"
 # b = 18 is the spec's (and the lower bound 002 gives from Assumption 2). Yosys needs 25 min at P = 1 and 47 min
-# at P = 2 per masses core on the bench's 2-core machine, growing with P; no P fits (P = 1 already needs 864 MULT18X18D of
-# 156), so the full sweep keeps to P = 1, 2 and b = 18 (--admm-P 1,2,4,8 and --admm-b 18,16 add more; b = 16
-# passes Assumption 2 too) and QUICK to P = 1, measured in Verilator only.
+# at P = 2 per masses core on the bench's 2-core machine, growing with P; no P fits (P = 1 already needs 864
+# MULT18X18D of 156), so the full sweep keeps to P = 1, 2 and b = 18 (--admm-P 1,2,4,8 and --admm-b 18,16 add
+# more; b = 16 passes Assumption 2 too) and QUICK to P = 1, measured in Verilator only.
 FULL_P, FULL_B = (1, 2), (18,)
 QUICK_P, QUICK_B = (1,), (18,)
 SMALL_FULL_P, SMALL_QUICK_P = (1, 2), (1,)
