@@ -118,9 +118,9 @@ def _cycles_part(rows: list[dict]) -> list[str]:
     L = ["### Cycles", "",
          "core.json's contract: overhead + I x cycles per iteration from the last input word to the first answer "
          "word, I the iterations run (1..Imax), less the zero start's saving when the starting dual is all zero "
-         "(every cold start: the first pass K skipped); cycles per iteration = pass K (at most ceil(n / P) "
-         "ceil(mc / lanes) issue cycles) + its pipeline + pass G (at most ceil(mc / P) ceil(n / lanes)) + its "
-         "pipeline + 1. Measured: the cocotb test `cycle_contract` of verif/dgp/tb.py in Verilator, which asserts "
+         "(every cold start: the first iteration's passes K and G skipped); cycles per iteration = pass K (at most "
+         "ceil(n / P) ceil(mc / lanes) issue cycles) + its pipeline + pass G (at most ceil(mc / P) ceil(n / lanes)) "
+         "+ its pipeline + 1. Measured: the cocotb test `cycle_contract` of verif/dgp/tb.py in Verilator, which asserts "
          "every answer's cycle against the contract (cold zero starts at Imax = 1, 2, 3; warm starts, the first "
          "from a nonzero dual) and reads CYCLES_PER_ITER.", ""]
     body = [[r["tag"], f"{r['issue_K']} + {r['issue_G']}", str(r["cycles_per_iteration"]), str(r["overhead"]),
@@ -176,8 +176,9 @@ def _iterations_part(rows: list[dict], loop) -> list[str]:
          + f" as its design starts. Cold: {mt['states']} random states of the accepted box and random references, "
          "y = 0. Met: the stopping "
          "test held (otherwise the solve ran to Imax). Zero starts: the solves whose starting dual was all zero (every "
-         "cold start; warm, after a solve that ended with no row active), which skip the first pass K. Latency: "
-         "overhead + I x cycles per iteration, less the zero start's saving; us at the core's placed Fmax.", ""]
+         "cold start; warm, after a solve that ended with no row active), which skip the first passes K and G. "
+         "Latency: overhead + I x cycles per iteration, less the zero start's saving; us at the core's placed "
+         "Fmax.", ""]
     body = []
     for r in rows:
         warm = loop.meta.get("warm", {}).get(r["role"])

@@ -59,7 +59,8 @@ def quantised_qp(d):
     """The QP the words describe, in real numbers, for dgp_float: the same K, Fe, G, bounds and thresholds as the
     fixed-point model, so that the two runs differ by the rounding of the products only (and the beta words)."""
     one = float(1 << d.b)
-    K, Fe, G, Lw = d.K / one, d.Fe / one, d.G / one, d.Lw / one
+    K, Fe, G = d.K / one, d.Fe / one, d.G / one
+    Lw = d.Lb / one + G @ Fe                  # the core's bounds are relative to G e (design.bound_rows)
     lo0, hi0 = d.lo0 / one, d.hi0 / one
     return SimpleNamespace(K=K, Fe=Fe, G=G, mc=d.mc, n=d.n, sigma=d.eg / one / d.eps_g,
                            bounds=lambda w: (lo0 + Lw @ w, hi0 + Lw @ w))

@@ -92,8 +92,11 @@ def test_masses_state_report(dgp_cores):
     assert (d.P, d.lanes, d.problem.N, d.nu) == (4, 16, 10, 4)
     assert core["issue_cycles"]["G"] == 10 + sum(-(-4 * k // 16) for k in range(1, 11)) == 28 < 20 * 3
     assert core["cycles_at_imax"] == core["solve_overhead_cycles"] + d.iterations * core["cycles_per_iteration"]
-    # a zero start skips the first pass K and its gap; the first pass's 20 rounds of bound rows (one chunk each: nw =
-    # 12 <= 16 lanes) hide e's row latency, so pass G follows after the one cycle the bounds' FIFOs need
-    assert core["issue_cycles"]["F"] == 10 + 20 and d.row_latency < 20
-    assert core["zero_start_saving_cycles"] == core["issue_cycles"]["K"] + core["gap_cycles"]["K"] - 1
+    # a zero start skips the first iteration's passes K and G and their gaps (z = e, s = G (z - e) = 0): the element
+    # stage takes the first pass's 20 rounds of bound rows (one chunk each: nw = 12 <= 16 lanes) a stage after their
+    # sums, so the decision follows pass G's gap and a cycle after the first pass
+    assert core["issue_cycles"]["F"] == 10 + 20
+    assert d.zero_start_gap == core["gap_cycles"]["G"] + 1
+    assert core["zero_start_saving_cycles"] == (core["issue_cycles"]["K"] + core["gap_cycles"]["K"]
+                                                + core["issue_cycles"]["G"] - 1)
     assert "MULT18X18D" in rep

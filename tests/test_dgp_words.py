@@ -6,20 +6,22 @@ import math
 
 import numpy as np
 
-from mpc_cores.dgp.design import ALPHA, design_dgp
+from mpc_cores.dgp.design import ALPHA, bound_rows, design_dgp
 from mpc_cores.dgp.model import DgpFixed
 from mpc_cores.flow import REPO
 from mpc_cores.problem import load_spec
 
 
 def _norm_bits(d) -> int:
-    """r of (37) with the norms: z^ = ||E||_inf y^ + ||e||_inf, g^ = ||A||_inf z^ + ||b||_inf"""
+    """r of (37) with the norms: z^ = ||E||_inf y^ + ||e||_inf, g^ = ||A||_inf ||E||_inf y^ + ||b||_inf (the core's
+    s = G (z - e) against the bounds relative to G e)"""
     p, qp = d.problem, d.qp
     wabs = np.maximum(np.abs(np.concatenate([p.xmin, p.rmin])), np.abs(np.concatenate([p.xmax, p.rmax])))
     yhat = ALPHA * float(d.d.max())
-    zhat = 2 * float(np.abs(qp.K).sum(axis=1).max()) * yhat + float((np.abs(qp.Fe) @ wabs).max())
-    bnd = np.maximum(np.abs(qp.lo0), np.abs(qp.hi0)) + np.abs(qp.Lw) @ wabs
-    ghat = float(np.abs(qp.G).sum(axis=1).max()) * zhat + float(bnd.max())
+    dzhat = 2 * float(np.abs(qp.K).sum(axis=1).max()) * yhat           # |z - e|, the operand of pass G
+    zhat = dzhat + float((np.abs(qp.Fe) @ wabs).max())
+    bnd = np.maximum(np.abs(qp.lo0), np.abs(qp.hi0)) + np.abs(bound_rows(qp)) @ wabs
+    ghat = float(np.abs(qp.G).sum(axis=1).max()) * dzhat + float(bnd.max())
     return math.ceil(math.log2(max(yhat, zhat, ghat) + 1) + 1)
 
 

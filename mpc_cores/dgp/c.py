@@ -54,7 +54,7 @@ def check_headroom(cfg: dict) -> None:
     ud = max([int(u) for u in cfg["ud"]] + [0])               # y, y_new in [0, ud], |y_new - y| <= ud
     ymax = max(ud, dmax)                                      # |wy|: y_new, or the saturated extrapolation
     xmax = max(abs(int(x)) for x in cfg["xlo"] + cfg["xhi"])
-    mats = {"K": (n, mc, 2 * ymax), "G": (mc, n, dmax), "Fe": (n, cfg["nw"], xmax), "Lw": (mc, cfg["nw"], xmax)}
+    mats = {"K": (n, mc, 2 * ymax), "G": (mc, n, 2 * dmax), "Fe": (n, cfg["nw"], xmax), "Lb": (mc, cfg["nw"], xmax)}
     off = max([abs(int(b)) for b in cfg["lo0"] + cfg["hi0"]] + [dmax])     # what a row sum is added to
     items = {}
     for k, (r, c, vmax) in mats.items():
@@ -130,13 +130,18 @@ def _iteration(real: bool, accelerated: bool, sat) -> str:
         K = "row_sum(K[i], v, MC) + e[i]"
         rnd = lambda a, b: f"mpc_mulr({a}, {b})"  # noqa: E731
         clip = "mpc_clip"
-    G = "dotr(G[i], z, N)" if real else "row_sum(G[i], z, N)"
+    # the fixed-point iteration takes s = G (z - e) against the bounds relative to G e (design.bound_rows)
+    G = "dotr(G[i], z, N)" if real else "row_sum(G[i], dz, N)"
+    dz = "" if real else """\
+        for (i = 0; i < N; i++)                         /* z - e, exact */
+            dz[i] = z[i] - e[i];
+"""
     head = f"""\
         for (i = 0; i < MC; i++)                        /* v = wy+ - wy- */
             v[i] = wy[i] - wy[MC + i];
         for (i = 0; i < N; i++)                         /* z = K v + e */
             z[i] = {sat(K)};
-        for (i = 0; i < MC; i++) {{                      /* s = G z;  g = (s - hi, lo - s) */
+{dz}        for (i = 0; i < MC; i++) {{                      /* s = G z (words: G (z - e));  g = (s - hi, lo - s) */
             s[i] = {sat(G)};
             g[i] = {sat("s[i] - hi[i]")};
             g[MC + i] = {sat("lo[i] - s[i]")};
@@ -200,7 +205,7 @@ def _body(real: bool, accelerated: bool, sat) -> str:
 """
     else:
         pre = f"""\
-    /* the parameter words, saturated to their box (SAT); e = Fe w and the bounds once per solve */
+    /* the parameter words, saturated to their box (SAT); e = Fe w and the bounds (relative to G e) once per solve */
     for (i = 0; i < NW; i++) {{
         w[i] = mpc_clip(w_in[i], XLO[i], XHI[i]);
         sat |= w[i] != w_in[i];
@@ -208,12 +213,13 @@ def _body(real: bool, accelerated: bool, sat) -> str:
     for (i = 0; i < N; i++)
         e[i] = {sat("row_sum(FE[i], w, NW)")};
     for (i = 0; i < MC; i++) {{
-        int64_t c = row_sum(LW[i], w, NW);
+        int64_t c = row_sum(LB[i], w, NW);
         lo[i] = {sat("LO0[i] + c")};
         hi[i] = {sat("HI0[i] + c")};
     }}
 """
-    decl = ("" if real else "    int64_t w[NW];\n") + (f"    {t} e[N], lo[MC], hi[MC], y[M], wy[M], yn[M], v[MC], "
+    decl = ("" if real else "    int64_t w[NW], dz[N];\n") + (f"    {t} e[N], lo[MC], hi[MC], y[M], wy[M], yn[M], "
+                                                           f"v[MC], "
                                                     f"z[N], s[MC], g[M], zo[N];\n    unsigned iters = 0;\n"
                                                     "    int met = 0, stop;\n")
     if accelerated:
@@ -302,7 +308,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     acc = bool(cfg["accelerated"])
     api = _dgp_api(capi.fixed_api(nm, cfg, STATE, OVF), mc)
     mats = {k: np.array(cfg[k], dtype=np.int64).reshape(r, c)
-            for k, r, c in (("K", n, mc), ("G", mc, n), ("Fe", n, nw), ("Lw", mc, nw))}
+            for k, r, c in (("K", n, mc), ("G", mc, n), ("Fe", n, nw), ("Lb", mc, nw))}
     coefs = np.concatenate([m.ravel() for m in mats.values()])
 
     def sat(x: str) -> str:
@@ -316,10 +322,10 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 #define EG {emit.int_lit(cfg["eg"])}
 #define EV {emit.int_lit(cfg["eV"])}
 {emit.width_macros(cfg["widths"], OVF)}
-/* K = -Q^-1 G', G, Fe = -Q^-1 Phi, Lw words; the bounds' constant parts, the dual box alpha d, the box of
+/* K = -Q^-1 G', G, Fe = -Q^-1 Phi, Lb = Lw - G Fe words; the bounds' constant parts, the dual box alpha d, the box of
    accepted parameter words w = (x, r), the input box of the output words{"; the table beta_k = k / (k + 3)" if acc else ""} */
 {emit.array("K", mats["K"], ctype="COEF_T")}{emit.array("G", mats["G"], ctype="COEF_T")}\
-{emit.array("FE", mats["Fe"], ctype="COEF_T")}{emit.array("LW", mats["Lw"], ctype="COEF_T")}\
+{emit.array("FE", mats["Fe"], ctype="COEF_T")}{emit.array("LB", mats["Lb"], ctype="COEF_T")}\
 {emit.array("LO0", cfg["lo0"])}{emit.array("HI0", cfg["hi0"])}{emit.array("UD", cfg["ud"])}\
 {emit.array("XLO", cfg["xlo"])}{emit.array("XHI", cfg["xhi"])}\
 {emit.array("OUT_LO", cfg["out_lo"])}{emit.array("OUT_HI", cfg["out_hi"])}{beta}

@@ -10,8 +10,9 @@ is piecewise affine in w and may peak inside the box.
 Fraction bits p from (36) and integer bits r from (37), on the scaled problem (L = 1, mpc_cores.dgp.problem):
   p >= log2( m sqrt(n) / ( sqrt(eps / L_V + (n / m) (2 D / L_V)^2) - sqrt(n / m) 2 D / L_V ) ) - 1,
        eps = min(eps_g sigma, eps_V), m = 2 mc one-sided rows, D = ||d||_2, L_V = lambda_max(Q);
-  r >= log2(max(y^, z^, g^) + 1) + 1,  y^ = alpha ||d||_inf, z^ = max_i z^_i, g^ = max_i (sum_j |G_ij| z^_j + b^_i),
-       z^_i = sum_j |K_ij| alpha max(d+_j, d-_j) + e^_i, e^ and b^ the largest |e(w)| and |bounds(w)| over the box:
+  r >= log2(max(y^, z^, g^) + 1) + 1,  y^ = alpha ||d||_inf, z^ = max_i z^_i, g^ = max_i (sum_j |G_ij| dz^_j + b^_i),
+       dz^_i = sum_j |K_ij| alpha max(d+_j, d-_j) (|z_i - e_i|: the iteration takes s = G (z - e) against the bounds
+       relative to G e, bound_rows), z^_i = dz^_i + e^_i, e^ and b^ the largest |e(w)| and |bounds(w)| over the box:
        (37) taken row by row (its z^ = ||E||_inf y^ + ||e||_inf and g^ = ||A||_inf z^ + ||b||_inf bound the same
        words, less tightly: they pair the largest dual with the longest row, and count y+ and y- both).
 Every data word (y, v, z, s, g and the bounds) has r + p bits, as in section VI of 003. The accelerated form's
@@ -55,7 +56,7 @@ class DgpDesign(FixedPointDesign):
     K: np.ndarray                # words, n x mc
     G: np.ndarray                # words, mc x n
     Fe: np.ndarray               # words, n x nw
-    Lw: np.ndarray               # words, mc x nw
+    Lb: np.ndarray               # words, mc x nw: the bound rows Lw - G Fe (bound_rows)
     lo0: np.ndarray              # words, mc
     hi0: np.ndarray
     ud: np.ndarray               # words, 2 mc: alpha d
@@ -101,7 +102,7 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def rounds(self) -> dict:
-        """rows per row unit: pass K (and Fe), pass G (and Lw); unit u takes the rows u, u + P, ..."""
+        """rows per row unit: pass K (and Fe), pass G (and Lb); unit u takes the rows u, u + P, ..."""
         return {"K": -(-self.n // self.P), "G": -(-self.mc // self.P)}
 
     def schedule(self, M: np.ndarray) -> list[list[int]]:
@@ -118,10 +119,10 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def issue_cycles(self) -> dict:
-        """per pass: the chunks its rounds issue (first pass: the rows of Fe, then those of Lw)"""
+        """per pass: the chunks its rounds issue (first pass: the rows of Fe, then those of Lb)"""
         def count(M):
             return sum(len(cs) for cs in self.schedule(M))
-        return {"F": count(self.Fe) + count(self.Lw), "K": count(self.K), "G": count(self.G)}
+        return {"F": count(self.Fe) + count(self.Lb), "K": count(self.K), "G": count(self.G)}
 
     @property
     def dense_issue_cycles(self) -> dict:
@@ -164,16 +165,16 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def zero_start_gap(self) -> int:
-        """idle cycles from the first pass to pass G on a zero start (DgpParams.gapZ): e's last row reaches z the
-        row latency after its issue, which the bound rows' issue cycles hide, and the bounds' FIFOs need a cycle"""
-        bounds = sum(len(cs) for cs in self.schedule(self.Lw))
-        return max(1, self.row_latency - bounds)
+        """cycles from the first pass's last issue to the decision on a zero start (DgpParams.gapZ): its bound rows
+        feed the element stage (s = 0) a stage after their sums, so pass G's gap and a cycle"""
+        return self.gap_cycles["G"] + 1
 
     @property
     def zero_start_saving(self) -> int:
-        """cycles a zero start (the starting dual all zero: every cold start) saves: the first iteration's pass K
-        (z = e, v = 0) and its gap, less the zero start's gap"""
-        return self.issue_cycles["K"] + self.gap_cycles["K"] - self.zero_start_gap
+        """cycles a zero start (the starting dual all zero: every cold start) saves: its first iteration (z = e,
+        s = G (z - e) = 0) runs the element stage on the first pass's bound rows, so passes K and G, their gaps and
+        the decision are replaced by the zero start's gap and the decision"""
+        return self.cycles_per_iteration - self.zero_start_gap - 1
 
     @property
     def div_cycles(self) -> int:
@@ -199,7 +200,7 @@ class DgpDesign(FixedPointDesign):
 
     def memories(self) -> list[tuple]:
         """(words, lanes, bits per lane, built from primitives): per row unit its matrix memory, its rows of Fe,
-        Lw, K and G chunk by chunk (DgpCore; inferred by synthesis)"""
+        Lb, K and G chunk by chunk (DgpCore; inferred by synthesis)"""
         return [(self.issue_cycles["F"] + self.issue_cycles["K"] + self.issue_cycles["G"], self.lanes,
                  self.widths["coef"], False)] * self.P
 
@@ -217,12 +218,18 @@ class DgpDesign(FixedPointDesign):
         return {
             **self.common_config("dgp"),
             "mc": self.mc, "lanes": self.lanes, "accelerated": self.accelerated,
-            "K": self.K.tolist(), "G": self.G.tolist(), "Fe": self.Fe.tolist(), "Lw": self.Lw.tolist(),
+            "K": self.K.tolist(), "G": self.G.tolist(), "Fe": self.Fe.tolist(), "Lb": self.Lb.tolist(),
             "lo0": self.lo0.tolist(), "hi0": self.hi0.tolist(), "ud": self.ud.tolist(), "eg": int(self.eg), "eV": int(self.eV),
             "beta": self.beta.tolist(), "xlo": self.xlo.tolist(), "xhi": self.xhi.tolist(),
             "restart_shift": restart_shifts(self.widths),
             "out_lo": self.out_lo.tolist(), "out_hi": self.out_hi.tolist(),
         }
+
+
+def bound_rows(qp: DgpQP) -> np.ndarray:
+    """Lb = Lw - G Fe (mc x nw, scaled): the bounds relative to G e, lo0 + Lb w <= G (z - e) <= hi0 + Lb w, so that
+    the iteration's pass G multiplies z - e = K v, which a zero start's first iteration (v = 0) has all zero"""
+    return qp.Lw - qp.G @ qp.Fe
 
 
 def output_box(problem: MpcProblem, b: int, W: int) -> tuple[np.ndarray, np.ndarray]:
@@ -361,12 +368,15 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     # (37) row by row: the dual words lie in [0, alpha d], so |v_j| = |y+_j - y-_j| <= alpha max(d+_j, d-_j) and
     # |z_i| <= sum_j |K_ij| |v_j| + |e_i|, |s_i| <= sum_j |G_ij| |z_j|; the norms of (37) bound the same sums by
     # ||E||_inf ||y||_inf and ||A||_inf ||z||_inf, which pair the largest dual with the longest row
+    # the iteration takes s = G (z - e) against the bounds relative to G e (bound_rows), |z_i - e_i| <= dz_i
+    Lb = bound_rows(qp)
     evec = np.abs(Fe) @ wabs
     ehat = float(evec.max())
-    zvec = np.abs(K) @ (ALPHA * np.maximum(d[:mc], d[mc:])) + evec
+    dzvec = np.abs(K) @ (ALPHA * np.maximum(d[:mc], d[mc:]))
+    zvec = dzvec + evec
     zhat = float(zvec.max())
-    bnd = np.maximum(np.abs(qp.lo0) + np.abs(qp.Lw) @ wabs, np.abs(qp.hi0) + np.abs(qp.Lw) @ wabs)
-    ghat = float(np.max(np.abs(qp.G) @ zvec + bnd))
+    bnd = np.maximum(np.abs(qp.lo0) + np.abs(Lb) @ wabs, np.abs(qp.hi0) + np.abs(Lb) @ wabs)
+    ghat = float(np.max(np.abs(qp.G) @ dzvec + bnd))
     r37 = math.ceil(math.log2(max(yhat, zhat, ghat) + 1) + 1)
     r = int(opt("int_bits", r37))
     if r < r37:
@@ -387,7 +397,7 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     dsn = DgpDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
                     iterations=iterations, warm_start=warm_start, target=target, output_all=output_all,
                     accelerated=accelerated, lanes=lanes, eps_g=eps_g, eps_V=eps_V, margin=margin, d=d,
-                    K=quantize(K, b), G=quantize(qp.G, b), Fe=quantize(Fe, b), Lw=quantize(qp.Lw, b),
+                    K=quantize(K, b), G=quantize(qp.G, b), Fe=quantize(Fe, b), Lb=quantize(Lb, b),
                     lo0=quantize(qp.lo0, b, "ceil"), hi0=quantize(qp.hi0, b, "floor"),
                     ud=quantize(ALPHA * d, b, "floor"), eg=int(math.floor(eps_g * qp.sigma * one)),
                     eV=int(math.floor(eps_V * one)), beta=beta,
@@ -405,13 +415,15 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
 def _size_words(d: DgpDesign, r: int) -> None:
     """Word widths: data r + p bits; the row sums' accumulator from the sum of |rounded products| over a row."""
     W = r + d.b
-    coefs = [d.K, d.G, d.Fe, d.Lw]
+    coefs = [d.K, d.G, d.Fe, d.Lb]
     cb = int(max(int(np.abs(c).max()) if c.size else 0 for c in coefs))
     one = 1 << d.b
     dmax = (1 << (W - 1)) - 1
     xmax = int(max(np.abs(d.xlo).max(), np.abs(d.xhi).max()))
-    # a row's products: |rnd(c v)| <= |c| |v| / 2^p + 1, v a data word (or a w word in the first pass)
-    acc = max(int(np.abs(c).sum(axis=1).max()) * max(dmax, xmax) // one + c.shape[1] + 1 for c in coefs if c.size)
+    # a row's products: |rnd(c v)| <= |c| |v| / 2^p + 1, v a data word, a w word in the first pass, or in pass G
+    # the difference z - e of two data words
+    vmax = [max(dmax, xmax), 2 * dmax + 1, max(dmax, xmax), max(dmax, xmax)]
+    acc = max(int(np.abs(c).sum(axis=1).max()) * v // one + c.shape[1] + 1 for c, v in zip(coefs, vmax) if c.size)
     if W > DATA_MAX or bits_for(cb) > 32:
         raise DesignError(f"data words of {W} bits (at most {DATA_MAX}) or coefficients of {bits_for(cb)} bits (at most 32) "
                           f"exceed the exact products of the golden model and the C solver: raise eps_g / eps_V or "

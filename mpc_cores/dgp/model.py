@@ -5,13 +5,15 @@ rounded to nearest (rnd(a b) = floor((a b + 2^(p-1)) / 2^p)), row sums exact (th
 construction), data words saturated to W = r + p bits with a flag. dgp_float runs the same iteration in float64.
 
 One solve (w: nw parameter words; y = (y+, y-) the 2 mc dual words, upper rows then lower rows):
-  0. w = clip(w_in, wlo, whi) (flag `sat`); e = sat(sum_j rnd(Fe_ij w_j)); c = sum_j rnd(Lw_ij w_j);
-     lo = sat(lo0 + c), hi = sat(hi0 + c)
+  0. w = clip(w_in, wlo, whi) (flag `sat`); e = sat(sum_j rnd(Fe_ij w_j)); c = sum_j rnd(Lb_ij w_j);
+     lo = sat(lo0 + c), hi = sat(hi0 + c), with Lb = Lw - G Fe (design.bound_rows): the bounds relative to G e,
+     so that the iteration takes s = G (z - e) (in exact arithmetic G z - G e)
   1. start: cold y = 0, warm y = the previous solve's final y; the operand dual wy = y; k = 0. A solve whose
-     starting dual is all zero (`zero_start`: every cold start) has z = e in its first iteration (v = 0, every
-     product rnd(K_ij 0) = 0), so the core skips that iteration's pass K; the words are the same either way
+     starting dual is all zero (`zero_start`: every cold start) has z = e and s = 0 in its first iteration (v = 0,
+     z - e = 0, every product rnd(c 0) = 0), so the core skips that iteration's passes K and G; the words are the
+     same either way
   then for nu = 0, 1, ..., Imax - 1:
-  2. v = wy+ - wy-;  z = sat(sum_j rnd(K_ij v_j) + e_i);  s = sat(sum_j rnd(G_ij z_j))
+  2. v = wy+ - wy-;  z = sat(sum_j rnd(K_ij v_j) + e_i);  s = sat(sum_j rnd(G_ij (z_j - e_j)))
   3. g = (sat(s - hi), sat(lo - s));  y_new = clip(wy + g, 0, ud)                     ((35), L = 1)
   plain (the averaged primal of (20) and the test (32c)):
   4. Sz += z; Sg += g; T += eg;  wy = y = y_new;  stop when Sg_i <= T for every i
@@ -93,7 +95,7 @@ class DgpFixed:
         self.K = i64("K", self.n, self.mc)
         self.G = i64("G", self.mc, self.n)
         self.Fe = i64("Fe", self.n, self.nw)
-        self.Lw = i64("Lw", self.mc, self.nw)
+        self.Lb = i64("Lb", self.mc, self.nw)
         self.lo0, self.hi0, self.ud = i64("lo0", -1), i64("hi0", -1), i64("ud", -1)
         self.beta = i64("beta", -1)
         self.xlo, self.xhi = i64("xlo", -1), i64("xhi", -1)
@@ -129,7 +131,7 @@ class DgpFixed:
             return c
 
         e = sat_w(row_sums(self.Fe, w, p))
-        c = row_sums(self.Lw, w, p)
+        c = row_sums(self.Lb, w, p)
         lo, hi = sat_w(self.lo0 + c), sat_w(self.hi0 + c)
         y = np.zeros((S, 2 * self.mc), dtype=np.int64) if y0 is None else np.array(y0, dtype=np.int64)
         wy = y.copy()
@@ -146,7 +148,7 @@ class DgpFixed:
         for it in range(imax):
             v = wy[:, :mc] - wy[:, mc:]
             z = sat_w(row_sums(self.K, v, p) + e)
-            s = sat_w(row_sums(self.G, z, p))
+            s = sat_w(row_sums(self.G, z - e, p))
             g = np.concatenate([sat_w(s - hi), sat_w(lo - s)], axis=1)
             y_new = np.clip(wy + g, 0, self.ud)
             if self.accelerated:

@@ -80,8 +80,8 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
         f" + 1",
         f"  Latency: {d.solve_overhead} + I x {d.cycles_per_iteration} cycles from the last input word to the first "
         f"output word, I the iterations run (at IMAX = {d.iterations}: {d.cycles_to_output(d.iterations)}); "
-        f"{d.zero_start_saving} fewer when the starting dual is all zero (every cold start: its first pass K is "
-        f"skipped)",
+        f"{d.zero_start_saving} fewer when the starting dual is all zero (every cold start: its first iteration's "
+        f"passes K and G are skipped, the element stage taking the first pass's bound rows)",
     ]
     if not d.accelerated:
         lines.append(f"  Output: each word of the averaged primal takes {d.div_cycles} cycles (serial division)")

@@ -4,7 +4,7 @@ AXI4-Stream and AXI4-Lite.
 Every answer is u0 (or z) then the status word (iterations in bits 15:0, test met 16, input saturated 17, overflow
 18); the testbench compares all of it with the model, and the cycles from the last input word to the first answer
 word with core.json: solve_overhead + I cycles_per_iteration - Z zero_start_saving_cycles, I the iterations the
-model ran and Z 1 when the model's starting dual was all zero (a zero start skips the first pass K).
+model ran and Z 1 when the model's starting dual was all zero (a zero start skips the first passes K and G).
 
 Environment: CORE_OUT (the generator's output folder), CORE_RANDOM (random solves of the bit-exact test), CORE_SEED
 (its seed, default 7), CORE_MEASURE (a file to append measurements to), CORE_NONZERO_START (0: the plant's rows bind

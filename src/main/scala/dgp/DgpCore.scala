@@ -14,15 +14,16 @@ import shell.{Field, FrameIn, RegMap, Register, SolverRegs}
   *
   * P row units of `lanes` multipliers each compute rows' dot products chunk by chunk (a round of rows takes a cycle
   * per chunk with a nonzero coefficient in one of them, at most ceil(c / lanes) for c columns); unit u takes the
-  * rows u, u + P, ... of every pass from a matrix memory of its own holding its rows of Fe, Lw, K and G, all units
+  * rows u, u + P, ... of every pass from a matrix memory of its own holding its rows of Fe, Lb, K and G, all units
   * reading the same address and the same operand chunk. A solve: the
-  * first pass (e = Fe w, then the bounds lo, hi = lo0, hi0 + Lw w), then per iteration pass K (z = K v + e,
-  * v = wy+ - wy-) and pass G (s = G z), whose rows feed each unit's element stage (g, the projected dual step, the
-  * sums of the stopping test); the iteration ends in a decision cycle (stop when the test holds or at IMAX), from
-  * the units' sums added in registered levels. Output: the averaged primal (plain form; a serial divider forms
-  * Sz / I) or the last z (accelerated), u0 or all of z, each word clamped to the quantised input box on its way
-  * out (the iteration's state unclamped), then a status word (iterations run in bits 15:0, test met 16, input
-  * saturated 17, datapath overflow 18) with tlast.
+  * first pass (e = Fe w, then the bounds lo, hi = lo0, hi0 + Lb w, relative to G e), then per iteration pass K
+  * (z = K v + e, v = wy+ - wy-) and pass G (s = G (z - e)), whose rows feed each unit's element stage (g, the
+  * projected dual step, the sums of the stopping test); the iteration ends in a decision cycle (stop when the test
+  * holds or at IMAX), from the units' sums added in registered levels. A zero start's first iteration (z = e, s = 0)
+  * runs the element stage on the first pass's bound rows instead of passes K and G. Output: the averaged primal
+  * (plain form; a serial divider forms Sz / I) or the last z (accelerated), u0 or all of z, each word clamped to the
+  * quantised input box on its way out (the iteration's state unclamped), then a status word (iterations run in bits
+  * 15:0, test met 16, input saturated 17, datapath overflow 18) with tlast.
   */
 class DgpCore(val p: DgpParams) extends Module {
   override def desiredName = p.moduleName
@@ -100,9 +101,10 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the stored dual y is all zero (the element stage's flags, taken at every decision) */
   val yZero  = RegInit(true.B)
   /** a zero start: the solve's starting dual is all zero (a cold start, or a warm one from a zero y), so its first
-    * iteration's z is e, which the first pass writes to z with e, and its pass K is skipped */
+    * iteration's z is e, which the first pass writes to z with e, and s = G (z - e) is 0: its passes K and G are
+    * skipped, the element stage taking the first pass's bound rows */
   val zSolve = RegInit(false.B)
-  /** zSolve while the first pass issues: the slot lookahead then takes pass G's slots after the first pass's */
+  /** zSolve while the first pass issues (its rows' tokens carry it) */
   val zTable = RegInit(false.B)
   val solveSat = RegInit(false.B)
   val solveOvf = RegInit(false.B)
@@ -139,9 +141,6 @@ class DgpCore(val p: DgpParams) extends Module {
     Cat(c.U(chunkW.W), f.B, l.B, e.B)
   }
   private val slotAhead = VecInit((0 to p.matRows).map(a => bitsOf(a + 3)))
-  /** a zero start's slot order: pass G's slots follow the first pass's */
-  private def zMap(a: Int): Int = if (a >= p.baseK) p.baseG + a - p.baseK else a
-  private val slotAheadZ = VecInit((0 to p.matRows).map(a => bitsOf(zMap(a + 3))))
   val nx1 = RegInit(bitsOf(1))
   val nx2 = RegInit(bitsOf(2))
   // chunk and pass are set through their next values (chunkD, passD), from which each operand lane keeps copies
@@ -201,7 +200,6 @@ class DgpCore(val p: DgpParams) extends Module {
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
     zSolve := zeroNow; zTable := zeroNow
-    nx1 := Mux(zeroNow, bitsOf(zMap(1)), bitsOf(1)); nx2 := Mux(zeroNow, bitsOf(zMap(2)), bitsOf(2))
   }
   for (u <- 0 until P) {
     when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
@@ -231,14 +229,15 @@ class DgpCore(val p: DgpParams) extends Module {
     lastC  := nx1(1)
     endC   := nx1(0)
     nx1    := nx2
-    nx2    := Mux(zTable, slotAheadZ(addr), slotAhead(addr))
+    nx2    := slotAhead(addr)
     when(lastC) { round := Mux(endC, 0.U, round + 1.U) }
     when(endC) {
       switch(pass) {
         is(0.U) {
-          // pass K follows the first pass at once; on a zero start, pass G after gapZ
+          // pass K follows the first pass at once; on a zero start, the decision after gapZ (its element stage
+          // takes the bound rows)
           passD := 1.U; zTable := false.B
-          when(zTable) { st := St.gap; waitCnt := (p.gapZ - 1).U; gapEnd := (p.gapZ == 1).B; addr := p.baseG.U }
+          when(zTable) { passD := 2.U; st := St.gap; waitCnt := (p.gapZ - 1).U; gapEnd := (p.gapZ == 1).B }
         }
         is(1.U) { st := St.gap; waitCnt := (p.gapK - 1).U; gapEnd := (p.gapK == 1).B }
         is(2.U) { st := St.gap; waitCnt := (p.gapG - 1).U; gapEnd := (p.gapG == 1).B }
@@ -277,18 +276,22 @@ class DgpCore(val p: DgpParams) extends Module {
   }
   class Tok extends Bundle {
     val valid = Bool(); val pass = UInt(2.W); val round = UInt(roundW.W); val first = Bool(); val last = Bool()
+    /** a zero start's first pass */
+    val zs = Bool()
   }
   val tok0 = Wire(new Tok)
   tok0.valid := issuing; tok0.pass := pass; tok0.round := round; tok0.first := firstC; tok0.last := lastC
+  tok0.zs := zTable
   def tokAt(d: Int): Tok = ShiftRegister(tok0, d, 0.U.asTypeOf(new Tok), true.B)
   /** the token at stage `d` (>= 1) per unit: split, a kept copy each of the token a stage earlier */
   def unitTok(d: Int): Seq[Tok] = if (split) Seq.fill(P)(KeepReg(tokAt(d - 1))) else Seq.fill(P)(tokAt(d))
 
-  // the operand chunk: w (first pass), wy+ - wy- (K), z (G). Each lane selects its word of each vector in cycle 1 by
-  // copies of its own of the chunk and the pass (FPGA targets: kept registers, loaded from kept copies of a group of
-  // lanes, which the next values load), so that no register or decoder drives every lane; the words are registered
-  // where they are read (a lane's words of z and of the duals belong to one unit when P divides the lanes), and the
-  // pass's select and subtraction follow in cycle 2
+  // the operand chunk: w (first pass), wy+ - wy- (K), z - e (G). Each lane selects its word of each vector in cycle
+  // 1 by copies of its own of the chunk and the pass (FPGA targets: kept registers, loaded from kept copies of a
+  // group of lanes, which the next values load), so that no register or decoder drives every lane; the words are
+  // registered where they are read (a lane's words of z, e and the duals belong to one unit when P divides the
+  // lanes), and the subtractions and the pass's select follow in cycle 2 (e rotates in the first pass and pass K
+  // only, so in pass G its flat view is in row order, as z's)
   /** lanes per first-level copy of the chunk and the pass */
   private val laneGroup = 4
   private def laneCopies[T <: Data](next: T, now: T): Seq[T] =
@@ -302,16 +305,20 @@ class DgpCore(val p: DgpParams) extends Module {
   def laneWord(x: Seq[SInt], cs: Int, l: Int): SInt =
     VecInit((0 until cs).map(j => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))(chunkL(l))
   val zwR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(z, p.cG, l))))
+  val ewR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(flat(eU, n), p.cG, l))))
   val ypR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(0), p.cK, l))))
   val ymR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
   val wwR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wReg, p.cF, l))))
   val opR = RegNext(VecInit((0 until p.lanes).map { l =>
     val pl = RegNext(passL(l))
-    Mux(pl === 2.U, zwR(l), Mux(pl === 1.U, (ypR(l) -& ymR(l))(p.opW - 1, 0).asSInt, wwR(l)))
+    Mux(pl === 2.U, (zwR(l) -& ewR(l))(p.opW - 1, 0).asSInt, Mux(pl === 1.U, (ypR(l) -& ymR(l))(p.opW - 1, 0).asSInt,
+      wwR(l)))
   }))
   val opU  = KeepReg.copies(opR, P, split)
   val tokTU = unitTok(4 + p.treeLat)
   val tokRU = unitTok(p.rowLat)
+  /** a zero start's bound rows at the element stage's entry, a stage after their sums */
+  val tokZU = unitTok(p.rowLat + 1)
   val accR  = Seq.fill(P)(Reg(SInt(p.accW.W)))
   val tok4  = tokAt(4)
   val tree = (0 until P).map { u =>
@@ -326,34 +333,43 @@ class DgpCore(val p: DgpParams) extends Module {
 
   // ------------------------------------------------------------------ per unit: row results and the element stage
   // the bounds' constant parts by the first pass's round (rounds rK.. are the bounds' rows), the dual box by pass
-  // G's round
+  // G's round and (a zero start's element stage) by the first pass's
   val lo0U = (0 until P).map(u => VecInit((0 until rK + rG).map(k => p.ofUnit(p.lo0, u, k - rK).S(W.W))))
   val hi0U = (0 until P).map(u => VecInit((0 until rK + rG).map(k => p.ofUnit(p.hi0, u, k - rK).S(W.W))))
-  val udU  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rG).map(k => p.ofUnit(p.ud.slice(h * mc, (h + 1) * mc), u, k).S(W.W))))
+  private def udHalf(h: Int) = p.ud.slice(h * mc, (h + 1) * mc)
+  val udU  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rG).map(k => p.ofUnit(udHalf(h), u, k).S(W.W))))
+  val udZ  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rK + rG).map(k => p.ofUnit(udHalf(h), u, k - rK).S(W.W))))
   /** accelerated: per unit, the rows' restart and the extrapolated dual's writes */
   val restartU = Wire(Vec(P, Bool()))
-  /** per unit, a condition on the token at the row result stage, registered from the stage before (a kept copy
-    * each when split): the FIFOs' rotate enables come from flip-flops */
-  def rowFlag(f: Tok => Bool): Seq[Bool] = {
-    val pre = tokAt(p.rowLat - 1)
+  /** per unit, a condition on the token at stage `d` (the row result stage by default), registered from the stage
+    * before (a kept copy each when split): the FIFOs' rotate enables come from flip-flops */
+  def rowFlag(f: Tok => Bool, d: Int = p.rowLat): Seq[Bool] = {
+    val pre = tokAt(d - 1)
     val c = pre.valid && pre.last && f(pre)
     if (split) Seq.fill(P)(KeepReg(c)) else Seq.fill(P)(RegNext(c, false.B))
   }
   val isE: Tok => Bool = t => t.pass === 0.U && t.round < rK.U    // first pass, a row of Fe
-  val isB: Tok => Bool = t => t.pass === 0.U && t.round >= rK.U   // first pass, a row of Lw
+  val isB: Tok => Bool = t => t.pass === 0.U && t.round >= rK.U   // first pass, a row of Lb
   val isK: Tok => Bool = _.pass === 1.U
   val isG: Tok => Bool = _.pass === 2.U
+  /** a zero start's bound row: it feeds the element stage a stage after its sum (s = 0), as a row of pass G */
+  val isZ: Tok => Bool = t => isB(t) && t.zs
   val rowEU  = rowFlag(isE)
   val rowKU  = rowFlag(isK)
   val rowGU  = rowFlag(isG)
-  /** per unit and group of rows of a FIFO of `len`, the condition `f` on the token at stage `d` (the last chunk of a
-    * valid row) as flip-flops: kept copies per group (FPGA targets), loaded from kept copies per unit, which load
-    * the condition two stages earlier; the FIFOs' rotate enables, no register driving more than a group */
-  def rowEnables(d: Int, len: Int, f: Tok => Bool): Seq[Seq[Bool]] = {
-    val pre = tokAt(d - 2)
-    val c = pre.valid && pre.last && f(pre)
+  val rowZU  = rowFlag(isZ, p.rowLat + 1)
+  /** the last chunk of a valid row at token stage `d` that meets `f` */
+  def rowAt(d: Int, f: Tok => Bool): Bool = { val t = tokAt(d); t.valid && t.last && f(t) }
+  /** per unit and group of rows of a FIFO of `len`, condition `c` (on the tokens two stages earlier) as flip-flops:
+    * kept copies per group (FPGA targets), loaded from kept copies per unit; the FIFOs' rotate enables, no register
+    * driving more than a group */
+  def enables(len: Int, c: Bool): Seq[Seq[Bool]] =
     groupRegs(if (fpga) Seq.fill(P)(KeepReg(c)) else Seq.fill(P)(RegNext(c, false.B)), len)
-  }
+  /** the condition `f` on the token at stage `d` */
+  def rowEnables(d: Int, len: Int, f: Tok => Bool): Seq[Seq[Bool]] = enables(len, rowAt(d - 2, f))
+  /** the element stage's rows at its stage `d` (a pass G row's sum at rowLat): pass G's rows, and a zero start's
+    * bound rows, which run a stage behind (their tokens a stage further on) */
+  def elementEnables(d: Int, len: Int): Seq[Seq[Bool]] = enables(len, rowAt(d - 2, isG) || rowAt(d - 1, isZ))
   val rowL = p.rowLat
   val enE = rowEnables(rowL, rK, isE)
   val enK = rowEnables(rowL, rK, isK)
@@ -392,18 +408,21 @@ class DgpCore(val p: DgpParams) extends Module {
     rotate(eU(u), eU(u)(0), enK(u))
     szU.lift(u).foreach(s => rotate(s, s(0) + zNew, enK(u)))
 
-    // pass G. E0: s = sat(G z), the bounds of the row (lo and hi rotate here) and its dual box, registered
+    // pass G. E0: s = sat(G (z - e)), the bounds of the row (lo and hi rotate here) and its dual box, registered. A
+    // zero start's bound row enters a stage after its sum, with s = 0 and the bounds as they enter their FIFOs
     val (sNow, ofS) = sat(a)
     val rowG = rowGU(u)
+    val rowZ = rowZU(u)
     rotate(loU(u), loU(u)(0), enG(u)); rotate(hiU(u), hiU(u)(0), enG(u))
     ovfFlags(u) += rowG && ofS
-    val e0  = RegNext(rowG, false.B)
+    val e0  = RegNext(rowG || rowZ, false.B)
     val s0  = Reg(SInt(W.W))
-    s0 := sNow
+    s0 := Mux(rowZ, 0.S, sNow)
     val (lo0, hi0) = (Reg(SInt(W.W)), Reg(SInt(W.W)))  // typed: RegNext leaves the width to inference
-    lo0 := loU(u)(0)
-    hi0 := hiU(u)(0)
-    val u0  = RegNext(VecInit((0 until 2).map(h => udU(h)(u)(tokR.round))))
+    lo0 := Mux(rowZ, loNew, loU(u)(0))
+    hi0 := Mux(rowZ, hiNew, hiU(u)(0))
+    val tokZ = tokZU(u)
+    val u0  = RegNext(VecInit((0 until 2).map(h => Mux(rowZ, udZ(h)(u)(tokZ.round), udU(h)(u)(tokR.round)))))
     // E1: g = (s - hi, lo - s)
     val (gpNow, ofGp) = sat(s0 -& hi0)
     val (gmNow, ofGm) = sat(lo0 -& s0)
@@ -425,7 +444,7 @@ class DgpCore(val p: DgpParams) extends Module {
     val yNew = (0 until 2).map(h => clipNew(tSum(h), cSum(h), u1b(h)))
     // the rotate enables of the element stage's FIFOs, per group: y_new (E2: plain y; accelerated, the
     // extrapolated dual), y (accelerated: E3), the extrapolated dual's candidate (accelerated: E6)
-    val en2 = rowEnables(rowL + 3, rG, isG)(u)
+    val en2 = elementEnables(rowL + 3, rG)(u)
     if (acc) {
       for (h <- 0 until 2) rotate(wyEU(h)(u), wyEU(h)(u)(0), en2)
       when(e1b && (g1b(0) > p.eg.S || g1b(1) > p.eg.S)) { violU(u) := true.B }
@@ -449,7 +468,7 @@ class DgpCore(val p: DgpParams) extends Module {
       val yN2 = (0 until 2).map(h => clipNew(t2(h), c2(h), u2(h)))
       // E3: y rotates, its old value kept for dy
       val yOld = yU.map(_(u)(0))
-      val en3 = rowEnables(rowL + 4, rG, isG)(u)
+      val en3 = elementEnables(rowL + 4, rG)(u)
       for (h <- 0 until 2) rotate(yU(h)(u), yN2(h), en3)
       val e3 = RegNext(e2, false.B)
       val yN3 = RegNext(VecInit(yN2))
@@ -488,7 +507,7 @@ class DgpCore(val p: DgpParams) extends Module {
         rstU(u) := rstU(u) + sRst
       }
       // a row past the unit's last has ud = 0, so its candidate is 0
-      val en6 = rowEnables(rowL + 7 + p.latMulE, rG, isG)(u)
+      val en6 = elementEnables(rowL + 7 + p.latMulE, rG)(u)
       for (h <- 0 until 2) rotate(wycU(h)(u), clipNew(tExt(h), dExt(h), u6(h)), en6)
     }
   }

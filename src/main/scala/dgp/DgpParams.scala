@@ -13,9 +13,10 @@ import fixed.FixedOps
   * @param lanes  multipliers of each row unit: a row of c columns takes at most ceil(c / lanes) cycles (the chunks
   *               with a nonzero coefficient in one of its round's rows)
   * @param k      K = -Q^-1 G', n x mc (z = K v + e)
-  * @param g      G, mc x n (s = G z)
+  * @param g      G, mc x n (s = G (z - e))
   * @param fe     Fe, n x nw (e = Fe w)
-  * @param lw     Lw, mc x nw (lo = lo0 + Lw w, hi = hi0 + Lw w)
+  * @param lb     the bound rows Lb = Lw - G Fe, mc x nw (lo = lo0 + Lb w, hi = hi0 + Lb w: the bounds relative to
+  *               G e, so that a zero start's first iteration, z = e, has s = 0)
   * @param outLo  the quantised input box the n output words are clamped to (z = (u_0, ..., u_N-1), data words)
   */
 case class DgpParams(
@@ -45,7 +46,7 @@ case class DgpParams(
     k: Seq[Seq[BigInt]],
     g: Seq[Seq[BigInt]],
     fe: Seq[Seq[BigInt]],
-    lw: Seq[Seq[BigInt]],
+    lb: Seq[Seq[BigInt]],
     lo0: Seq[BigInt],
     hi0: Seq[BigInt],
     ud: Seq[BigInt],
@@ -70,23 +71,23 @@ case class DgpParams(
   require(k.length == n && k.forall(_.length == mc), s"K must be $n x $mc")
   require(g.length == mc && g.forall(_.length == n), s"G must be $mc x $n")
   require(fe.length == n && fe.forall(_.length == nw), s"Fe must be $n x $nw")
-  require(lw.length == mc && lw.forall(_.length == nw), s"Lw must be $mc x $nw")
+  require(lb.length == mc && lb.forall(_.length == nw), s"Lb must be $mc x $nw")
   require(lo0.length == mc && hi0.length == mc && ud.length == 2 * mc, "lo0, hi0 (mc) and ud (2 mc) lengths")
   require(xlo.length == nw && xhi.length == nw, s"xlo/xhi must have $nw entries")
   require(outLo.length == n && outHi.length == n && outLo.zip(outHi).forall { case (l, h) => l <= h },
     s"out_lo/out_hi must have $n entries with out_lo <= out_hi")
   private def fits(v: BigInt, w: Int) = v >= FixedOps.minOf(w) && v <= FixedOps.maxOf(w)
-  require((k ++ g ++ fe ++ lw).flatten.forall(fits(_, coefW)), s"a matrix entry does not fit the coefficient width $coefW")
+  require((k ++ g ++ fe ++ lb).flatten.forall(fits(_, coefW)), s"a matrix entry does not fit the coefficient width $coefW")
   require((lo0 ++ hi0 ++ ud ++ outLo ++ outHi).forall(fits(_, dataW)), s"a bound does not fit the data width $dataW")
   require(beta.forall(fits(_, betaW)), s"a beta word does not fit $betaW bits")
 
-  /** chunks per row of each pass: F (rows of Fe and Lw, nw columns), K (mc columns), G (n columns) */
+  /** chunks per row of each pass: F (rows of Fe and Lb, nw columns), K (mc columns), G (n columns) */
   def chunks(cols: Int): Int = (cols + lanes - 1) / lanes
   val cF: Int = chunks(nw)
   val cK: Int = chunks(mc)
   val cG: Int = chunks(n)
   /** rounds of the passes: each unit's rows of pass K (rK) and pass G (rG); the first pass takes the rows of Fe
-    * (rK rounds) then those of Lw (rG rounds) */
+    * (rK rounds) then those of Lb (rG rounds) */
   val rK: Int = (n + units - 1) / units
   val rG: Int = (mc + units - 1) / units
   /** rows of unit u: pass K, pass G */
@@ -104,20 +105,20 @@ case class DgpParams(
     if (cs.isEmpty) Seq(0) else cs
   }
   val schedFe: Seq[Seq[Int]] = schedule(fe, rK)
-  val schedLw: Seq[Seq[Int]] = schedule(lw, rG)
+  val schedLb: Seq[Seq[Int]] = schedule(lb, rG)
   val schedK: Seq[Seq[Int]]  = schedule(k, rK)
   val schedG: Seq[Seq[Int]]  = schedule(g, rG)
   /** issue cycles of the passes */
-  val issueF: Int = (schedFe ++ schedLw).map(_.length).sum
+  val issueF: Int = (schedFe ++ schedLb).map(_.length).sum
   val issueK: Int = schedK.map(_.length).sum
   val issueG: Int = schedG.map(_.length).sum
-  /** each unit's matrix memory rows (lanes words each): its Fe, Lw, K, G rows, the issued chunks of each */
+  /** each unit's matrix memory rows (lanes words each): its Fe, Lb, K, G rows, the issued chunks of each */
   val baseF: Int = 0
   val baseK: Int = issueF
   val baseG: Int = baseK + issueK
   val matRows: Int = baseG + issueG
   /** per memory row (issue slot, in issue order): its chunk, and whether it is its round's first and last */
-  val slots: Seq[(Int, Boolean, Boolean)] = (schedFe ++ schedLw ++ schedK ++ schedG).flatMap { cs =>
+  val slots: Seq[(Int, Boolean, Boolean)] = (schedFe ++ schedLb ++ schedK ++ schedG).flatMap { cs =>
     cs.zipWithIndex.map { case (c, i) => (c, i == 0, i == cs.length - 1) }
   }
 
@@ -149,15 +150,13 @@ case class DgpParams(
   val gapG: Int = rowLat + elementLat + unitDepth
   /** one iteration: pass K, gap, pass G, gap, the decision cycle */
   val cyclesPerIteration: Int = issueK + gapK + issueG + gapG + 1
-  /** issue cycles of the first pass's rows of Lw (the bounds, after the rows of Fe) */
-  val issueFB: Int = schedLw.map(_.length).sum
-  /** A zero start (the starting dual all zero: every cold start) skips the first iteration's pass K, whose z is e
-    * (v = 0), written to z with e in the first pass. Idle cycles from the first pass to pass G: e's last row is in z
-    * rowLat after its issue, issueFB before the pass's end, and the bounds' FIFOs take their last row a cycle after
-    * its sum, before pass G's first row reads them */
-  val gapZ: Int = math.max(1, rowLat - issueFB)
-  /** cycles a zero start saves: pass K and its gap, less gapZ */
-  val zeroStartSaving: Int = issueK + gapK - gapZ
+  /** A zero start (the starting dual all zero: every cold start) has z = e (v = 0, written to z with e in the first
+    * pass) and s = G (z - e) = 0 in its first iteration, so it skips passes K and G: the first pass's bound rows
+    * feed the element stage, a stage after their sums (the bounds' registers). Cycles from the first pass's last
+    * issue to the decision: pass G's gap and that stage */
+  val gapZ: Int = gapG + 1
+  /** cycles a zero start saves: an iteration, less gapZ and the decision */
+  val zeroStartSaving: Int = cyclesPerIteration - gapZ - 1
   /** the averaged primal's dividend 2 Sz + I */
   val divW: Int = sumW + 2
   /** cycles of the plain form's division of an output word (start to the word valid) */
@@ -178,13 +177,13 @@ case class DgpParams(
   /** byte-address width of the AXI4-Lite port: the registers only (the data are fixed at generation) */
   val axiAddrW: Int = log2Ceil(shell.SolverRegs.RegionStart) + 2
 
-  /** unit u's matrix memory: its rows of Fe, Lw, K and G, the chunks of each round's schedule (zero rows past the
+  /** unit u's matrix memory: its rows of Fe, Lb, K and G, the chunks of each round's schedule (zero rows past the
     * last) */
   def matInit(u: Int): Seq[Seq[BigInt]] = {
     def chunkOf(r: Seq[BigInt], j: Int) = (0 until lanes).map(l => r.lift(j * lanes + l).getOrElse(BigInt(0)))
     def mine(m: Seq[Seq[BigInt]], sched: Seq[Seq[Int]]) =
       sched.zipWithIndex.flatMap { case (cs, r) => cs.map(j => chunkOf(m.lift(r * units + u).getOrElse(Nil), j)) }
-    mine(fe, schedFe) ++ mine(lw, schedLw) ++ mine(k, schedK) ++ mine(g, schedG)
+    mine(fe, schedFe) ++ mine(lb, schedLb) ++ mine(k, schedK) ++ mine(g, schedG)
   }
   /** unit u's word of a per-row vector at round k (0 past the last row) */
   def ofUnit(v: Seq[BigInt], u: Int, k: Int): BigInt = v.lift(k * units + u).getOrElse(BigInt(0))
@@ -204,7 +203,7 @@ object DgpParams {
       coefW = w("coef").num.toInt, xW = w("x").num.toInt, dataW = w("data").num.toInt, opW = w("op").num.toInt,
       accW = w("acc").num.toInt, sumW = w("sum").num.toInt, betaW = w("beta").num.toInt,
       streamW = w("stream").num.toInt, imaxDefault = j("iterations").num.toInt, warmDefault = j("warm_start").bool,
-      outAllDefault = j("output_all").bool, k = mat(j("K")), g = mat(j("G")), fe = mat(j("Fe")), lw = mat(j("Lw")),
+      outAllDefault = j("output_all").bool, k = mat(j("K")), g = mat(j("G")), fe = mat(j("Fe")), lb = mat(j("Lb")),
       lo0 = ints(j("lo0")), hi0 = ints(j("hi0")), ud = ints(j("ud")), eg = BigInt(j("eg").num.toLong),
       eV = BigInt(j("eV").num.toLong), beta = ints(j("beta")), xlo = ints(j("xlo")), xhi = ints(j("xhi")),
       outLo = ints(j("out_lo")), outHi = ints(j("out_hi")))
