@@ -9,7 +9,7 @@ with room to spare.
   cycles      per iteration and the solve overhead of core.json, measured in Verilator (cocotb test `cycle_contract`
               of verif.dgp.tb, which asserts the answer's cycle overhead + I x cycles_per_iteration);
   resources   Yosys synth_ecp5 (MULT18X18D, LUT4, FF, DP16KD) and the fit on the LFE5U-85F; synth_xilinx xc7 in a
-              full run;
+              full run on the cores not generated for TARGET=ecp5 (mpc_bench.tools.xc7_applies: none of these);
   Fmax        nextpnr-ecp5 on the LFE5U-85F (speed 8, constraints/dgp_core.lpf) for the cores that fit, seeds
               FMAX_SEEDS (QUICK: FMAX_SEEDS_QUICK);
   iterations  a closed loop of masses_state under the accelerated core's bit-exact model (mpc_cores.dgp.control: warm
@@ -49,7 +49,7 @@ from mpc_bench.qp_solvers import Clarabel
 from mpc_bench.report import write_alone
 from mpc_bench.tools import (
     FMAX_SEEDS, FMAX_SEEDS_QUICK, Job, Log, ToolResults, cached_design, is_cached, run_cycle_test, run_yosys,
-    synth_ecp5_and_pnr, synth_xc7,
+    synth_ecp5_and_pnr, synth_xc7, xc7_applies,
 )
 from mpc_cores.flow import REPO
 
@@ -426,7 +426,7 @@ class Section(QpSection):
                 # Yosys about 260 s on the accelerated core; nextpnr over 40 min per seed on the default designs
                 pnr = (900 if c.role in PLACED else 3600) * len(c.pnr_seeds) if c.place else 0
                 out.append(Job(300 + pnr, f"{c.tag} ecp5", lambda c=c: synth_ecp5(c, log), wave=1))
-                if self.xilinx:
+                if self.xilinx and xc7_applies(c):
                     out.append(Job(600, f"{c.tag} xc7", lambda c=c: synth_xc7(c, log), wave=1))
         return out
 

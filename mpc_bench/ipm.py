@@ -11,7 +11,8 @@ The interior-point core (Algorithm 1 of 001: Stage 1 engine + MINRES in its warm
              core, beside Table I of 001 (Stage 1 3i, linear solver 4M + 24);
   resources  Yosys synth_ecp5 (MULT18X18D, LUT4, FF, DP16KD; fit on the LFE5U-85F) on the small core at P = 1, and in
              a full run synth_xilinx xc7 on it and both on masses at P = 1 in binary32 and at its default P in
-             e8m17 with the fast operator latencies and TARGET=ecp5 (the masses core that fits the part);
+             e8m17 with the fast operator latencies and TARGET=ecp5 (the masses core that fits the part; no xc7:
+             its products are MULT18X18D instances, mpc_bench.tools.xc7_applies);
   Fmax       nextpnr-ecp5 on the LFE5U-85F (speed 8, constraints/ipm_core.lpf) for the cores that fit (the masses
              core with PLACER_ARGS, the median of seeds 1, 2 and 3);
   software   OSQP (default and tuned), PIQP and Clarabel on the QPs of the masses closed loop under the core's
@@ -40,7 +41,8 @@ from mpc_bench.minres import MASSES, SMALL, small_problem, synth_ecp5
 from mpc_bench.minres_report import float_units
 from mpc_bench.qp import QpSection
 from mpc_bench.report import write_alone
-from mpc_bench.tools import FMAX_SEEDS, PLACER_ARGS, Job, Log, ToolResults, is_cached, run_cycle_test, synth_xc7
+from mpc_bench.tools import (FMAX_SEEDS, PLACER_ARGS, Job, Log, ToolResults, is_cached, run_cycle_test, synth_xc7,
+                             xc7_applies)
 from mpc_cores.flow import REPO
 
 # the masses closed loop the software solvers replay (mpc_cores.ipm.study.loop)
@@ -256,7 +258,7 @@ class Section(QpSection):
                 out.append(Job(300 if big else 60, f"{c.tag} verilator", lambda c=c: measure_latency(c, test, log)))
             if c.synth:
                 out.append(Job(1500 if big else 600, f"{c.tag} ecp5", lambda c=c: synth_ecp5(c, log), wave=1))
-                if self.xilinx:
+                if self.xilinx and xc7_applies(c):
                     out.append(Job(900 if big else 300, f"{c.tag} xc7", lambda c=c: synth_xc7(c, log), wave=1))
             elif not c.pnr_note:
                 c.pnr_note = "not synthesised in this run"

@@ -474,6 +474,12 @@ def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
     return r
 
 
+def xc7_applies(c: ToolResults) -> bool:
+    """synth_xilinx reads the core's SystemVerilog as it is: a core generated for TARGET=ecp5 instantiates
+    MULT18X18D, which the Xilinx flow does not have, so its xc7 figures come from no run"""
+    return c.core.get("target", "generic") != "ecp5"
+
+
 def synth_xc7(c: ToolResults, log: Log) -> None:
     cells, c.xc7_mem = run_yosys(c, "xc7", log)
     c.xc7 = xc7_resources(cells)
