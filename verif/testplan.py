@@ -62,7 +62,7 @@ OWN = {
         "P row units (P = 2, 3 with padded rows; masses_state P = 4 on the ECP5 with kept copies)":
             ["tests/test_dgp_rtl.py::test_rtl_bitexact"],
         "core.json and the report name (36), (37) and the cycle contract": ["tests/test_dgp_rtl.py::test_masses_state_report"],
-        "zero start (the first pass K skipped) and a warm start from a nonzero dual, cycles and ITERATIONS.ZERO_START":
+        "zero start (the first passes K and G skipped) and a warm start from a nonzero dual, cycles and ITERATIONS.ZERO_START":
             ["tests/test_dgp_rtl.py::test_rtl_bitexact", "tests/test_dgp_model.py::test_warm_start_state"],
         "C twin word for word": ["tests/test_dgp_c.py::test_bit_exact"],
         "C driver on the RTL": ["tests/test_driver.py::test_driver_on_the_rtl"],
