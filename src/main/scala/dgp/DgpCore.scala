@@ -3,7 +3,7 @@ package dgp
 import chisel3._
 import chisel3.util._
 import bus.{AxiLiteIO, AxiStreamIO}
-import fixed.{FixedOps, Rounding, SerialDivider}
+import fixed.{FixedOps, Rounding}
 import linalg.{DotProductParams, DotProductTree}
 import dsp.Target
 import mem.{InitRam, KeepReg}
@@ -587,28 +587,10 @@ class DgpCore(val p: DgpParams) extends Module {
     DgpAnswer(p, fpga, VecInit((0 until n).map(i => clampRegistered(z(i), i))),
       st === St.decide && finish, regs.ctrlOutAll, outIdx, statusWord, m_axis, () => st := St.idle)
   } else false.B
-  if (!acc) {
-    val word = Reg(SInt(W.W))
-    // zbar_i = floor((2 Sz_i + I) / (2 I)): Sz / I rounded to nearest
-    val div = Module(new SerialDivider(p.divW, 18))
-    val have = RegInit(false.B)
-    val sz = VecInit(flat(szU, n))
-    div.io.start := st === St.out && !have && !div.io.busy && !div.io.done && !statusNow
-    div.io.x := (sz(outIdx) << 1) +& itersR.zext
-    div.io.d := itersR << 1
-    val q = div.io.q(W - 1, 0).asSInt
-    // the box of the word being divided, registered from its index (which holds while the divider runs)
-    val qLo = RegNext(VecInit(p.outLo.map(_.S(W.W)))(outIdx))
-    val qHi = RegNext(VecInit(p.outHi.map(_.S(W.W)))(outIdx))
-    when(div.io.done) { have := true.B; word := Mux(q < qLo, qLo, Mux(q > qHi, qHi, q)) }
-    when(m_axis.fire) { have := false.B }
-    m_axis.tvalid := st === St.out && (statusNow || have)
-    m_axis.tdata  := Mux(statusNow, statusWord.pad(p.streamW), word.pad(p.streamW).asUInt)
-    m_axis.tlast  := statusNow
-    when(m_axis.fire) {
-      outIdx := outIdx + 1.U
-      when(statusNow) { st := St.idle }
-    }
+  // plain: each word of the averaged primal from a serial divider (DgpPlainAnswer)
+  if (!acc) chisel3.experimental.noPrefix {
+    DgpPlainAnswer(p, st === St.out, VecInit(flat(szU, n)), itersR, outIdx, statusNow, statusWord, m_axis,
+      () => st := St.idle)
   }
   bus.Protocol.streamOut("m_axis", m_axis)
   regs.busy := st =/= St.idle || queued || frameIn.io.full || frameIn.io.partial || s_axis.fire
