@@ -11,7 +11,8 @@ the software baselines mpc_bench.baselines and mpc_bench.baselines_minres, the o
 mpc_bench.plots. A full run of both fgm and dgp ends with the scaling sweep (mpc_bench.scaling) at their placed clocks.
 
 Writes report.md, one CSV per kind (fgm.csv, admm.csv, minres.csv, ..., scaling.csv) and PNG plots into the output
-folder (build/bench), and copies report.md to docs/bench/<YYYY-MM-DD>-<quick|full>.md and docs/bench/latest.md.
+folder (build/bench), and copies report.md to docs/bench/<YYYY-MM-DD>-<full|quick|kinds>.md; a full run of every
+kind also to docs/bench/latest.md, the report the docs quote.
 
     python -m mpc_bench.bench [--quick] [--out build/bench] [--jobs 2] [--cores fgm,admm,minres] [--P 1,2,4,8]
                               [--b 12,16] [--admm-P 1,2,4,8] [--admm-b 18,16] [--admm-small-P 1,2] [--no-xilinx]
@@ -88,7 +89,7 @@ def main(argv=None) -> None:
     log = Log()
     info = {"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "machine": report.machine(), "quick": a.quick, "xilinx": not (a.quick or a.no_xilinx), "jobs": a.jobs,
-            "errors": [], "sw_seconds": {}}
+            "errors": [], "sw_seconds": {}, "kinds": sorted(selected), "complete": selected == set(classes)}
     st = store.use(None if a.no_store else Path(a.store))
     run = Run(a, out, log, info)
     sections = [cls(run) for name, cls in classes.items() if name in selected]
@@ -107,7 +108,8 @@ def main(argv=None) -> None:
     path = report.write_outputs(out, sections, info, log)
     if not a.no_docs:
         dated = report.publish(path, Path(a.docs), info)
-        log(f"copied the report to {dated} and {dated.parent / 'latest.md'}")
+        log(f"copied the report to {dated}" + (f" and {dated.parent / 'latest.md'}"
+                                                 if report.report_kind(info) == "full" else ""))
 
     for s in sections:
         lines = s.console_summary()

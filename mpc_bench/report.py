@@ -223,12 +223,22 @@ def write_outputs(out: Path, sections: list, info: dict, log) -> Path:
 
 
 def publish(report: Path, docs: Path, info: dict) -> Path:
-    """Copy the report to docs/<YYYY-MM-DD>-<quick|full>.md (the run's date) and make docs/latest.md a copy of it."""
+    """Copy the report to docs/<YYYY-MM-DD>-<kind>.md (the run's date; kind: `full` for a full run of every core kind,
+    `quick` for a QUICK run, else the selected kinds joined by `-`). A full run of every kind also makes
+    docs/latest.md a copy of it: the report the docs quote."""
     docs.mkdir(parents=True, exist_ok=True)
-    dated = docs / f"{info['date'][:10]}-{'quick' if info['quick'] else 'full'}.md"
+    dated = docs / f"{info['date'][:10]}-{report_kind(info)}.md"
     shutil.copyfile(report, dated)
-    shutil.copyfile(report, docs / "latest.md")
+    if report_kind(info) == "full":
+        shutil.copyfile(report, docs / "latest.md")
     return dated
+
+
+def report_kind(info: dict) -> str:
+    """`quick`, `full` (every core kind of the registry) or the selected kinds joined by `-` (a section run)."""
+    if info["quick"]:
+        return "quick"
+    return "full" if info.get("complete", True) else "-".join(info["kinds"])
 
 
 def write_alone(sec, out: Path, name: str, title: str, quick: bool, log) -> None:

@@ -582,3 +582,19 @@ def test_scaling_is_the_last_part_of_a_full_run(tmp_path, monkeypatch):
     assert "- M = 2, N = 5 (n = 10): does not fit at P = 1: canned" in md
     assert (tmp_path / "scaling.csv").read_text().startswith("core,M,N,n,P")
     assert (tmp_path / "scaling.png").exists()
+
+
+def test_publish_names_the_run_and_latest_is_the_full_run(tmp_path):
+    """latest.md, the report the docs quote, is only ever a full run of every kind; a QUICK run and a section run
+    get dated copies of their own names."""
+    src = tmp_path / "report.md"
+    docs = tmp_path / "docs"
+    base = {"date": "2026-12-01 01:49 UTC", "quick": False, "kinds": ["admm", "dgp", "fgm"], "complete": True}
+    src.write_text("full run")
+    assert report.publish(src, docs, base).name == "2026-12-01-full.md"
+    assert (docs / "latest.md").read_text() == "full run"
+    src.write_text("quick run")
+    assert report.publish(src, docs, dict(base, quick=True)).name == "2026-12-01-quick.md"
+    src.write_text("section run")
+    assert report.publish(src, docs, dict(base, kinds=["dgp", "ipm"], complete=False)).name == "2026-12-01-dgp-ipm.md"
+    assert (docs / "latest.md").read_text() == "full run"
