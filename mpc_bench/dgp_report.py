@@ -8,7 +8,7 @@ import numpy as np
 from mpc_bench.baselines import own_columns, slug, software_notes, timer_table
 from mpc_bench.qp import _load_text, _mem_list
 from mpc_bench.report import _f, _table, _tool_columns, latency_us, pnr_cells
-from mpc_bench.tools import seeds_phrase
+from mpc_bench.tools import XC7_SCOPE, seeds_phrase
 
 
 def latency_cycles(overhead: int, cycles_per_iteration: int, iters, zero=None, saving: int = 0) -> np.ndarray:
@@ -145,9 +145,7 @@ def _resources_part(cores: list, rows: list[dict]) -> list[str]:
         L += _table(["core", "MULT18X18D", "LUT4", "CCU2C", "FF", "DP16KD", "DPR16X4", "LFE5U-85F", "DSP48E1", "LUT",
                      "FF", "RAMB36"], body)
         L += ["", "ECP5: `synth_ecp5`, fit against the LFE5U-85F (156 MULT18X18D, 208 DP16KD, 83640 LUT4 and FF; "
-              "mpc_bench.minres.logic_fit: LUT4 + 2 CCU2C + 3 DPR16X4); xc7: `synth_xilinx -family xc7 -flatten` on "
-              "the cores not generated for TARGET=ecp5 (whose products are MULT18X18D instances; '-' for them). "
-              "Memories as Yosys inferred them:", ""]
+              "mpc_bench.minres.logic_fit: LUT4 + 2 CCU2C + 3 DPR16X4); " + XC7_SCOPE + "Memories as Yosys inferred them:", ""]
         L += [f"- {c.tag}: ECP5 {_mem_list(c.ecp5_mem, c.module) or '-'}; xc7 {_mem_list(c.xc7_mem, c.module) or '-'}"
               for c, _ in syn if c.ecp5_mem or c.xc7_mem] or ["- (none reported)"]
     else:

@@ -7,7 +7,7 @@ import numpy as np
 
 from mpc_bench.minres_report import F_001_MHZ, FLOAT_KINDS, mem_list
 from mpc_bench.report import _f, _table, _tool_columns, latency_us, pnr_cells, ratio
-from mpc_bench.tools import seeds_phrase
+from mpc_bench.tools import XC7_SCOPE, seeds_phrase
 
 # Table I of 001 (floating-point units of the whole circuit): Stage 1 3i (i parallel instances of Stage 1, 1 for
 # most problems), dot-product block of the linear solver 4M - 3, other linear-solver units 27: 4M + 24 + 3i.
@@ -208,9 +208,7 @@ def _units_part(cores: list, recs: list[dict]) -> list[str]:
         L += _table(["core", "MULT18X18D", "LUT4", "CCU2C", "FF", "DP16KD", "DPR16X4", "LFE5U-85F", "nextpnr",
                      "DSP48E1", "LUT", "FF", "RAMB36"], body)
         L += ["", "ECP5: `synth_ecp5`, fit against the LFE5U-85F (hard blocks: mpc_bench.parsers.ecp5_fit; LUT4 and "
-              "FF: mpc_bench.minres.logic_fit); xc7: `synth_xilinx -family xc7 -flatten` on the cores not "
-              "generated for TARGET=ecp5 (whose products are MULT18X18D instances; '-' for them). Memories as Yosys "
-              "inferred them:", ""]
+              "FF: mpc_bench.minres.logic_fit); " + XC7_SCOPE + "Memories as Yosys inferred them:", ""]
         L += [f"- {c.tag}: ECP5 {mem_list(c.ecp5_mem) or '-'}; xc7 {mem_list(c.xc7_mem) or '-'}" for c, _ in syn
               if c.ecp5_mem or c.xc7_mem] or ["- (none reported)"]
     else:

@@ -227,9 +227,10 @@ def publish(report: Path, docs: Path, info: dict) -> Path:
     `quick` for a QUICK run, else the selected kinds joined by `-`). A full run of every kind also makes
     docs/latest.md a copy of it: the report the docs quote."""
     docs.mkdir(parents=True, exist_ok=True)
-    dated = docs / f"{info['date'][:10]}-{report_kind(info)}.md"
+    kind = report_kind(info)
+    dated = docs / f"{info['date'][:10]}-{kind}.md"
     shutil.copyfile(report, dated)
-    if report_kind(info) == "full":
+    if kind == "full":
         shutil.copyfile(report, docs / "latest.md")
     return dated
 
@@ -238,7 +239,7 @@ def report_kind(info: dict) -> str:
     """`quick`, `full` (every core kind of the registry) or the selected kinds joined by `-` (a section run)."""
     if info["quick"]:
         return "quick"
-    return "full" if info.get("complete", True) else "-".join(info["kinds"])
+    return "full" if info["complete"] else "-".join(info["kinds"])
 
 
 def write_alone(sec, out: Path, name: str, title: str, quick: bool, log) -> None:

@@ -474,6 +474,11 @@ def _place(c: ToolResults, seed: int, log: Log) -> dict | None:
     return r
 
 
+# the reports' words for xc7_applies
+XC7_SCOPE = ("xc7: `synth_xilinx -family xc7 -flatten` on the cores not generated for TARGET=ecp5 (whose products are "
+             "MULT18X18D instances; '-' for them). ")
+
+
 def xc7_applies(c: ToolResults) -> bool:
     """synth_xilinx reads the core's SystemVerilog as it is: a core generated for TARGET=ecp5 instantiates
     MULT18X18D, which the Xilinx flow does not have, so its xc7 figures come from no run"""
