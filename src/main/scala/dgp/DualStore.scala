@@ -4,14 +4,16 @@ import chisel3._
 import chisel3.util._
 import mem.KeepReg
 
-/** The DGP core's dual vectors in banks of distributed RAM: the dual y and (accelerated) the extrapolated dual wy
-  * and its candidate, each word both halves (upper rows, then lower rows, of one constraint row).
+/** The DGP core's dual vectors in banks: the dual y and (accelerated) the extrapolated dual wy and its candidate,
+  * each word both halves (upper rows, then lower rows, of one constraint row).
   *
   * Row r of a vector is in bank r mod B at address r / B. B is the lanes times m = ceil(P / lanes), so that a pass K
   * chunk j reads lane l's word (row j lanes + l) from bank l + lanes (j mod m), and the element stage's P rows of a
-  * round (k P .. k P + P - 1, one per unit) are in P different banks. Every bank is a memory of one write port and
-  * one read port whose address is registered (a synchronous read); the read data are registered at the bank and
-  * selected by the lanes (pass K) or the units (the element stage) a cycle later.
+  * round (k P .. k P + P - 1, one per unit) are in P different banks. A bank holds ceil(rows / B) words in
+  * registers, with one write port (each word's enable decoded from the address) and one read port whose address is
+  * registered; the read data are registered at the bank and selected by the lanes (pass K) or the units (the
+  * element stage) a cycle later. (In ECP5 distributed RAM, which only some slices hold, the banks of the bench's
+  * row-unit core did not route.)
   *
   * Accelerated, three buffers of banks: Y holds y; of B0 and B1, one is the candidate (cBuf) and the other the
   * extrapolated dual, unless that is y (eIsY: after a start or a restart). So the decision's select (y on a restart,
@@ -114,7 +116,7 @@ class DualStore(p: DgpParams, fpga: Boolean, chunkW: Int) extends Module {
   /** pass K's address and its mask (the rows past those the element stage writes) by chunk, per bank */
   private def kAddr(j: Int): Int = j / m
   val chunkG = (0 until (B + 3) / 4).map(_ => if (fpga) KeepReg(io.chunkNext) else RegNext(io.chunkNext))
-  val mems = Seq.fill(buffers, B)(Mem(depth, UInt((2 * W).W)))
+  val mems = Seq.fill(buffers, B)(Reg(Vec(depth, UInt((2 * W).W))))
   val eBank = Reg(Vec(B, UInt((2 * W).W)))
   val yBank = Reg(Vec(B, UInt((2 * W).W)))
   for (b <- 0 until B) {
@@ -127,12 +129,12 @@ class DualStore(p: DgpParams, fpga: Boolean, chunkW: Int) extends Module {
     val us = unitsOf(b)
     if (us.nonEmpty) {
       val (yWe, yWa, yWd) = port(yW, us)
-      when(yWe) { mems(0)(b).write(yWa, yWd) }
+      when(yWe) { mems(0)(b)(yWa) := yWd }
     }
     if (acc && us.nonEmpty) {
       val (cWe, cWa, cWd) = port(cW, us)
-      when(cWe && !cBufb) { mems(1)(b).write(cWa, cWd) }
-      when(cWe && cBufb) { mems(2)(b).write(cWa, cWd) }
+      when(cWe && !cBufb) { mems(1)(b)(cWa) := cWd }
+      when(cWe && cBufb) { mems(2)(b)(cWa) := cWd }
     }
     // the read address: a unit's element read, else pass K's by the chunk
     val hits = us.map(u => io.rdGo(u) && rd(u).oh(b))
