@@ -63,23 +63,31 @@ class DgpCore(val p: DgpParams) extends Module {
 
   // ------------------------------------------------------------------ state
   // The vectors read row by row are, per unit, rotating FIFOs read at their head (as the FGM's, Fig. 1 of 002):
-  // e and Sz (one step per row of pass K), lo, hi and Sg (one step per row of pass G, the new value entering at the
-  // tail). Each FIFO is read and rotated at one pipeline stage only, and a pass rotates it exactly once round, so
-  // between passes unit u's element k is row k P + u. No row needs a wide multiplexer. The vectors read whole (the
-  // operand chunks of w and z; the output) are flat: row i of unit u's FIFOs is element i of them. The duals (y,
-  // and accelerated the extrapolated dual and its candidate) are in banks of distributed RAM (DualStore), read by
-  // the chunk in pass K and row by row in the element stage.
+  // e and Sz (one step per row of pass K), lo, hi, y, the element stage's copy of the operand dual and Sg (one step
+  // per row of pass G, the new value entering at the tail). Each FIFO is read and rotated at one pipeline stage
+  // only, and a pass rotates it exactly once round, so between passes unit u's element k is row k P + u. No row
+  // needs a wide multiplexer. The vectors read whole (the operand chunks of w, the dual and z; the output) are
+  // flat: row i of unit u's FIFOs is element i of them.
   val wReg = Reg(Vec(nw, SInt(p.xW.W)))
   val eU   = Seq.fill(P)(Reg(Vec(rK, SInt(W.W))))
   val loU  = Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
   val hiU  = Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
   /** z, per unit (row k P + u is unit u's element k after pass K), and its flat view */
   val zU   = Seq.fill(P)(Reg(Vec(rK, SInt(W.W))))
+  /** the dual y = (y+, y-), upper and lower rows; it survives a solve (the warm start) */
+  val yU   = Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W))))
+  /** accelerated: the extrapolated dual, per unit; plain: y itself. The element stage rotates it once round in
+    * pass G, so in pass K, which reads it as the operand, unit u's element k is row k P + u */
+  val wyEU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else yU
+  /** accelerated: the extrapolated dual's candidate, per unit, entering row by row at the tail */
+  val wycU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else Nil
   val szU  = if (acc) Nil else Seq.fill(P)(Reg(Vec(rK, SInt(p.sumW.W))))
   val sgU  = if (acc) Nil else Seq.fill(2, P)(Reg(Vec(rG, SInt(p.sumW.W))))
   /** flat views: row i is unit i mod P's element i / P */
   def flat(f: Seq[Vec[SInt]], len: Int): Seq[SInt] = (0 until len).map(i => f(i % P)(i / P))
   val z     = flat(zU, n)
+  /** the operand dual of pass K, flat */
+  val wyOp: Seq[Seq[SInt]] = wyEU.map(flat(_, mc))
   /** one step of a rotating FIFO: the head leaves, `in` enters at the tail; each group of rowGroup rows where its
     * enable (`en`, one per group) is high */
   def rotate(q: Vec[SInt], in: SInt, en: Seq[Bool]): Unit =
@@ -168,9 +176,9 @@ class DgpCore(val p: DgpParams) extends Module {
   frameIn.io.take := take
   val warmNow = regs.ctrlWarm && regs.warmValid
   val zeroNow = !warmNow || yZero
-  // The start's resets act a cycle after the take, per unit from its own copies (the duals' roles: DualStore);
-  // those of the plain form's sums a cycle later, per group of rowGroup rows from copies of their own: the element
-  // stage reads them first in the first iteration's pass G, or a zero start's bound rows, long after
+  // The start's resets act a cycle after the take, per unit from its own copies; those of the duals and sums (and
+  // the warm start) a cycle later, per group of rowGroup rows from copies of their own: the first pass reads none
+  // of them, and pass K's first operand select comes at least two cycles after the take
   val startU = unitRegs(take)
   val warmU  = unitRegs(warmNow)
   /** rows per group of a FIFO that takes its enables from copies of its own */
@@ -180,7 +188,9 @@ class DgpCore(val p: DgpParams) extends Module {
     * group (FPGA targets), so that no register drives a whole vector */
   def groupRegs(x: Seq[Bool], len: Int): Seq[Seq[Bool]] =
     x.map(r => if (fpga) Seq.fill(groups(len))(KeepReg(r)) else Seq.fill(groups(len))(RegNext(r, false.B)))
-  val startG = if (acc) Nil else groupRegs(startU, rG)
+  val startG = groupRegs(startU, rG)
+  /** the start's clear of the duals (a cold start), a flip-flop per group of rows: their resets need no gate */
+  val clearG = groupRegs(startU.zip(warmU).map { case (s, w) => s && !w }, rG)
   val startGK = if (acc) Nil else groupRegs(startU, rK)
   val zsU    = if (acc) Nil else unitRegs(zSolve)
   when(take) {
@@ -193,7 +203,16 @@ class DgpCore(val p: DgpParams) extends Module {
   }
   for (u <- 0 until P) {
     when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
-    if (!acc) for (k <- 0 until rG; h <- 0 until 2) when(startG(u)(k / rowGroup)) { sgU(h)(u)(k) := 0.S }
+    for (k <- 0 until rG; h <- 0 until 2) {
+      when(startG(u)(k / rowGroup)) {
+        if (acc) wyEU(h)(u)(k) := yU(h)(u)(k)
+        if (!acc) sgU(h)(u)(k) := 0.S
+      }
+      when(clearG(u)(k / rowGroup)) {
+        yU(h)(u)(k) := 0.S
+        if (acc) wyEU(h)(u)(k) := 0.S
+      }
+    }
     szU.lift(u).foreach(s => for (k <- 0 until rK) when(startGK(u)(k / rowGroup)) { s(k) := 0.S })
   }
   // a frame's saturation belongs to its solve (the frame may arrive while the previous one runs)
@@ -287,15 +306,8 @@ class DgpCore(val p: DgpParams) extends Module {
     VecInit((0 until cs).map(j => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))(chunkL(l))
   val zwR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(z, p.cG, l))))
   val ewR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(flat(eU, n), p.cG, l))))
-  /** the duals; pass K's operand words of wy come from their banks in cycle 2 */
-  val duals = Module(new DualStore(p, fpga, chunkW))
-  duals.io.chunkNext := chunkD
-  for (u <- 0 until P) {
-    duals.io.start(u) := startU(u); duals.io.cold(u) := startU(u) && !warmU(u)
-    duals.io.decide(u) := decideU(u)
-  }
-  val ypR = duals.io.kOp.map(_(0))
-  val ymR = duals.io.kOp.map(_(1))
+  val ypR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(0), p.cK, l))))
+  val ymR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
   val wwR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wReg, p.cF, l))))
   val opR = RegNext(VecInit((0 until p.lanes).map { l =>
     val pl = RegNext(passL(l))
@@ -425,25 +437,20 @@ class DgpCore(val p: DgpParams) extends Module {
     val gmu = RegNext(VecInit((0 until 2).map(h => g1(h) -& u1(h) - 1.S)))
     // E2: y_new = clip(wy + g, 0, ud) (plain: y rotates here, and Sg with the test's sum; accelerated: the two
     // sums registered, y_new selected by their signs in E3)
-    val wy2 = duals.io.eRow(u)
+    val wy2 = wyEU.map(_(u)(0))
     val tSum = (0 until 2).map(h => wy2(h) +& g1b(h))
     val cSum = (0 until 2).map(h => wy2(h) +& gmu(h))
     def clipNew(t: SInt, c: SInt, ud: SInt): SInt = Mux(t < 0.S, 0.S, Mux(c >= 0.S, ud, t))(W - 1, 0).asSInt
     val yNew = (0 until 2).map(h => clipNew(tSum(h), cSum(h), u1b(h)))
-    // the element stage's writes of the duals (plain: y_new in E2; accelerated: y in E3 and the candidate in E6),
-    // each from a flip-flop per unit, and the plain form's Sg FIFO's rotate enables per group
-    def elementGo(d: Int): Bool = elementEnables(d, 1)(u).head
-    duals.io.rdGo(u) := elementGo(rowL)
-    duals.io.restart(u) := restartU(u)
+    // the rotate enables of the element stage's FIFOs, per group: y_new (E2: plain y; accelerated, the
+    // extrapolated dual), y (accelerated: E3), the extrapolated dual's candidate (accelerated: E6)
+    val en2 = elementEnables(rowL + 3, rG)(u)
     if (acc) {
+      for (h <- 0 until 2) rotate(wyEU(h)(u), wyEU(h)(u)(0), en2)
       when(e1b && (g1b(0) > p.eg.S || g1b(1) > p.eg.S)) { violU(u) := true.B }
     } else {
       val nv = (0 until 2).map(h => sgU(h)(u)(0) + g1b(h))
-      duals.io.yWr(u).valid := elementGo(rowL + 3)
-      duals.io.yWr(u).bits  := VecInit(yNew)
-      duals.io.cWr(u) := DontCare
-      duals.io.cWr(u).valid := false.B
-      for (h <- 0 until 2) rotate(sgU(h)(u), nv(h), elementEnables(rowL + 3, rG)(u))
+      for (h <- 0 until 2) { rotate(yU(h)(u), yNew(h), en2); rotate(sgU(h)(u), nv(h), en2) }
       // E3: the test's sums against the threshold
       val e3 = RegNext(e1b, false.B)
       val nv3 = RegNext(VecInit(nv))
@@ -455,18 +462,18 @@ class DgpCore(val p: DgpParams) extends Module {
     if (acc) {
       val e2  = RegNext(e1b, false.B)
       val g2  = RegNext(g1b)
-      val w2  = RegNext(wy2)
+      val w2  = RegNext(VecInit(wy2))
       val u2  = RegNext(u1b)
       val (t2, c2) = (RegNext(VecInit(tSum)), RegNext(VecInit(cSum)))
       val yN2 = (0 until 2).map(h => clipNew(t2(h), c2(h), u2(h)))
-      // E3: y written, its old value (read with wy) kept for dy
-      val yOld = RegNext(duals.io.yRow(u))
-      duals.io.yWr(u).valid := elementGo(rowL + 4)
-      duals.io.yWr(u).bits  := VecInit(yN2)
+      // E3: y rotates, its old value kept for dy
+      val yOld = yU.map(_(u)(0))
+      val en3 = elementEnables(rowL + 4, rG)(u)
+      for (h <- 0 until 2) rotate(yU(h)(u), yN2(h), en3)
       val e3 = RegNext(e2, false.B)
       val yN3 = RegNext(VecInit(yN2))
       when(e3 && (yN3(0) =/= 0.S || yN3(1) =/= 0.S)) { nzU(u) := true.B }
-      val yO3 = RegNext(yOld)
+      val yO3 = RegNext(VecInit(yOld))
       val g3 = RegNext(g2)
       val w3 = RegNext(w2)
       val u3 = RegNext(u2)
@@ -500,8 +507,8 @@ class DgpCore(val p: DgpParams) extends Module {
         rstU(u) := rstU(u) + sRst
       }
       // a row past the unit's last has ud = 0, so its candidate is 0
-      duals.io.cWr(u).valid := elementGo(rowL + 7 + p.latMulE)
-      duals.io.cWr(u).bits  := VecInit((0 until 2).map(h => clipNew(tExt(h), dExt(h), u6(h))))
+      val en6 = elementEnables(rowL + 7 + p.latMulE, rG)(u)
+      for (h <- 0 until 2) rotate(wycU(h)(u), clipNew(tExt(h), dExt(h), u6(h)), en6)
     }
   }
 
@@ -529,8 +536,19 @@ class DgpCore(val p: DgpParams) extends Module {
   val finish  = stop || lastIter
   val outIdx  = RegInit(0.U(16.W))
   for (u <- 0 until P) when(decideU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
-  // accelerated: the next extrapolated dual is y on a restart, else the candidate: DualStore's roles change at the
-  // decision (decideU and restartU, a flip-flop each per unit)
+  // accelerated: the next extrapolated dual, y on a restart, else the candidate, loaded in the cycle after the
+  // decision (pass K's first operand select is a cycle after its issue). The decision and the restart reach each
+  // group of 8 of a unit's rows of each half from copies of their own (FPGA targets: kept registers loaded from the
+  // unit's), so that no register drives a whole vector
+  if (acc) for (u <- 0 until P) {
+    val (decN, rsN) = (RegNext(decideU(u), false.B), RegNext(restartU(u)))
+    for (h <- 0 until 2; g <- 0 until rG by 8) {
+      val (dec, rs) = if (fpga) (KeepReg(decideU(u)), KeepReg(restartU(u))) else (decN, rsN)
+      when(dec) {
+        for (k <- g until math.min(g + 8, rG)) wyEU(h)(u)(k) := Mux(rs, yU(h)(u)(k), wycU(h)(u)(k))
+      }
+    }
+  }
   // the counter and beta of the next iteration without a restart, registered from kAcc (which changes at the
   // take and the decisions only, an iteration apart): kNew = min(kAcc + 1, 255), beta at min(kNew + 1, 255)
   val kInc    = RegNext(Mux(kAcc === 255.U, 255.U, kAcc + 1.U))
