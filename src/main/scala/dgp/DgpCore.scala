@@ -120,8 +120,13 @@ class DgpCore(val p: DgpParams) extends Module {
   val rstU   = RegInit(VecInit(Seq.fill(P)(0.S(gapW.W))))
 
   // ------------------------------------------------------------------ sequencer
-  object St extends ChiselEnum { val idle, issue, gap, decide, out = Value }
-  val st = RegInit(St.idle)
+  // one-hot: idle, issue, gap (the pipeline's wait after a pass, or after a zero start's first pass), decide and out
+  // (the answer leaving), so that no condition decodes a state word
+  val sIdle   = RegInit(true.B)
+  val sIssue  = RegInit(false.B)
+  val sGap    = RegInit(false.B)
+  val sDecide = RegInit(false.B)
+  val sOut    = RegInit(false.B)
   val addr    = RegInit(0.U(log2Ceil(p.matRows + 1).W))
   // The issue slot at addr: its chunk, whether it is its round's first and last (DgpParams.slots) and whether it
   // ends its pass, registers loaded with addr. The next two slots' bits wait in registers (nx1, nx2), nx2 loaded from
@@ -145,16 +150,22 @@ class DgpCore(val p: DgpParams) extends Module {
   val nx2 = RegInit(bitsOf(2))
   // chunk and pass are set through their next values (chunkD, passD), from which each operand lane keeps copies
   val chunkD  = WireDefault(UInt(chunkW.W), chunk)
-  /** the pass being issued: 0 F, 1 K, 2 G */
-  val pass    = RegInit(0.U(2.W))
-  val passD   = WireDefault(UInt(2.W), pass)
+  /** the pass being issued, one-hot (F when neither): pass K, pass G */
+  val pK  = RegInit(false.B)
+  val pG  = RegInit(false.B)
+  val pKD = WireDefault(pK)
+  val pGD = WireDefault(pG)
+  /** the pass as the tokens and the lanes carry it: 0 F, 1 K, 2 G */
+  val pass  = Cat(pG, pK)
+  val passD = Cat(pGD, pKD)
   chunk := chunkD
-  pass  := passD
+  pK := pKD
+  pG := pGD
   // The chunk of a jump's slot is loaded ahead, not by the jump (whose condition comes late in its cycle): the
   // first slot's while idle (a take jumps there), pass K's first slot's in the gap before the decision and in the
   // decision (the next iteration jumps there); outside the issue and these, chunk holds
-  when(st === St.idle) { chunkD := slotBits(0)._1.U; passD := 0.U }
-  when((st === St.gap && pass === 2.U) || st === St.decide) { chunkD := slotBits(p.baseK)._1.U }
+  when(sIdle) { chunkD := slotBits(0)._1.U; pKD := false.B; pGD := false.B }
+  when((sGap && pG) || sDecide) { chunkD := slotBits(p.baseK)._1.U }
   def jump(a: Int): Unit = {
     addr := a.U; firstC := slotBits(a)._2.B; lastC := slotBits(a)._3.B
     endC := slotBits(a)._4.B; nx1 := bitsOf(a + 1); nx2 := bitsOf(a + 2)
@@ -162,7 +173,8 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the round of rows within the pass (at most rK + rG - 1, in the first pass) */
   private val roundW = log2Ceil(rK + rG + 1)
   val round   = RegInit(0.U(roundW.W))
-  val waitCnt = RegInit(0.U(16.W))
+  private val gaps = Seq(p.gapZ, p.gapK, p.gapG)
+  val waitCnt = RegInit(0.U(log2Ceil(gaps.max + 1).W))
   /** the gap's last cycle: waitCnt === 0, registered as the count is loaded or stepped */
   val gapEnd  = RegInit(false.B)
   val cycles  = RegInit(0.U(32.W))
@@ -172,13 +184,14 @@ class DgpCore(val p: DgpParams) extends Module {
 
   // the take decided a cycle ahead, a flip-flop (it loads w, the sequencer and the frame buffer)
   val take = RegInit(false.B)
-  take := st === St.idle && frameIn.io.full && !take
+  take := sIdle && frameIn.io.full && !take
   frameIn.io.take := take
   val warmNow = regs.ctrlWarm && regs.warmValid
   val zeroNow = !warmNow || yZero
   // The start's resets act a cycle after the take, per unit from its own copies; those of the duals and sums (and
-  // the warm start) a cycle later, per group of rowGroup rows from copies of their own: the first pass reads none
-  // of them, and pass K's first operand select comes at least two cycles after the take
+  // the warm start) a cycle later, per group of rowGroup rows from copies of their own: the first pass's products
+  // read none of them, a zero start's element stage reads the duals rowLat + 3 cycles after its first issue at the
+  // earliest, and pass K's first operand select comes at least two cycles after the take
   val startU = unitRegs(take)
   val warmU  = unitRegs(warmNow)
   /** rows per group of a FIFO that takes its enables from copies of its own */
@@ -195,7 +208,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val zsU    = if (acc) Nil else unitRegs(zSolve)
   when(take) {
     wReg := frameIn.io.frame
-    st := St.issue; jump(0); round := 0.U
+    sIdle := false.B; sIssue := true.B; jump(0); round := 0.U
     iter := 0.U; imax := regs.imaxReg; cycles := 0.U
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
@@ -219,9 +232,18 @@ class DgpCore(val p: DgpParams) extends Module {
   val frameSat = RegInit(false.B)
   when(frameIn.io.sat) { frameSat := true.B }
   when(take) { solveSat := frameSat || frameIn.io.sat; frameSat := false.B } // the last word's pulse may come with take
-  when(st =/= St.idle && st =/= St.out) { cycles := cycles + 1.U }
+  when(!sIdle && !sOut) { cycles := cycles + 1.U }
 
-  val issuing   = st === St.issue
+  val issuing = sIssue
+  // the gap's count loads in every issue cycle with the gap of the pass being issued (the gap after pass F is a zero
+  // start's), so that the pass's end needs no condition of its own; it counts down in the gap
+  when(issuing) {
+    waitCnt := Mux(pK, (p.gapK - 1).U, Mux(pG, (p.gapG - 1).U, (p.gapZ - 1).U))
+    gapEnd  := Mux(pK, (p.gapK == 1).B, Mux(pG, (p.gapG == 1).B, (p.gapZ == 1).B))
+  }.elsewhen(sGap) {
+    waitCnt := waitCnt - 1.U
+    gapEnd  := waitCnt === 1.U
+  }
   when(issuing) {
     addr   := addr + 1.U
     chunkD := nx1(chunkW + 2, 3)
@@ -231,26 +253,17 @@ class DgpCore(val p: DgpParams) extends Module {
     nx1    := nx2
     nx2    := slotAhead(addr)
     when(lastC) { round := Mux(endC, 0.U, round + 1.U) }
+    // pass K follows the first pass at once; on a zero start, the decision after gapZ (its element stage takes the
+    // bound rows); passes K and G end in their gaps
     when(endC) {
-      switch(pass) {
-        is(0.U) {
-          // pass K follows the first pass at once; on a zero start, the decision after gapZ (its element stage
-          // takes the bound rows)
-          passD := 1.U; zTable := false.B
-          when(zTable) { passD := 2.U; st := St.gap; waitCnt := (p.gapZ - 1).U; gapEnd := (p.gapZ == 1).B }
-        }
-        is(1.U) { st := St.gap; waitCnt := (p.gapK - 1).U; gapEnd := (p.gapK == 1).B }
-        is(2.U) { st := St.gap; waitCnt := (p.gapG - 1).U; gapEnd := (p.gapG == 1).B }
-      }
+      when(!pK && !pG) { zTable := false.B; pKD := !zTable; pGD := zTable }
+      when(pK || pG || zTable) { sIssue := false.B; sGap := true.B }
     }
   }
-  val toDecide = st === St.gap && gapEnd && pass === 2.U
-  when(st === St.gap) {
-    waitCnt := waitCnt - 1.U
-    gapEnd  := waitCnt === 1.U
-    when(gapEnd) {
-      when(pass === 1.U) { st := St.issue; passD := 2.U }.otherwise { st := St.decide }
-    }
+  val toDecide = sGap && gapEnd && !pK
+  when(sGap && gapEnd) {
+    sGap := false.B
+    when(pK) { sIssue := true.B; pKD := false.B; pGD := true.B }.otherwise { sDecide := true.B }
   }
   /** the decision cycle, per unit (registered from the cycle before) */
   val decideU = unitRegs(toDecide)
@@ -355,7 +368,8 @@ class DgpCore(val p: DgpParams) extends Module {
   /** a zero start's bound row: it feeds the element stage a stage after its sum (s = 0), as a row of pass G */
   val isZ: Tok => Bool = t => isB(t) && t.zs
   val rowEU  = rowFlag(isE)
-  val rowKU  = rowFlag(isK)
+  /** pass K's rows a stage after their sums: z enters its FIFO */
+  val rowZKU = rowFlag(isK, p.rowLat + 1)
   val rowGU  = rowFlag(isG)
   val rowZU  = rowFlag(isZ, p.rowLat + 1)
   /** the last chunk of a valid row at token stage `d` that meets `f` */
@@ -373,13 +387,18 @@ class DgpCore(val p: DgpParams) extends Module {
   val rowL = p.rowLat
   val enE = rowEnables(rowL, rK, isE)
   val enK = rowEnables(rowL, rK, isK)
+  val enZ = rowEnables(rowL + 1, rK, isK)
   val enB = rowEnables(rowL + 1, rG, isB)
   val enG = rowEnables(rowL, rG, isG)
   for (u <- 0 until P) {
     val tokR  = tokRU(u)
     val a     = accR(u)
     // first pass and pass K
-    val (zNew, ofZ) = sat(a +& eU(u)(0))
+    // pass K: z = sat(a + e), the sum registered before its saturation and z's FIFO (z is first read in pass G's
+    // operand select, gapK + 2 cycles after the last row's sum)
+    val zSum = Reg(SInt((p.accW.max(W) + 1).W))
+    zSum := a +& eU(u)(0)
+    val (zNew, ofZ) = sat(zSum)
     val (eNew, ofE) = sat(a)
     // the bounds' constants read a cycle ahead, by the token of the stage before
     val tokPre = tokAt(p.rowLat - 1)
@@ -403,10 +422,10 @@ class DgpCore(val p: DgpParams) extends Module {
     val (hiNew, ofH) = sat(hiS)
     ovfFlags(u) += bNext && (ofL || ofH)
     rotate(loU(u), loNew, enB(u)); rotate(hiU(u), hiNew, enB(u))
-    rotate(zU(u), zNew, enK(u))
-    ovfFlags(u) += rowKU(u) && ofZ
+    rotate(zU(u), zNew, enZ(u))
+    ovfFlags(u) += rowZKU(u) && ofZ
     rotate(eU(u), eU(u)(0), enK(u))
-    szU.lift(u).foreach(s => rotate(s, s(0) + zNew, enK(u)))
+    szU.lift(u).foreach(s => rotate(s, s(0) + zNew, enZ(u)))
 
     // pass G. E0: s = sat(G (z - e)), the bounds of the row (lo and hi rotate here) and its dual box, registered. A
     // zero start's bound row enters a stage after its sum, with s = 0 and the bounds as they enter their FIFOs
@@ -555,15 +574,15 @@ class DgpCore(val p: DgpParams) extends Module {
   val betaInc = RegNext(betaRom(Mux(kAcc >= 253.U, 255.U, kAcc + 2.U)))
   // The decision sets up the next iteration whether or not it finishes (after an answer, the take sets up the
   // next solve), so that the test reaches only the state and the registers of the finished solve
-  when(st === St.decide) {
+  when(sDecide) {
     tThr := tThr + p.eg.S
     yZero := yZeroNext
     if (acc) {
       kAcc  := Mux(restart, 0.U, kInc)
       betaR := Mux(restart, betaRom(1), betaInc)
     }
-    passD := 1.U; jump(p.baseK); iter := iter + 1.U; outIdx := 0.U
-    st := Mux(finish, St.out, St.issue)
+    pKD := true.B; pGD := false.B; jump(p.baseK); iter := iter + 1.U; outIdx := 0.U
+    sDecide := false.B; sOut := finish; sIssue := !finish
     when(finish) {
       itersR := iter + 1.U; metR := stop; zeroR := zSolve
       regs.solveDone(cycles + 1.U)
@@ -582,16 +601,17 @@ class DgpCore(val p: DgpParams) extends Module {
     val (xr, below, above) = (RegNext(x), RegNext(x < l), RegNext(x > h))
     Mux(below, l, Mux(above, h, xr))
   }
+  /** the answer's status word has left: the sequencer waits for the next frame */
+  def idle(): Unit = { sOut := false.B; sIdle := true.B }
   /** accelerated: an answer is in the output queue (DgpAnswer) */
   val queued: Bool = if (acc) chisel3.experimental.noPrefix {
     DgpAnswer(p, fpga, VecInit((0 until n).map(i => clampRegistered(z(i), i))),
-      st === St.decide && finish, regs.ctrlOutAll, outIdx, statusWord, m_axis, () => st := St.idle)
+      sDecide && finish, regs.ctrlOutAll, outIdx, statusWord, m_axis, idle)
   } else false.B
   // plain: each word of the averaged primal from a serial divider (DgpPlainAnswer)
   if (!acc) chisel3.experimental.noPrefix {
-    DgpPlainAnswer(p, st === St.out, VecInit(flat(szU, n)), itersR, outIdx, statusNow, statusWord, m_axis,
-      () => st := St.idle)
+    DgpPlainAnswer(p, sOut, VecInit(flat(szU, n)), itersR, outIdx, statusNow, statusWord, m_axis, idle)
   }
   bus.Protocol.streamOut("m_axis", m_axis)
-  regs.busy := st =/= St.idle || queued || frameIn.io.full || frameIn.io.partial || s_axis.fire
+  regs.busy := !sIdle || queued || frameIn.io.full || frameIn.io.partial || s_axis.fire
 }

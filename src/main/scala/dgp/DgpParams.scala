@@ -132,7 +132,8 @@ case class DgpParams(
   val rowLat: Int = 4 + treeLat + 1
   /** registered levels that add the units' sums of the stopping and restart tests */
   val unitDepth: Int = log2Ceil(units)
-  /** idle cycles after pass K: its last z is written at its result stage, pass G's first operand reads it after */
+  /** idle cycles after pass K: its last z is written a stage after its result stage (the sum registered before
+    * its saturation), and pass G's first operand select reads it in the cycle after */
   val gapK: Int = rowLat
   /** stages of the element stage's products (accelerated): l_M, and where the target sums a product's partial
     * products, at least 2 beyond its DSP pipeline, so that the DSP outputs land in fabric registers before their sum
