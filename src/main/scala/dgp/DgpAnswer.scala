@@ -4,8 +4,8 @@ import chisel3._
 import bus.AxiStreamIO
 import mem.KeepReg
 
-/** The accelerated DGP core's answer path. z is final from the decision cycle on; its clamped copy (`clamped`, the
-  * clamp's compares and select in registered steps, registered once more here: three cycles behind z) loads the
+/** The accelerated DGP core's answer path. z is final from the decision cycle on; its copy clamped word by word (`clamp`,
+  * the compares and the select in registered steps, registered once more here: three cycles behind z) loads the
   * answer register zc until the decision that finishes. The words then move into a four-word output queue
   * (shell.AnswerQueue) at `shift`, a register decided a cycle ahead from a flag of its own (the answer is going out:
   * from the cycle after that decision until the status word enters the queue) and the queue's room, zc shifting a
@@ -13,13 +13,21 @@ import mem.KeepReg
   * its load and shift from kept copies of its own (FPGA targets), not one register driving every word's bits.
   */
 object DgpAnswer {
+  /** x clamped to output word i's quantised input box [outLo_i, outHi_i] (a comparator pair against constants), x
+    * and its compares registered before the select: only the output, the iteration's z and Sz stay unclamped */
+  def clamp(p: DgpParams, x: SInt, i: Int): SInt = {
+    val (l, h) = (p.outLo(i).S(p.dataW.W), p.outHi(i).S(p.dataW.W))
+    val (xr, below, above) = (RegNext(x), RegNext(x < l), RegNext(x > h))
+    Mux(below, l, Mux(above, h, xr))
+  }
+
   /** Drives `port`; `finishing`: the decision that finishes; `outIdx`: the core's word index
     * (the words decided; the status word follows the nu, or n with `outAll`, data words); `done` runs as the
     * status word enters the queue. Returns whether an answer waits in the queue. */
-  def apply(p: DgpParams, fpga: Boolean, clamped: Vec[SInt], finishing: Bool, outAll: Bool, outIdx: UInt,
+  def apply(p: DgpParams, fpga: Boolean, z: Seq[SInt], finishing: Bool, outAll: Bool, outIdx: UInt,
       statusWord: UInt, port: AxiStreamIO, done: () => Unit): Bool = {
     val n = p.n
-    val zcl = RegNext(clamped)
+    val zcl = RegNext(VecInit(z.zipWithIndex.map { case (x, i) => clamp(p, x, i) }))
     val zc = Reg(Vec(n, SInt(p.dataW.W)))
     val ansQ = Module(new shell.AnswerQueue(p.streamW))
     val shift = RegInit(false.B)

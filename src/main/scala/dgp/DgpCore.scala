@@ -122,11 +122,8 @@ class DgpCore(val p: DgpParams) extends Module {
   // ------------------------------------------------------------------ sequencer
   // one-hot: idle, issue, gap (the pipeline's wait after a pass, or after a zero start's first pass), decide and out
   // (the answer leaving), so that no condition decodes a state word
-  val sIdle   = RegInit(true.B)
-  val sIssue  = RegInit(false.B)
-  val sGap    = RegInit(false.B)
-  val sDecide = RegInit(false.B)
-  val sOut    = RegInit(false.B)
+  val sIdle = RegInit(true.B)
+  val Seq(sIssue, sGap, sDecide, sOut) = Seq.fill(4)(RegInit(false.B))
   val addr    = RegInit(0.U(log2Ceil(p.matRows + 1).W))
   // The issue slot at addr: its chunk, whether it is its round's first and last (DgpParams.slots) and whether it
   // ends its pass, registers loaded with addr. The next two slots' bits wait in registers (nx1, nx2), nx2 loaded from
@@ -151,16 +148,13 @@ class DgpCore(val p: DgpParams) extends Module {
   // chunk and pass are set through their next values (chunkD, passD), from which each operand lane keeps copies
   val chunkD  = WireDefault(UInt(chunkW.W), chunk)
   /** the pass being issued, one-hot (F when neither): pass K, pass G */
-  val pK  = RegInit(false.B)
-  val pG  = RegInit(false.B)
-  val pKD = WireDefault(pK)
-  val pGD = WireDefault(pG)
+  val Seq(pK, pG) = Seq.fill(2)(RegInit(false.B))
+  val (pKD, pGD) = (WireDefault(pK), WireDefault(pG))
   /** the pass as the tokens and the lanes carry it: 0 F, 1 K, 2 G */
   val pass  = Cat(pG, pK)
   val passD = Cat(pGD, pKD)
   chunk := chunkD
-  pK := pKD
-  pG := pGD
+  pK := pKD; pG := pGD
   // The chunk of a jump's slot is loaded ahead, not by the jump (whose condition comes late in its cycle): the
   // first slot's while idle (a take jumps there), pass K's first slot's in the gap before the decision and in the
   // decision (the next iteration jumps there); outside the issue and these, chunk holds
@@ -237,13 +231,9 @@ class DgpCore(val p: DgpParams) extends Module {
   val issuing = sIssue
   // the gap's count loads in every issue cycle with the gap of the pass being issued (the gap after pass F is a zero
   // start's), so that the pass's end needs no condition of its own; it counts down in the gap
-  when(issuing) {
-    waitCnt := Mux(pK, (p.gapK - 1).U, Mux(pG, (p.gapG - 1).U, (p.gapZ - 1).U))
-    gapEnd  := Mux(pK, (p.gapK == 1).B, Mux(pG, (p.gapG == 1).B, (p.gapZ == 1).B))
-  }.elsewhen(sGap) {
-    waitCnt := waitCnt - 1.U
-    gapEnd  := waitCnt === 1.U
-  }
+  private def byPass(f: Int => Data): Data = Mux(pK, f(p.gapK), Mux(pG, f(p.gapG), f(p.gapZ)))
+  when(issuing) { waitCnt := byPass(g => (g - 1).U); gapEnd := byPass(g => (g == 1).B) }
+  when(sGap) { waitCnt := waitCnt - 1.U; gapEnd := waitCnt === 1.U }
   when(issuing) {
     addr   := addr + 1.U
     chunkD := nx1(chunkW + 2, 3)
@@ -593,20 +583,11 @@ class DgpCore(val p: DgpParams) extends Module {
   /** the status word follows the last of the nu (n with OUT_ALL) solution words */
   val statusNow = outIdx === Mux(regs.ctrlOutAll, n.U, nu.U)
   val statusWord = Cat(solveOvf, solveSat, metR, itersR)
-  // the output words are clamped to the quantised input box [outLo_i, outHi_i] (one comparator pair per output word
-  // position, against constants) and registered: only the output, the iteration's z and Sz stay unclamped
-  /** x clamped to word i's box, x and its compares registered before the select */
-  def clampRegistered(x: SInt, i: Int): SInt = {
-    val l = p.outLo(i).S(W.W); val h = p.outHi(i).S(W.W)
-    val (xr, below, above) = (RegNext(x), RegNext(x < l), RegNext(x > h))
-    Mux(below, l, Mux(above, h, xr))
-  }
   /** the answer's status word has left: the sequencer waits for the next frame */
   def idle(): Unit = { sOut := false.B; sIdle := true.B }
   /** accelerated: an answer is in the output queue (DgpAnswer) */
   val queued: Bool = if (acc) chisel3.experimental.noPrefix {
-    DgpAnswer(p, fpga, VecInit((0 until n).map(i => clampRegistered(z(i), i))),
-      sDecide && finish, regs.ctrlOutAll, outIdx, statusWord, m_axis, idle)
+    DgpAnswer(p, fpga, z, sDecide && finish, regs.ctrlOutAll, outIdx, statusWord, m_axis, idle)
   } else false.B
   // plain: each word of the averaged primal from a serial divider (DgpPlainAnswer)
   if (!acc) chisel3.experimental.noPrefix {
