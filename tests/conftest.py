@@ -118,6 +118,13 @@ def _certified_masses(tol: float):
 SLOW_CASES = {"masses_p40_b14_l23", "masses_p3_b12_nearest", "masses_p3_b14_k3_ecp5", "masses_soft_p4_b18"}
 
 
+def built_cases(cases: dict, config) -> list:
+    """The ids of `cases` a run needs: the SLOW_CASES only when slow tests are selected (make test's `-m "not slow"`
+    deselects them, so their cores are not generated)."""
+    skip = "not slow" in (config.getoption("markexpr") or "")
+    return [c for c in cases if not (skip and c in SLOW_CASES)]
+
+
 def case_params(ids, slow=SLOW_CASES):
     """The ids as pytest parameters, those in `slow` (by default SLOW_CASES) marked slow."""
     return [pytest.param(c, marks=pytest.mark.slow) if c in slow else c for c in ids]
@@ -128,12 +135,13 @@ CERTIFIED = {"masses_tol1e-2": lambda: _certified_masses(1e-2)}
 
 
 @pytest.fixture(scope="session")
-def cores():
-    """Every core of the suite, elaborated in one generator run."""
-    jobs = [(design_fgm(prob(), **ov), BUILD / cid) for cid, (prob, ov, _) in CASES.items()]
+def cores(request):
+    """Every core of the suite the run needs (built_cases), elaborated in one generator run."""
+    ids = built_cases(CASES, request.config)
+    jobs = [(design_fgm(CASES[cid][0](), **CASES[cid][1]), BUILD / cid) for cid in ids]
     jobs += [(make(), BUILD / cid) for cid, make in CERTIFIED.items()]
     generate_fgm(jobs)
-    return {cid: BUILD / cid for cid in list(CASES) + list(CERTIFIED)}
+    return {cid: BUILD / cid for cid in ids + list(CERTIFIED)}
 
 
 ADMM_BUILD = REPO / "build" / "tests" / "admm"
@@ -227,8 +235,9 @@ def small_cores(cores, admm_cores):
 
 
 @pytest.fixture(scope="session")
-def admm_cores():
-    """Every ADMM core of the suite, elaborated in one generator run."""
-    jobs = [(design_admm(prob(), **ov), ADMM_BUILD / cid) for cid, (prob, ov, _) in ADMM_CASES.items()]
+def admm_cores(request):
+    """Every ADMM core of the suite the run needs (built_cases), elaborated in one generator run."""
+    ids = built_cases(ADMM_CASES, request.config)
+    jobs = [(design_admm(ADMM_CASES[cid][0](), **ADMM_CASES[cid][1]), ADMM_BUILD / cid) for cid in ids]
     generate_admm(jobs)
-    return {cid: ADMM_BUILD / cid for cid in ADMM_CASES}
+    return {cid: ADMM_BUILD / cid for cid in ids}
