@@ -178,11 +178,7 @@ class DgpCore(val p: DgpParams) extends Module {
 
   // the take decided a cycle ahead, a flip-flop (it loads w, the sequencer and the frame buffer)
   val take = RegInit(false.B)
-  val takeNext = sIdle && frameIn.io.full && !take
-  take := takeNext
-  // w loads from a copy of its own of the take (FPGA targets), so that one register does not drive all its words
-  val takeW = if (fpga) KeepReg(takeNext) else take
-  when(takeW) { wReg := frameIn.io.frame }
+  take := sIdle && frameIn.io.full && !take
   frameIn.io.take := take
   val warmNow = regs.ctrlWarm && regs.warmValid
   val zeroNow = !warmNow || yZero
@@ -193,7 +189,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val startU = unitRegs(take)
   val warmU  = unitRegs(warmNow)
   /** rows per group of a FIFO that takes its enables from copies of its own */
-  val rowGroup = 4
+  val rowGroup = 8
   def groups(len: Int): Int = (len + rowGroup - 1) / rowGroup
   /** per unit and group of rows of a FIFO of `len`, `x` (a unit's register) registered once more: kept copies per
     * group (FPGA targets), so that no register drives a whole vector */
@@ -205,6 +201,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val startGK = if (acc) Nil else groupRegs(startU, rK)
   val zsU    = if (acc) Nil else unitRegs(zSolve)
   when(take) {
+    wReg := frameIn.io.frame
     sIdle := false.B; sIssue := true.B; jump(0); round := 0.U
     iter := 0.U; imax := regs.imaxReg; cycles := 0.U
     solveOvf := false.B
@@ -322,6 +319,9 @@ class DgpCore(val p: DgpParams) extends Module {
   }))
   val opU  = KeepReg.copies(opR, P, split)
   val tokTU = unitTok(4 + p.treeLat)
+  val tokRU = unitTok(p.rowLat)
+  /** a zero start's bound rows at the element stage's entry, a stage after their sums */
+  val tokZU = unitTok(p.rowLat + 1)
   val accR  = Seq.fill(P)(Reg(SInt(p.accW.W)))
   val tok4  = tokAt(4)
   val tree = (0 until P).map { u =>
@@ -381,6 +381,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val enB = rowEnables(rowL + 1, rG, isB)
   val enG = rowEnables(rowL, rG, isG)
   for (u <- 0 until P) {
+    val tokR  = tokRU(u)
     val a     = accR(u)
     // first pass and pass K
     // pass K: z = sat(a + e), the sum registered before its saturation and z's FIFO (z is first read in pass G's
@@ -395,9 +396,6 @@ class DgpCore(val p: DgpParams) extends Module {
     val hi0R = Reg(SInt(W.W))
     lo0R := lo0U(u)(tokPre.round)
     hi0R := hi0U(u)(tokPre.round)
-    // the dual boxes of the row, read likewise (a zero start's bound rows a stage later)
-    val udR  = RegNext(VecInit((0 until 2).map(h => udU(h)(u)(tokPre.round))))
-    val udZR = RegNext(VecInit((0 until 2).map(h => udZ(h)(u)(tokAt(p.rowLat).round))))
     // first pass: rounds 0..rK-1 (e), then rK..rK+rG-1 (the bounds), in order: each enters its FIFO at the tail.
     // e enters z too, the z of a zero start's first iteration (pass K overwrites it otherwise), and the plain form's
     // Sz on a zero start
@@ -432,7 +430,8 @@ class DgpCore(val p: DgpParams) extends Module {
     val (lo0, hi0) = (Reg(SInt(W.W)), Reg(SInt(W.W)))  // typed: RegNext leaves the width to inference
     lo0 := Mux(rowZ, loNew, loU(u)(0))
     hi0 := Mux(rowZ, hiNew, hiU(u)(0))
-    val u0  = RegNext(Mux(rowZ, udZR, udR))
+    val tokZ = tokZU(u)
+    val u0  = RegNext(VecInit((0 until 2).map(h => Mux(rowZ, udZ(h)(u)(tokZ.round), udU(h)(u)(tokR.round)))))
     // E1: g = (s - hi, lo - s)
     val (gpNow, ofGp) = sat(s0 -& hi0)
     val (gmNow, ofGm) = sat(lo0 -& s0)
