@@ -11,7 +11,7 @@ with room to spare.
   resources   Yosys synth_ecp5 (MULT18X18D, LUT4, FF, DP16KD) and the fit on the LFE5U-85F; synth_xilinx xc7 in a
               full run on the cores not generated for TARGET=ecp5 (mpc_bench.tools.xc7_applies: none of these);
   Fmax        nextpnr-ecp5 on the LFE5U-85F (speed 8, constraints/dgp_core.lpf) for the cores that fit, seeds
-              FMAX_SEEDS (QUICK: FMAX_SEEDS_QUICK), with the placer settings PLACER_ARGS (timing weighs more);
+              FMAX_SEEDS (QUICK: FMAX_SEEDS_QUICK);
   iterations  a closed loop of masses_state under the accelerated core's bit-exact model (mpc_cores.dgp.control: warm
               start, the design's Imax), each core's model on the same parameter words in sequence (warm or cold as
               its design starts: the plain form starts cold), and random states of the accepted box from a cold
@@ -48,7 +48,7 @@ from mpc_bench.qp import QpSection
 from mpc_bench.qp_solvers import Clarabel
 from mpc_bench.report import write_alone
 from mpc_bench.tools import (
-    FMAX_SEEDS, FMAX_SEEDS_QUICK, PLACER_ARGS, Job, Log, ToolResults, cached_design, is_cached, run_cycle_test, run_yosys,
+    FMAX_SEEDS, FMAX_SEEDS_QUICK, Job, Log, ToolResults, cached_design, is_cached, run_cycle_test, run_yosys,
     synth_ecp5_and_pnr, synth_xc7, xc7_applies,
 )
 from mpc_cores.flow import REPO
@@ -380,7 +380,7 @@ class Section(QpSection):
             self.designs[role] = d
             place = self.place and (role in PLACED or self.place_all)
             self.cores.append(DgpBenchCore(problem.name, root / "cores" / tag, d, role, place=place,
-                                           pnr_seeds=seeds, pnr_args=PLACER_ARGS))
+                                           pnr_seeds=seeds))
         self.plan_text = (f"Cores: {problem.name} accelerated and plain, TARGET={TARGET} (Verilator, Yosys ECP5"
                           f"{', xc7' if self.xilinx else ''}, nextpnr{'' if self.place else ' off'}"
                           + (" from the cache only)." if self.quick else

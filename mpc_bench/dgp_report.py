@@ -8,7 +8,7 @@ import numpy as np
 from mpc_bench.baselines import own_columns, slug, software_notes, timer_table
 from mpc_bench.qp import _load_text, _mem_list
 from mpc_bench.report import _f, _table, _tool_columns, latency_us, pnr_cells
-from mpc_bench.tools import PLACER_ARGS, XC7_SCOPE, seeds_phrase
+from mpc_bench.tools import XC7_SCOPE, seeds_phrase
 
 
 def latency_cycles(overhead: int, cycles_per_iteration: int, iters, zero=None, saving: int = 0) -> np.ndarray:
@@ -152,7 +152,7 @@ def _resources_part(cores: list, rows: list[dict]) -> list[str]:
         L += ["No core was synthesised in this run" + (" (QUICK takes Yosys results from the cache only)."
                                                         if any("QUICK" in (c.pnr_note or "") for c in cores) else ".")]
     L += ["", f"constraints/dgp_core.lpf (the clock at 200 MHz, LVCMOS33), {seeds_phrase(cores)}, "
-          f"`--lpf-allow-unconstrained`, the placer settings `{' '.join(PLACER_ARGS)}`: register to register.", ""]
+          "`--lpf-allow-unconstrained`: register to register.", ""]
     L += _table(["core", "Fmax MHz", "TRELLIS_COMB", "critical path (register to register)", "logic cells", "ns"],
                 [[c.tag, *pnr_cells(c, _n(r.get("ecp5_TRELLIS_COMB_pnr")))] for c, r in zip(cores, rows)])
     for c in cores:
