@@ -14,17 +14,19 @@ import pytest
 from conftest import REPO
 from mpc_cores.csrc import emit, harness
 from mpc_cores.dgp.c import write_c
-from mpc_cores.dgp.design import ALPHA, design_dgp
+from mpc_cores.dgp.design import ALPHA, design_dgp, shift_sources
 from mpc_cores.dgp.model import DgpFixed, dgp_float
 from mpc_cores.errors import DesignError
 from mpc_cores.problem import load_spec
 
 pytestmark = pytest.mark.skipif(harness.gcc() is None, reason="gcc not found: the C solvers are compiled by gcc")
 
-FORMS = {"accelerated": True, "plain": False}
+# the accelerated form, the plain form and the accelerated form with the shifted warm start (design.shift_sources)
+FORMS = {"accelerated": dict(accelerated=True), "plain": dict(accelerated=False),
+         "shifted": dict(accelerated=True, warm_shift=True)}
 # Imax of the random solves: the accelerated form needs 10 to 25 iterations from cold, the plain one 250 to 1000+
 # (a warm start near the last solution meets its test in a few)
-IMAX_HI = {"accelerated": 20, "plain": 40}
+IMAX_HI = {"accelerated": 20, "plain": 40, "shifted": 20}
 
 SHIM = """\
 #include "{file}.h"
@@ -118,7 +120,7 @@ def build(d, out, cfg=None) -> tuple[Lib, Lib]:
 @pytest.fixture(scope="module")
 def designs():
     spec = load_spec(REPO / "examples" / "masses_state.yaml")
-    return {form: design_dgp(spec, accelerated=acc) for form, acc in FORMS.items()}
+    return {form: design_dgp(spec, **opts) for form, opts in FORMS.items()}
 
 
 @pytest.fixture(scope="module")
@@ -214,7 +216,11 @@ def test_float_variant(form, designs, built):
     for k in range(8):
         w = w0 * (1 - 0.04 * k)
         z, flags, y = lib.solve(state, w, imax, True, True)
-        zr, it, ok, yr = dgp_float(d.qp, w, imax, d.accelerated, d.eps_g, d.eps_V, ud=ALPHA * d.d, y0=y_prev)
+        y0 = y_prev
+        if d.warm_shift and y_prev is not None:              # the shifted warm start, in the float units
+            src = shift_sources(d.qp, d.problem)
+            y0 = np.where(src >= 0, np.minimum(y_prev[np.maximum(src, 0)], ALPHA * d.d), 0.0)
+        zr, it, ok, yr = dgp_float(d.qp, w, imax, d.accelerated, d.eps_g, d.eps_V, ud=ALPHA * d.d, y0=y0)
         assert flags == (int(k > 0), it, int(ok), 0), (k, flags, it, ok)
         worst = max(worst, float(np.abs(z - zr).max() / max(1.0, np.abs(zr).max())),
                     float(np.abs(y - yr).max() / max(1.0, np.abs(yr).max())))

@@ -213,6 +213,45 @@ def test_warm_start_state(accelerated):
                                                                         a.y[0].tolist())
 
 
+def test_shifted_warm_start():
+    """warm_shift: each dual word starts from the same row a stage later (the input rows 4 on, the position rows 4
+    on; the last stage's from zero), clipped to its own dual box; a closed loop of masses_state under the shifted
+    warm start meets the test in every step with (eps_V, eps_g)-answers (the gap test bounds V(z) - V* from any start
+    in the dual box), and the start of a step after a first-stage-only dual is a zero start."""
+    d = design_dgp(problem(), warm_shift=True)
+    cfg = d.config()
+    mc, src = d.mc, np.array(cfg["shift_src"])
+    assert mc == 80 and design(True).config()["shift_src"] == []
+    upper = np.r_[np.arange(4, 40), [-1] * 4, np.arange(44, 80), [-1] * 4]
+    assert src.tolist() == upper.tolist() + np.where(upper >= 0, upper + mc, -1).tolist()
+    m = DgpFixed(d)
+    y = np.random.default_rng(3).integers(0, 2 * d.ud + 1)           # up to twice the box: the clip shows
+    y0 = m.warm_dual(y)
+    for i in range(2 * mc):
+        assert y0[i] == (0 if src[i] < 0 else min(y[src[i]], d.ud[i])), i
+    assert (y0 < y[np.maximum(src, 0)]).any()                          # some words clipped
+    # a dual on the first stage's rows only: the shifted start is zero, a zero start
+    y1 = np.zeros(2 * mc, dtype=np.int64)
+    y1[[0, mc + 40]] = d.ud[[0, mc + 40]]
+    assert not m.warm_dual(y1).any()
+    m.y_prev = y1
+    assert m.solve(params()[0]).zero_start[0]
+    # the closed loop
+    p = problem()
+    _, gold, holdable = controllers(d)
+    refs = reference_schedule(p, 35, 5, 3, holdable=holdable)       # rows active at steps 25 to 30
+    run_closed_loop(p, gold, np.zeros(p.nx), refs)
+    assert all(gold.met)
+    replay = DgpFixed(d, clamp=False)
+    W = np.array(gold.w)
+    rs = [replay.solve(w) for w in W]
+    assert [int(r.iterations[0]) for r in rs] == list(gold.iterations)
+    assert sum(not r.zero_start[0] for r in rs) >= 3                # warm starts from nonzero shifted duals
+    z = np.array([r.zraw[0] for r in rs])
+    dV, viol, _ = accuracy(d, np.clip(W, d.xlo, d.xhi), z)
+    assert dV.max() <= d.eps_V and viol.max() <= d.eps_g, (dV.max(), viol.max())
+
+
 def test_input_saturation_flag():
     """A state outside the accepted box raises `sat` and is solved as the state clipped into the box."""
     d = design(True)

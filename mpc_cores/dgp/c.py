@@ -107,12 +107,26 @@ static int64_t floor_div(int64_t a, int64_t b)
 """
 
 
-def _start(zero: str) -> str:
-    return f"""\
+def _start(zero: str, shift: bool) -> str:
+    if not shift:
+        return f"""\
     /* warm start: the final dual words of the previous solve; cold: y = 0; the operand dual wy = y */
     warm = ctrl->warm_start && state->warm_valid;
     for (i = 0; i < M; i++) {{
         y[i] = warm ? state->y[i] : {zero};
+        wy[i] = y[i];
+    }}
+    for (i = 0; i < N; i++)
+        zo[i] = {zero};
+"""
+    return f"""\
+    /* warm start: the final dual words of the previous solve shifted a stage (word i from word SHIFT_SRC[i], zero
+       where it is negative), each clipped to its dual box; cold: y = 0; the operand dual wy = y */
+    warm = ctrl->warm_start && state->warm_valid;
+    for (i = 0; i < M; i++) {{
+        y[i] = {zero};
+        if (warm && SHIFT_SRC[i] >= 0)
+            y[i] = state->y[SHIFT_SRC[i]] < UD[i] ? state->y[SHIFT_SRC[i]] : UD[i];
         wy[i] = y[i];
     }}
     for (i = 0; i < N; i++)
@@ -191,7 +205,7 @@ def _iteration(real: bool, accelerated: bool, sat) -> str:
 """
 
 
-def _body(real: bool, accelerated: bool, sat) -> str:
+def _body(real: bool, accelerated: bool, sat, shift: bool) -> str:
     t = "mpc_real_t" if real else "int64_t"
     if real:
         pre = """\
@@ -228,7 +242,7 @@ def _body(real: bool, accelerated: bool, sat) -> str:
     else:
         decl += f"    {t} sz[N], sg[M], t = 0;\n"
         init = "    for (i = 0; i < N; i++)\n        sz[i] = 0;\n    for (i = 0; i < M; i++)\n        sg[i] = 0;\n"
-    return (decl + pre + _start("0") + init
+    return (decl + pre + _start("0", shift) + init
             + "    for (it = 0; it < ctrl->imax; it++) {\n" + _iteration(real, accelerated, sat) + """\
         iters = it + 1;
         if (stop) {
@@ -328,7 +342,7 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
 {emit.array("FE", mats["Fe"], ctype="COEF_T")}{emit.array("LB", mats["Lb"], ctype="COEF_T")}\
 {emit.array("LO0", cfg["lo0"])}{emit.array("HI0", cfg["hi0"])}{emit.array("UD", cfg["ud"])}\
 {emit.array("XLO", cfg["xlo"])}{emit.array("XHI", cfg["xhi"])}\
-{emit.array("OUT_LO", cfg["out_lo"])}{emit.array("OUT_HI", cfg["out_hi"])}{beta}
+{emit.array("OUT_LO", cfg["out_lo"])}{emit.array("OUT_HI", cfg["out_hi"])}{beta}{_shift_table(cfg)}
 {emit.helpers(cfg["rounding"], "floor", "clip", "sat")}
 {MULR}{"" if acc else chr(10) + FLOOR_DIV}"""
     vectors = capi.selftest_vectors(_OneSolve(DgpFixed(cfg)), cfg["xlo"], cfg["xhi"], int(cfg["widths"]["stream"]),
@@ -336,7 +350,14 @@ def fixed_files(nm: emit.Names, cfg: dict) -> dict[str, str]:
     form = "accelerated (gradient restart, gap test)" if acc else "plain (averaged primal, test (32c))"
     return _files(api, cfg, f"the DGP core {nm.module} in C99 integer arithmetic", f"{TITLE}, {form}; the same "
                   "words as the core and its golden model (mpc_cores.dgp.model.DgpFixed), flags included.", data,
-                  _body(False, acc, sat), vectors)
+                  _body(False, acc, sat, bool(cfg.get("shift_src"))), vectors)
+
+
+def _shift_table(cfg: dict) -> str:
+    """The shifted warm start's sources (design.shift_sources), when the design has warm_shift."""
+    src = cfg.get("shift_src") or []
+    return ("/* the shifted warm start: dual word i starts from word SHIFT_SRC[i] of the previous solve's final "
+            "dual (-1: zero) */\n" + emit.array("SHIFT_SRC", src)) if src else ""
 
 
 def float_data(d) -> dict:
@@ -371,9 +392,9 @@ def float_files(nm: emit.Names, d, cfg: dict) -> dict[str, str]:
 #define EV (({api.value_t}){emit.real_lit(fd["eV"])})
 #define NBETA 256
 /* the scaled problem: K = -Q^-1 G', G, Fe = -Q^-1 Phi, Lw, lo0, hi0; the dual box alpha d */
-{real("K")}{real("G")}{real("Fe")}{real("Lw")}{real("lo0")}{real("hi0")}{real("ud")}
+{real("K")}{real("G")}{real("Fe")}{real("Lw")}{real("lo0")}{real("hi0")}{real("ud")}{_shift_table(cfg)}
 {DOTR}"""
     form = "accelerated" if d.accelerated else "plain"
     return _files(api, cfg, f"the DGP solver of the core {nm.module} in floating point (double, or float with "
                   f"-D{api.P}_SINGLE)", f"{TITLE}, {form}; the iteration on the unquantised data (not bit-exact: "
-                  "the fixed-point solver is).", data, _body(True, d.accelerated, lambda x: x))
+                  "the fixed-point solver is).", data, _body(True, d.accelerated, lambda x: x, bool(cfg.get("shift_src"))))

@@ -67,6 +67,7 @@ class DgpDesign(FixedPointDesign):
     xhi: np.ndarray
     out_lo: np.ndarray = None    # words, n: the quantised input box the output words are clamped to (z's format)
     out_hi: np.ndarray = None
+    warm_shift: bool = False     # a warm start takes the previous dual shifted a stage (shift_sources)
     bits36: int = 0              # p from (36)
     bits37: int = 0              # r from (37)
     analysis: dict = field(default_factory=dict)
@@ -86,13 +87,14 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def module_name(self) -> str:
-        acc = "a" if self.accelerated else "p"
+        acc = ("a" if self.accelerated else "p") + ("s" if self.warm_shift else "")
         units = f"u{self.P}" if self.P > 1 else ""
         return (f"DgpCore_{self.name}_n{self.n}_m{self.m}_l{self.lanes}{units}_b{self.b}{acc}"
                 f"{module_suffix(self.target)}")
 
     def label(self) -> str:
-        return f"p = {self.b}, Imax = {self.iterations}, {'accelerated' if self.accelerated else 'plain'}"
+        return (f"p = {self.b}, Imax = {self.iterations}, {'accelerated' if self.accelerated else 'plain'}"
+                + (", shifted warm start" if self.warm_shift else ""))
 
     # ---- cycle contract (mirrors DgpParams.scala; the tests check both against simulation)
     @property
@@ -223,7 +225,23 @@ class DgpDesign(FixedPointDesign):
             "beta": self.beta.tolist(), "xlo": self.xlo.tolist(), "xhi": self.xhi.tolist(),
             "restart_shift": restart_shifts(self.widths),
             "out_lo": self.out_lo.tolist(), "out_hi": self.out_hi.tolist(),
+            "shift_src": shift_sources(self.qp, self.problem).tolist() if self.warm_shift else [],
         }
+
+
+def shift_sources(qp: DgpQP, p: MpcProblem) -> np.ndarray:
+    """The shifted warm start: for each dual word (upper rows, then lower rows), the word of the previous solve's
+    final dual it starts from, or -1 for zero. The rows are stage by stage (the input box at stages 0..N-1, then the
+    state box at stages 1..N, dgp_qp), and the next solve's stage k is the previous one's stage k + 1, so a row takes
+    the same row a stage later; the last stage's rows start from zero. The model clips each word to its own dual box
+    (min(y_src, ud)), so that the start lies in the box from which the gap test bounds V(z) - V*."""
+    blocks = [(0, qp.n_input_rows, qp.nu)]
+    if qp.mc > qp.n_input_rows:
+        blocks.append((qp.n_input_rows, qp.mc, (qp.mc - qp.n_input_rows) // p.N))
+    src = np.full(qp.mc, -1, dtype=np.int64)
+    for lo, hi, per in blocks:
+        src[lo:hi - per] = np.arange(lo + per, hi)
+    return np.concatenate([src, np.where(src >= 0, src + qp.mc, -1)])
 
 
 def bound_rows(qp: DgpQP) -> np.ndarray:
@@ -316,8 +334,8 @@ def bits_36(n: int, m: int, D: float, LV: float, eps: float) -> float:
 
 def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     """Build the DGP core description. Keyword overrides take precedence over the spec's `solver:` section:
-    frac_bits, int_bits, eps_g, eps_V, tol (both eps), accelerated, lanes, iterations, warm_start, output_all,
-    target, lat_add, lat_mul, dual_margin."""
+    frac_bits, int_bits, eps_g, eps_V, tol (both eps), accelerated, lanes, iterations, warm_start, warm_shift,
+    output_all, target, lat_add, lat_mul, dual_margin."""
     opt = lambda k, dflt: solver_opt(problem, overrides, k, dflt)  # noqa: E731
     for k in ("input_rate", "soft_states"):
         if getattr(problem, k, None) is not None:
@@ -334,6 +352,7 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     if not (eps_g > 0 and eps_V > 0):
         raise DesignError(f"eps_g and eps_V must be > 0: got eps_g={eps_g}, eps_V={eps_V}")
     accelerated = bool(opt("accelerated", True))
+    warm_shift = bool(opt("warm_shift", False))
     if solver_opt(problem, overrides, "warm_start", None) is None:
         warm_start = accelerated           # the plain form's V guarantee needs a cold start (Corollary 1 of 003)
     lanes_opt = opt("lanes", 8)
@@ -396,7 +415,8 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     beta = np.array([int(round(k / (k + 3) * one)) for k in range(BETA_TABLE)], dtype=np.int64)
     dsn = DgpDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
                     iterations=iterations, warm_start=warm_start, target=target, output_all=output_all,
-                    accelerated=accelerated, lanes=lanes, eps_g=eps_g, eps_V=eps_V, margin=margin, d=d,
+                    accelerated=accelerated, warm_shift=warm_shift, lanes=lanes, eps_g=eps_g, eps_V=eps_V,
+                    margin=margin, d=d,
                     K=quantize(K, b), G=quantize(qp.G, b), Fe=quantize(Fe, b), Lb=quantize(Lb, b),
                     lo0=quantize(qp.lo0, b, "ceil"), hi0=quantize(qp.hi0, b, "floor"),
                     ud=quantize(ALPHA * d, b, "floor"), eg=int(math.floor(eps_g * qp.sigma * one)),

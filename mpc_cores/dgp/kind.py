@@ -1,14 +1,14 @@
 """The DGP core kind (registry entry)."""
 from mpc_cores.kind import CoreKind
-from mpc_cores.schema import Num
+from mpc_cores.schema import Bool, Num
 
 KIND = CoreKind(
     name="dgp",
     title="dual gradient projection, input and state constraints (iteration (35) of 003), fixed point",
     constraints=("hard_states",),
     model_fn="mpc_cores.dgp.model:DgpFixed",
-    spec_section=("P", "frac_bits", "int_bits", "iterations", "lat_add", "lat_mul", "warm_start", "output_all", "target",
-                  "eps_g", "eps_V", "tol", "accelerated", "lanes", "dual_margin"),
+    spec_section=("P", "frac_bits", "int_bits", "iterations", "lat_add", "lat_mul", "warm_start", "warm_shift",
+                  "output_all", "target", "eps_g", "eps_V", "tol", "accelerated", "lanes", "dual_margin"),
     overrides=("P", "frac_bits", "lat_add", "lat_mul", "iterations", "target", "tol", "accelerated", "lanes"),
     controllers_fn="mpc_cores.dgp.control:controllers",
     c_fn="mpc_cores.dgp.c:write_c",
@@ -19,6 +19,7 @@ KIND = CoreKind(
         "eps_g": Num(0),
         "eps_V": Num(0),
         "dual_margin": Num(1, strict=False, why=" (d_i >= max(y*_i, 1), (14) of 003)"),
+        "warm_shift": Bool(),
     },
 )
 

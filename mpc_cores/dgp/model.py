@@ -100,6 +100,7 @@ class DgpFixed:
         self.beta = i64("beta", -1)
         self.xlo, self.xhi = i64("xlo", -1), i64("xhi", -1)
         self.out_lo, self.out_hi = i64("out_lo", -1), i64("out_hi", -1)
+        self.shift_src = np.array(cfg.get("shift_src", []), dtype=np.int64)
         self.eg = int(cfg["eg"])
         self.eV = int(cfg["eV"])
         self.y_prev: np.ndarray | None = None   # warm start (None after reset)
@@ -110,10 +111,19 @@ class DgpFixed:
     def solve(self, w, imax: int | None = None, warm: bool | None = None) -> DgpResult:
         """One solve of the core instance (warm start state kept), w: nw words."""
         warm = self.warm_start if warm is None else warm
-        y0 = self.y_prev[None] if (warm and self.y_prev is not None) else None
+        y0 = self.warm_dual(self.y_prev)[None] if (warm and self.y_prev is not None) else None
         r = self.solve_batch(np.asarray(w, dtype=np.int64)[None], imax=imax, y0=y0)
         self.y_prev = r.y[0].copy()
         return r
+
+    def warm_dual(self, y: np.ndarray) -> np.ndarray:
+        """The starting dual of a warm start from the final dual y of the previous solve: y itself, or with the
+        design's warm_shift each word from its shift source (design.shift_sources; zero where none), clipped to its
+        own dual box."""
+        if not self.shift_src.size:
+            return y
+        src = np.maximum(self.shift_src, 0)
+        return np.where(self.shift_src >= 0, np.minimum(np.asarray(y)[..., src], self.ud), 0)
 
     def solve_batch(self, W, imax: int | None = None, y0=None) -> DgpResult:
         """Independent solves of the rows of W (S x nw) from y0 (S x 2 mc; None: cold)."""

@@ -23,7 +23,7 @@ def core_json(d: DgpDesign, hw: dict) -> dict:
     return {
         "core": "dgp", "name": d.name, "module": hw["module"], "sv": f"{hw['module']}.sv",
         "n": d.n, "nu": d.nu, "nw": d.nw, "nx": d.problem.nx, "ny": d.problem.ny, "N": d.problem.N,
-        "mc": d.mc, "m": d.m, "P": d.P, "lanes": d.lanes, "accelerated": d.accelerated,
+        "mc": d.mc, "m": d.m, "P": d.P, "lanes": d.lanes, "accelerated": d.accelerated, "warm_shift": d.warm_shift,
         "frac_bits": b, "int_bits": d.widths["data"] - b, "bits_eq36": d.bits36, "bits_eq37": d.bits37,
         "eps_certified": d.b >= d.bits36,
         "data_format": {"int_bits": d.widths["data"] - b, "frac_bits": b, "width": d.widths["data"]},
@@ -58,6 +58,10 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
         f"DGP core for '{d.name}': n = N*nu = {d.n} ({d.problem.N} x {d.nu}), {d.mc} two-sided constraint rows "
         f"(m = {d.m} one-sided, dual words), nw = {d.nw}",
         f"  Form: {form}",
+        "  Warm start: " + ("from the previous final dual shifted a stage (each row from the same row a stage "
+                            "later, the last stage's from zero), clipped to the dual box" if d.warm_shift
+                            else "from the previous final dual") + (" (the default)" if d.warm_start else
+                                                                    " (CTRL.WARM; cold by default)"),
         f"  Scaling: sigma = {a['sigma']:.6g} makes L = lambda_max(A Q^-1 A') = 1 (section VI-A of 003)",
         f"  Dual box (14)-(15): d_i = max({d.margin:g} x largest sampled y*_i, 1), alpha = {ALPHA:g}; ||d||_2 = D = "
         f"{a['D']:.4g}, ||d||_inf = {a['d_max']:.4g}",

@@ -107,7 +107,7 @@ def totals(s) -> dict:
 
 def _options(design: dict) -> str:
     short = {"frac_bits": "b", "iterations": "Imax", "lat_add": "lA", "lat_mul": "lM", "warm_start": "warm",
-             "output_all": "all", "newton": "I_NW"}
+             "warm_shift": "shift", "output_all": "all", "newton": "I_NW"}
     def value(k, v):
         return "P_eq15" if k == "P" and v == 0 else "min" if k == "lat_mul" and v is None else v
     return ", ".join(f"{short.get(k, k)}={value(k, v)}" for k, v in design.items())

@@ -104,18 +104,23 @@ async def cycle_contract(dut):
             assert r.zero_start[0], "a cold start that is not a zero start"
             v, _ = await tb.read(tb.rm["LAST_CYCLES"])
             assert v == tb.last_cycles(r), (v, int(r.iterations[0]))
-        # a state whose cold solve at IMAX = 1 leaves a nonzero dual (the unconstrained optimum z = e violates a
-        # row), then warm starts: the first from that dual
+        # a state whose cold solve at IMAX = 1 (else 2, 3) leaves a nonzero dual (the unconstrained optimum z = e
+        # violates a row), then warm starts: the first from that dual (with the shifted warm start, a dual whose
+        # shifted start is nonzero: probe.warm_dual)
         probe = DgpFixed(tb.cfg)
         ws = [tb.random_w(outside=0.5) for _ in range(200)]
-        ys = probe.solve_batch(np.array(ws), imax=1).y
-        hot = next((w for w, y in zip(ws, ys) if y.any()), None)
+        hot = None
+        for imax_hot in (1, 2, 3):
+            ys = probe.solve_batch(np.array(ws), imax=imax_hot).y
+            hot = next((w for w, y in zip(ws, ys) if probe.warm_dual(y).any()), None)
+            if hot is not None:
+                break
         if hot is None:
             # CORE_NONZERO_START=0: a plant none of whose rows binds anywhere in the box (every dual stays zero)
             assert os.environ.get("CORE_NONZERO_START") == "0", \
                 "no state of 200 leaves a nonzero dual: the full first iteration untested"
         else:
-            await tb.set_imax(1)
+            await tb.set_imax(imax_hot)
             await tb.check(hot, "cold, nonzero dual after")
             await tb.set_ctrl(warm=True)
             await tb.set_imax(tb.core["iterations"])
@@ -126,6 +131,17 @@ async def cycle_contract(dut):
                 v, _ = await tb.read(tb.rm["LAST_CYCLES"])
                 assert v == tb.last_cycles(r), (v, int(r.iterations[0]), starts[-1])
             assert not starts[0], "a warm start from a nonzero dual taken as a zero start"
+        # the shifted warm start: a nonzero dual whose shifted start is all zero (its rows at the first stage only)
+        # starts a zero start, where one of the 200 states leaves such a dual at IMAX = 1
+        ys = probe.solve_batch(np.array(ws), imax=1).y
+        dead = next((w for w, y in zip(ws, ys) if y.any() and not probe.warm_dual(y).any()), None)
+        if tb.cfg.get("shift_src") and dead is not None:
+            await tb.set_ctrl(warm=False)
+            await tb.set_imax(1)
+            await tb.check(dead, "cold, a dual at the first stage only after")
+            await tb.set_ctrl(warm=True)
+            r = await tb.check(tb.random_w(), "warm from it")
+            assert r.zero_start[0], "the model's shifted start from a first-stage dual is not a zero start"
         v, _ = await tb.read(tb.rm["CYCLES_PER_ITER"])
         assert v == tb.L
         measure({"test": "cycle_contract", "cycles_per_iteration": tb.L, "overhead": tb.over,

@@ -208,11 +208,25 @@ class DgpCore(val p: DgpParams) extends Module {
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
     zSolve := zeroNow; zTable := zeroNow
   }
+  /** the shifted warm start's word of half h, unit u, element k (row k P + u): the previous final dual's word at
+    * its shift source, clipped to the row's dual box where the source's box is wider (else it lies in it already),
+    * or zero */
+  def shifted(h: Int, u: Int, k: Int): SInt = {
+    val i = h * mc + k * P + u
+    val src = if (k * P + u < mc) p.shiftSrc(i) else -1
+    if (src < 0) 0.S(W.W)
+    else {
+      val x = yU(src / mc)(src % mc % P)(src % mc / P)
+      if (p.ud(i) < p.ud(src)) Mux(x > p.ud(i).S(W.W), p.ud(i).S(W.W), x) else x
+    }
+  }
   for (u <- 0 until P) {
     when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
     for (k <- 0 until rG; h <- 0 until 2) {
       when(startG(u)(k / rowGroup)) {
-        if (acc) wyEU(h)(u)(k) := yU(h)(u)(k)
+        // the warm start: the dual kept (shifted a stage with p.shift) and the operand dual from it
+        if (p.shift) { yU(h)(u)(k) := shifted(h, u, k); if (acc) wyEU(h)(u)(k) := shifted(h, u, k) }
+        else if (acc) wyEU(h)(u)(k) := yU(h)(u)(k)
         if (!acc) sgU(h)(u)(k) := 0.S
       }
       when(clearG(u)(k / rowGroup)) {
@@ -342,6 +356,18 @@ class DgpCore(val p: DgpParams) extends Module {
   private def udHalf(h: Int) = p.ud.slice(h * mc, (h + 1) * mc)
   val udU  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rG).map(k => p.ofUnit(udHalf(h), u, k).S(W.W))))
   val udZ  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rK + rG).map(k => p.ofUnit(udHalf(h), u, k - rK).S(W.W))))
+  /** the shifted warm start: per half and unit, whether a row's word is live (p.shiftLive) by pass G's round and (a
+    * zero start's element stage) by the first pass's */
+  private def liveOf(h: Int, u: Int, k: Int): Bool = (k >= 0 && k * P + u < mc && p.shiftLive(h * mc + k * P + u)).B
+  val liveU = if (p.shift) Seq.tabulate(2, P)((h, u) => VecInit((0 until rG).map(k => liveOf(h, u, k)))) else Nil
+  val liveZ = if (p.shift) Seq.tabulate(2, P)((h, u) => VecInit((0 until rK + rG).map(k => liveOf(h, u, k - rK))))
+    else Nil
+  /** a row's new dual words are nonzero where they count for the next start's zero test (E3): with the shifted warm
+    * start, only the live words (`live`, the row's bits carried along the element stage) */
+  def nonzero(yN: Vec[SInt], live: Option[Vec[Bool]]): Bool = live match {
+    case Some(l) => (yN(0) =/= 0.S && l(0)) || (yN(1) =/= 0.S && l(1))
+    case None    => yN(0) =/= 0.S || yN(1) =/= 0.S
+  }
   /** accelerated: per unit, the rows' restart and the extrapolated dual's writes */
   val restartU = Wire(Vec(P, Bool()))
   /** per unit, a condition on the token at stage `d` (the row result stage by default), registered from the stage
@@ -432,6 +458,10 @@ class DgpCore(val p: DgpParams) extends Module {
     hi0 := Mux(rowZ, hiNew, hiU(u)(0))
     val tokZ = tokZU(u)
     val u0  = RegNext(VecInit((0 until 2).map(h => Mux(rowZ, udZ(h)(u)(tokZ.round), udU(h)(u)(tokR.round)))))
+    val live0 = if (p.shift)
+      Some(RegNext(VecInit((0 until 2).map(h => Mux(rowZ, liveZ(h)(u)(tokZ.round), liveU(h)(u)(tokR.round))))))
+    else None
+    val live1b = live0.map(x => RegNext(RegNext(x)))
     // E1: g = (s - hi, lo - s)
     val (gpNow, ofGp) = sat(s0 -& hi0)
     val (gmNow, ofGm) = sat(lo0 -& s0)
@@ -465,7 +495,7 @@ class DgpCore(val p: DgpParams) extends Module {
       val nv3 = RegNext(VecInit(nv))
       val yN3 = RegNext(VecInit(yNew))
       when(e3 && (nv3(0) > tThr || nv3(1) > tThr)) { violU(u) := true.B }
-      when(e3 && (yN3(0) =/= 0.S || yN3(1) =/= 0.S)) { nzU(u) := true.B }
+      when(e3 && nonzero(yN3, live1b.map(RegNext(_)))) { nzU(u) := true.B }
     }
     restartU(u) := false.B
     if (acc) {
@@ -481,7 +511,7 @@ class DgpCore(val p: DgpParams) extends Module {
       for (h <- 0 until 2) rotate(yU(h)(u), yN2(h), en3)
       val e3 = RegNext(e2, false.B)
       val yN3 = RegNext(VecInit(yN2))
-      when(e3 && (yN3(0) =/= 0.S || yN3(1) =/= 0.S)) { nzU(u) := true.B }
+      when(e3 && nonzero(yN3, live1b.map(x => RegNext(RegNext(x))))) { nzU(u) := true.B }
       val yO3 = RegNext(VecInit(yOld))
       val g3 = RegNext(g2)
       val w3 = RegNext(w2)

@@ -18,6 +18,9 @@ import fixed.FixedOps
   * @param lb     the bound rows Lb = Lw - G Fe, mc x nw (lo = lo0 + Lb w, hi = hi0 + Lb w: the bounds relative to
   *               G e, so that a zero start's first iteration, z = e, has s = 0)
   * @param outLo  the quantised input box the n output words are clamped to (z = (u_0, ..., u_N-1), data words)
+  * @param shiftSrc the shifted warm start (design.shift_sources; empty: none): dual word i (upper rows, then lower
+  *               rows) starts a warm solve from word shiftSrc(i) of the previous final dual, clipped to ud(i), or
+  *               from zero where shiftSrc(i) < 0
   */
 case class DgpParams(
     name: String,
@@ -56,7 +59,8 @@ case class DgpParams(
     xlo: Seq[BigInt],
     xhi: Seq[BigInt],
     outLo: Seq[BigInt],
-    outHi: Seq[BigInt]) {
+    outHi: Seq[BigInt],
+    shiftSrc: Seq[Int] = Nil) {
 
   require(n >= 1 && nw >= 1 && mc >= 1, s"sizes must be >= 1: n=$n nw=$nw mc=$mc")
   require(nu >= 1 && n % nu == 0, s"nu must divide n: got nu=$nu, n=$n")
@@ -80,6 +84,14 @@ case class DgpParams(
   require((k ++ g ++ fe ++ lb).flatten.forall(fits(_, coefW)), s"a matrix entry does not fit the coefficient width $coefW")
   require((lo0 ++ hi0 ++ ud ++ outLo ++ outHi).forall(fits(_, dataW)), s"a bound does not fit the data width $dataW")
   require(beta.forall(fits(_, betaW)), s"a beta word does not fit $betaW bits")
+  require(shiftSrc.isEmpty || (shiftSrc.length == 2 * mc && shiftSrc.forall(i => i >= -1 && i < 2 * mc)),
+    s"shift_src must be empty or have ${2 * mc} entries in [-1, ${2 * mc - 1}]")
+
+  /** the shifted warm start */
+  val shift: Boolean = shiftSrc.nonEmpty
+  /** per dual word: a nonzero final word starts the next warm solve nonzero (it is the shift source of a word whose
+    * dual box is not empty), so that the all-zero test of the shifted start looks at these words only */
+  val shiftLive: Seq[Boolean] = (0 until 2 * mc).map(i => shiftSrc.zipWithIndex.exists { case (s, d) => s == i && ud(d) > 0 })
 
   /** chunks per row of each pass: F (rows of Fe and Lb, nw columns), K (mc columns), G (n columns) */
   def chunks(cols: Int): Int = (cols + lanes - 1) / lanes
@@ -172,7 +184,7 @@ case class DgpParams(
   val multipliers: Int = units * (lanes + (if (accelerated) 6 else 0))
 
   val moduleName: String =
-    s"DgpCore_${name}_n${n}_m${2 * mc}_l${lanes}" + (if (units > 1) s"u$units" else "") + s"_b${fracBits}" + (if (accelerated) "a" else "p") +
+    s"DgpCore_${name}_n${n}_m${2 * mc}_l${lanes}" + (if (units > 1) s"u$units" else "") + s"_b${fracBits}" + (if (accelerated) "a" else "p") + (if (shift) "s" else "") +
       (if (target == Target.Generic) "" else s"_${target.name}")
 
   /** byte-address width of the AXI4-Lite port: the registers only (the data are fixed at generation) */
@@ -207,6 +219,7 @@ object DgpParams {
       outAllDefault = j("output_all").bool, k = mat(j("K")), g = mat(j("G")), fe = mat(j("Fe")), lb = mat(j("Lb")),
       lo0 = ints(j("lo0")), hi0 = ints(j("hi0")), ud = ints(j("ud")), eg = BigInt(j("eg").num.toLong),
       eV = BigInt(j("eV").num.toLong), beta = ints(j("beta")), xlo = ints(j("xlo")), xhi = ints(j("xhi")),
-      outLo = ints(j("out_lo")), outHi = ints(j("out_hi")))
+      outLo = ints(j("out_lo")), outHi = ints(j("out_hi")),
+      shiftSrc = j.obj.get("shift_src").map(a => ints(a).map(_.toInt)).getOrElse(Nil))
   }
 }
