@@ -215,7 +215,8 @@ def test_warm_start_state(accelerated):
 
 def test_shifted_warm_start():
     """warm_shift: each dual word starts from the same row a stage later (the input rows 4 on, the position rows 4
-    on; the last stage's from zero), clipped to its own dual box; a closed loop of masses_state under the shifted
+    on; the last stage's from zero), clipped to its own dual box, which the stage envelope makes at least as wide
+    as its source's ((36) and (37) taken on it); the plain form is refused; a closed loop of masses_state under the shifted
     warm start meets the test in every step with (eps_V, eps_g)-answers (the gap test bounds V(z) - V* from any start
     in the dual box), and the start of a step after a first-stage-only dual is a zero start."""
     d = design_dgp(problem(), warm_shift=True)
@@ -224,6 +225,12 @@ def test_shifted_warm_start():
     assert mc == 80 and design(True).config()["shift_src"] == []
     upper = np.r_[np.arange(4, 40), [-1] * 4, np.arange(44, 80), [-1] * 4]
     assert src.tolist() == upper.tolist() + np.where(upper >= 0, upper + mc, -1).tolist()
+    # the dual box's stage envelope: no row's box narrower than its source's, the sampled box raised where it was
+    ud0 = design(True).ud
+    assert all(d.ud[i] >= d.ud[j] for i, j in enumerate(src) if j >= 0)
+    assert np.all(d.ud >= ud0) and np.any(d.ud > ud0)
+    with pytest.raises(DesignError, match="warm_shift needs the accelerated form"):
+        design_dgp(problem(), accelerated=False, warm_shift=True)
     m = DgpFixed(d)
     y = np.random.default_rng(3).integers(0, 2 * d.ud + 1)           # up to twice the box: the clip shows
     y0 = m.warm_dual(y)

@@ -50,14 +50,13 @@ CASES = {
     "small_accel_p2": (lambda: _small(7, inputs={"min": -0.15, "max": 0.1}), dict(P=2, lanes=2, iterations=60), 6),
     "small_plain_p3": (lambda: _small(8, inputs={"min": -0.15, "max": 0.1}),
                        dict(P=3, lanes=2, iterations=300, accelerated=False), 4),
-    # the shifted warm start (design.shift_sources) on the plain form at P = 3: one input per stage, so that a row's
-    # source, a stage later, is another unit's row; a box that binds beyond the first stage (nonzero shifted starts)
-    # and at the first stage alone (shifted starts that are zero starts)
-    "small_plain_p3_shift": (lambda: _small(7, inputs={"min": -0.1, "max": 0.05}),
-                             dict(P=3, lanes=2, iterations=300, accelerated=False, warm_start=True, warm_shift=True), 4),
+    # the shifted warm start (design.shift_sources) at P = 3: one input per stage, so that a row's source, a stage
+    # later, is another unit's row; a box that binds beyond the first stage (nonzero shifted starts) and at the first
+    # stage alone (shifted starts that are zero starts)
+    "small_accel_p3_shift": (lambda: _small(7, inputs={"min": -0.1, "max": 0.05}),
+                             dict(P=3, lanes=2, iterations=60, warm_shift=True), 4),
     # the example on the ECP5 target (every product on MULT18X18D partial products), 4 row units of 16
-    # lanes (each unit's operands and tokens from kept copies of its own), with the shifted warm start (its clip to
-    # the dual box on the rows whose box is narrower than their source's)
+    # lanes (each unit's operands and tokens from kept copies of its own), with the shifted warm start
     "masses_state_ecp5": (lambda: load_spec(REPO / "examples/masses_state.yaml"),
                           dict(target="ecp5", P=4, lanes=16, warm_shift=True), 3),
 }

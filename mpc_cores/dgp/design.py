@@ -229,17 +229,35 @@ class DgpDesign(FixedPointDesign):
         }
 
 
+def _stage_blocks(qp: DgpQP, p: MpcProblem) -> list[tuple[int, int, int]]:
+    """The rows stage by stage (dgp_qp): (first row, end, rows per stage) of the input box and of the state box."""
+    blocks = [(0, qp.n_input_rows, qp.nu)]
+    if qp.mc > qp.n_input_rows:
+        blocks.append((qp.n_input_rows, qp.mc, (qp.mc - qp.n_input_rows) // p.N))
+    return blocks
+
+
+def stage_envelope(d: np.ndarray, qp: DgpQP, p: MpcProblem) -> np.ndarray:
+    """The dual box of the shifted warm start: each row's d raised to the largest of the same row at its later
+    stages, so that d does not grow from a row to its shift source's (shift_sources: the row a stage later), and the
+    shifted start of a dual in the box lies in the box without a clip."""
+    out = np.array(d, dtype=float)
+    for h in (0, qp.mc):
+        for lo, hi, per in _stage_blocks(qp, p):
+            v = out[h + lo:h + hi].reshape(-1, per)
+            out[h + lo:h + hi] = np.maximum.accumulate(v[::-1], axis=0)[::-1].ravel()
+    return out
+
+
 def shift_sources(qp: DgpQP, p: MpcProblem) -> np.ndarray:
     """The shifted warm start: for each dual word (upper rows, then lower rows), the word of the previous solve's
     final dual it starts from, or -1 for zero. The rows are stage by stage (the input box at stages 0..N-1, then the
     state box at stages 1..N, dgp_qp), and the next solve's stage k is the previous one's stage k + 1, so a row takes
     the same row a stage later; the last stage's rows start from zero. The model clips each word to its own dual box
-    (min(y_src, ud)), so that the start lies in the box from which the gap test bounds V(z) - V*."""
-    blocks = [(0, qp.n_input_rows, qp.nu)]
-    if qp.mc > qp.n_input_rows:
-        blocks.append((qp.n_input_rows, qp.mc, (qp.mc - qp.n_input_rows) // p.N))
+    (min(y_src, ud)), so that the start lies in the box from which the gap test bounds V(z) - V*; with the design's
+    stage_envelope no word exceeds it, and the core loads the source words as they are."""
     src = np.full(qp.mc, -1, dtype=np.int64)
-    for lo, hi, per in blocks:
+    for lo, hi, per in _stage_blocks(qp, p):
         src[lo:hi - per] = np.arange(lo + per, hi)
     return np.concatenate([src, np.where(src >= 0, src + qp.mc, -1)])
 
@@ -353,6 +371,9 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
         raise DesignError(f"eps_g and eps_V must be > 0: got eps_g={eps_g}, eps_V={eps_V}")
     accelerated = bool(opt("accelerated", True))
     warm_shift = bool(opt("warm_shift", False))
+    if warm_shift and not accelerated:
+        raise DesignError("warm_shift needs the accelerated form: the plain form's bound on V (Corollary 1 of 003) "
+                          "holds from a cold start only")
     if solver_opt(problem, overrides, "warm_start", None) is None:
         warm_start = accelerated           # the plain form's V guarantee needs a cold start (Corollary 1 of 003)
     lanes_opt = opt("lanes", 8)
@@ -373,6 +394,8 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
         raise DesignError(f"P (row units) must be in [1, {max(n, mc)}] (the most rows of a pass): got P={P}")
 
     d = np.maximum(margin * sample_duals(qp, problem), 1.0)
+    if warm_shift:
+        d = stage_envelope(d, qp, problem)
     D = float(np.linalg.norm(d))
     LV = float(np.linalg.eigvalsh(qp.Q)[-1])
     m = 2 * mc

@@ -22,8 +22,8 @@ def draw(rng) -> Config:
                   warm_start=bool(rng.random() < 0.8), output_all=bool(rng.random() < 0.3))
     # row units last, so that the draws before them stay those of the configurations found before P existed
     design["P"] = min(int(rng.integers(1, 5)), N * nu)
-    # the shifted warm start last, for the same reason
-    design["warm_shift"] = bool(rng.random() < 0.5)
+    # the shifted warm start (accelerated form) last, for the same reason
+    design["warm_shift"] = bool(rng.random() < 0.5) and accelerated
     return Config(spec, design)
 
 
@@ -45,7 +45,7 @@ SOAK = SoakSpace(
            "design flow); 0 to min(nx, nu) tracked states",
            "design: accelerated (60 %, Imax in [10, 60]) or plain (Imax in [40, 300]); eps_g = eps_V in {1e-2, "
            "3e-3, 1e-3} (the bits of (36)/(37)); lanes in [1, 6]; P in [1, 4] row units (at most n); lat_add in [0, 3]; target generic (50 %, lat_mul "
-           "in [0, 3]), ecp5 or xilinx7; warm start (80 %), shifted a stage (50 %); full output (30 %)",
+           "in [0, 3]), ecp5 or xilinx7; warm start (80 %), shifted a stage (accelerated, 50 %); full output (30 %)",
            "solves (verif/dgp/tb.py bitexact_random): random parameters, 10 % of words outside the box, random warm "
            "or cold start and IMAX, random idle and backpressure on both streams; words, status word and latency "
            "checked"),

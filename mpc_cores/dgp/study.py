@@ -1,7 +1,8 @@
 """The DGP core on examples/masses_state.yaml: the plain and the accelerated form of iteration (35) of 003, each with
 a cold and a warm start, in closed loop with the bit-exact golden model, and the guarantee of the plain form.
 
-closed_loop_study  the four combinations on one reference schedule (mpc_cores.closedloop.reference_schedule,
+closed_loop_study  the four combinations and the accelerated form's shifted warm start (warm_shift) on one
+                   reference schedule (mpc_cores.closedloop.reference_schedule,
                    x0 = 0): per combination the iterations to the stopping test (median, p90, max; over all steps
                    and over the constrained steps, those whose QP has an active row at the optimum; the solves that
                    ran to Imax without it), the largest V(z) - V* and constraint violation of the returned solutions
@@ -117,10 +118,12 @@ class Combination:
     seconds: float
     eps_g: float
     eps_V: float
+    shift: bool = False         # the shifted warm start (warm_shift)
 
     @property
     def label(self) -> str:
-        return f"{'accelerated' if self.accelerated else 'plain'}, {'warm' if self.warm else 'cold'}"
+        return (f"{'accelerated' if self.accelerated else 'plain'}, {'warm' if self.warm else 'cold'}"
+                + (", shifted" if self.shift else ""))
 
     @property
     def imax_hits(self) -> int:
@@ -154,34 +157,35 @@ class LoopStudy:
 def closed_loop_study(steps: int = 100, hold: int = 5, seed: int = 1, holdable: float = HOLDABLE,
                       imax_plain: int = IMAX_PLAIN, imax_accelerated: int | None = None,
                       problem: MpcProblem | None = None, log=sys.stderr) -> LoopStudy:
-    """The four combinations (plain / accelerated x cold / warm) on one reference schedule (x0 = 0, a new
-    reference every `hold` steps, mpc_cores.closedloop.reference_schedule with `holdable`); imax_accelerated None:
-    the design's iterations."""
+    """The four combinations (plain / accelerated x cold / warm) and the accelerated form's shifted warm start
+    (warm_shift) on one reference schedule (x0 = 0, a new reference every `hold` steps,
+    mpc_cores.closedloop.reference_schedule with `holdable`); imax_accelerated None: the design's iterations."""
     p = problem or masses_state()
     designs = {acc: design_dgp(p, accelerated=acc) for acc in (False, True)}
+    shifted = design_dgp(p, accelerated=True, warm_shift=True)
     refs = reference_schedule(p, steps, hold, seed, holdable=holdable)
     x0 = np.zeros(p.nx)
     t_opt = run_closed_loop(p, DgpOsqpController(designs[True].qp), x0, refs)
     t_sat = run_closed_loop(p, SaturatedOsqpController(designs[True]), x0, refs)
     combos = []
-    for acc in (False, True):
-        d = designs[acc]
+    for acc, warm, shift in ((False, False, False), (False, True, False), (True, False, False), (True, True, False),
+                             (True, True, True)):
+        d = shifted if shift else designs[acc]
         imax = int(imax_plain if not acc else (imax_accelerated or d.iterations))
-        for warm in (False, True):
-            t0 = time.perf_counter()
-            g = DgpFixedController(d, imax=imax, warm=warm)
-            tr = run_closed_loop(p, g, x0, refs)
-            dV, vi, act = accuracy(d, np.array(g.w), np.array(g.z))
-            c = Combination(accelerated=acc, warm=warm, imax=imax, iterations=np.array(g.iterations),
-                            met=np.array(g.met), active=act.any(axis=1), state_active=int(act[:, 1].sum()),
-                            dV=dV, viol=vi, cost=tr.cost, cost_opt=t_opt.cost,
-                            cost_sat=t_sat.cost, sat_steps=g.sat_steps, overflow_steps=g.overflow_steps,
-                            seconds=time.perf_counter() - t0, eps_g=d.eps_g, eps_V=d.eps_V)
-            combos.append(c)
-            if log is not None:
-                s = c.stats()
-                print(f"  {c.label}: {steps} steps, iterations median {s['median']:g}, max {s['max']}, "
-                      f"{c.seconds:.1f} s", file=log, flush=True)
+        t0 = time.perf_counter()
+        g = DgpFixedController(d, imax=imax, warm=warm)
+        tr = run_closed_loop(p, g, x0, refs)
+        dV, vi, act = accuracy(d, np.array(g.w), np.array(g.z))
+        c = Combination(accelerated=acc, warm=warm, imax=imax, iterations=np.array(g.iterations),
+                        met=np.array(g.met), active=act.any(axis=1), state_active=int(act[:, 1].sum()),
+                        dV=dV, viol=vi, cost=tr.cost, cost_opt=t_opt.cost,
+                        cost_sat=t_sat.cost, sat_steps=g.sat_steps, overflow_steps=g.overflow_steps,
+                        seconds=time.perf_counter() - t0, eps_g=d.eps_g, eps_V=d.eps_V, shift=shift)
+        combos.append(c)
+        if log is not None:
+            s = c.stats()
+            print(f"  {c.label}: {steps} steps, iterations median {s['median']:g}, max {s['max']}, "
+                  f"{c.seconds:.1f} s", file=log, flush=True)
     return LoopStudy(steps=steps, hold=hold, seed=seed, holdable=holdable, cost_opt=t_opt.cost,
                      cost_sat=t_sat.cost, combos=combos, design=designs)
 
@@ -193,14 +197,14 @@ def _its(st: dict | None) -> str:
 
 
 def loop_table(s: LoopStudy) -> str:
-    head = (f"{'combination':<18} {'Imax':>5} | {'median':>6} {'p90':>7} {'max':>5} | {'steps':>5} {'median':>6} "
+    head = (f"{'combination':<27} {'Imax':>5} | {'median':>6} {'p90':>7} {'max':>5} | {'steps':>5} {'median':>6} "
             f"{'p90':>7} {'max':>5} | {'Imax hits':>9} | {'max V-V*':>9} {'>eps_V':>6} {'max viol':>9} {'>eps_g':>6} | "
             f"{'vs OSQP':>8} {'vs sat.':>8}")
-    sub = (f"{'':<18} {'':>5} | {'iterations, all steps':<20} | {'constrained steps: iterations':<26} | {'':>9} | "
+    sub = (f"{'':<27} {'':>5} | {'iterations, all steps':<20} | {'constrained steps: iterations':<26} | {'':>9} | "
            f"{'returned solutions (real units)':<33} | {'loop cost'}")
     lines = [sub, head, "-" * len(head)]
     for c in s.combos:
-        lines.append(f"{c.label:<18} {c.imax:>5} | {_its(c.stats())} | {int(c.active.sum()):>5} "
+        lines.append(f"{c.label:<27} {c.imax:>5} | {_its(c.stats())} | {int(c.active.sum()):>5} "
                      f"{_its(c.stats(True))} | {c.imax_hits:>9} | {c.dV.max():>9.2e} {int(np.sum(c.dV > c.eps_V)):>6} "
                      f"{c.viol.max():>9.2e} {int(np.sum(c.viol > c.eps_g)):>6} | {c.cost_pct:>7.3f}% "
                      f"{c.cost_sat_pct:>7.3f}%")
@@ -384,7 +388,7 @@ def main(argv=None) -> None:
     a = ap.parse_args(argv)
     p = masses_state()
     for i, hb in enumerate(a.holdable):
-        print(f"closed loop, holdable {hb:g}, four combinations:", file=sys.stderr, flush=True)
+        print(f"closed loop, holdable {hb:g}, five combinations:", file=sys.stderr, flush=True)
         s = closed_loop_study(a.steps, a.hold, a.seed, hb, a.imax_plain, a.imax_accelerated, problem=p)
         if i == 0:
             d = s.design[True]

@@ -220,13 +220,17 @@ class DgpCore(val p: DgpParams) extends Module {
       if (p.ud(i) < p.ud(src)) Mux(x > p.ud(i).S(W.W), p.ud(i).S(W.W), x) else x
     }
   }
+  /** the shifted warm start: per unit, the solve's first iteration (from the start to the first decision), whose
+    * element stage takes y = wy (the start makes them equal), so that the start shifts the operand dual only */
+  val firstU = if (p.shift) Seq.fill(P)(RegInit(false.B)) else Nil
   for (u <- 0 until P) {
     when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
+    firstU.lift(u).foreach(f => when(startU(u)) { f := true.B })
     for (k <- 0 until rG; h <- 0 until 2) {
       when(startG(u)(k / rowGroup)) {
-        // the warm start: the dual kept (shifted a stage with p.shift) and the operand dual from it
-        if (p.shift) { yU(h)(u)(k) := shifted(h, u, k); if (acc) wyEU(h)(u)(k) := shifted(h, u, k) }
-        else if (acc) wyEU(h)(u)(k) := yU(h)(u)(k)
+        // the warm start: the operand dual from the dual kept, shifted a stage with p.shift (y itself is left as it
+        // is: the first iteration's dy takes the operand dual, which a start makes equal to y, firstU)
+        if (acc) wyEU(h)(u)(k) := (if (p.shift) shifted(h, u, k) else yU(h)(u)(k))
         if (!acc) sgU(h)(u)(k) := 0.S
       }
       when(clearG(u)(k / rowGroup)) {
@@ -519,7 +523,9 @@ class DgpCore(val p: DgpParams) extends Module {
       // E4: dy = y_new - y
       val e4  = RegNext(e3, false.B)
       val yN4 = RegNext(yN3)
-      val dy4 = RegNext(VecInit((0 until 2).map(h => (yN3(h) -& yO3(h))(W - 1, 0).asSInt)))
+      // (the shifted warm start: the first iteration's y is its wy)
+      val yP3 = firstU.lift(u).map(f => VecInit((0 until 2).map(h => Mux(f, w3(h), yO3(h))))).getOrElse(yO3)
+      val dy4 = RegNext(VecInit((0 until 2).map(h => (yN3(h) -& yP3(h))(W - 1, 0).asSInt)))
       /** y_new - ud - 1: the extrapolation's clip tests t > ud from the sign of t - ud - 1 (E6) */
       val yu4 = RegNext(VecInit((0 until 2).map(h => (yN3(h) -& u3(h)) -& 1.S)))
       val g4  = RegNext(g3)
@@ -575,6 +581,7 @@ class DgpCore(val p: DgpParams) extends Module {
   val finish  = stop || lastIter
   val outIdx  = RegInit(0.U(16.W))
   for (u <- 0 until P) when(decideU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
+  for ((f, u) <- firstU.zipWithIndex) when(decideU(u)) { f := false.B }
   // accelerated: the next extrapolated dual, y on a restart, else the candidate, loaded in the cycle after the
   // decision (pass K's first operand select is a cycle after its issue). The decision and the restart reach each
   // group of 8 of a unit's rows of each half from copies of their own (FPGA targets: kept registers loaded from the

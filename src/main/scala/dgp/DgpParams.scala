@@ -86,6 +86,7 @@ case class DgpParams(
   require(beta.forall(fits(_, betaW)), s"a beta word does not fit $betaW bits")
   require(shiftSrc.isEmpty || (shiftSrc.length == 2 * mc && shiftSrc.forall(i => i >= -1 && i < 2 * mc)),
     s"shift_src must be empty or have ${2 * mc} entries in [-1, ${2 * mc - 1}]")
+  require(shiftSrc.isEmpty || accelerated, "shift_src needs the accelerated form")
 
   /** the shifted warm start */
   val shift: Boolean = shiftSrc.nonEmpty
