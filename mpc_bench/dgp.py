@@ -55,15 +55,16 @@ from mpc_cores.flow import REPO
 
 SPEC = REPO / "examples/masses_state.yaml"
 TARGET = "ecp5"
-# the roles: the spec's default design in both forms (P = 1, 8 lanes, the fraction bits of (36)), and the Fmax core
+# the roles: the spec's default design in both forms (P = 1, 8 lanes, the fraction bits of (36)), the Fmax core
 # of row units (accelerated, P row units of `lanes` each, 15 fraction bits: the loop meets the same iterations and
-# accuracy as at (36)'s 27 bits, and every product fits two MULT18X18D)
-ROLES = ("accelerated", "plain", "units")
-ROLE_OPTIONS = {"accelerated": dict(accelerated=True), "plain": dict(accelerated=False),
-                "units": dict(accelerated=True, P=2, lanes=20, frac_bits=15)}
+# accuracy as at (36)'s 27 bits, and every product fits two MULT18X18D), and that core with the shifted warm start
+ROLES = ("accelerated", "plain", "units", "shifted")
+_UNITS = dict(accelerated=True, P=2, lanes=20, frac_bits=15)
+ROLE_OPTIONS = {"accelerated": dict(accelerated=True), "plain": dict(accelerated=False), "units": _UNITS,
+                "shifted": dict(_UNITS, warm_shift=True)}
 # the roles nextpnr places in a full run (QUICK: from the cache): the spec's default designs at 27 fraction bits
 # fill most of the device's logic and route for hours, so only --dgp-place-all places them
-PLACED = ("units",)
+PLACED = ("units", "shifted")
 # The closed loop (mpc_cores.closedloop.reference_schedule: references held `HOLD` steps, their steady-state input
 # inside mpc_cores.dgp.control.HOLDABLE of the input box) and the random states of the cold start.
 STEPS_FULL, STEPS_QUICK, HOLD, SEED = 200, 60, 5, 1

@@ -38,14 +38,17 @@ def planned():
     return full, quick
 
 
-def test_plan_three_cores_for_the_ecp5(planned):
+def test_plan_four_cores_for_the_ecp5(planned):
     full, quick = planned
     assert not full.errors and not quick.errors
     assert [c.role for c in full.cores] == list(dgp.ROLES)
-    acc, plain, units = full.cores
+    acc, plain, units, shifted = full.cores
     assert acc.design.accelerated and not plain.design.accelerated
     assert units.design.accelerated and (units.design.P, units.design.lanes, units.design.b) == (2, 20, 15)
-    assert len({c.design.module_name for c in full.cores}) == 3 and "l20u2_b15a" in units.design.module_name
+    assert shifted.design.warm_shift and not units.design.warm_shift
+    assert (shifted.design.P, shifted.design.lanes, shifted.design.b) == (2, 20, 15)
+    assert len({c.design.module_name for c in full.cores}) == 4 and "l20u2_b15a_" in units.design.module_name
+    assert "l20u2_b15as_" in shifted.design.module_name
     assert {c.design.target for c in full.cores} == {"ecp5"}
     assert acc.out != plain.out and acc.design.module_name != plain.design.module_name
     # the seeds of the Fmax cores of the other sections
@@ -58,7 +61,7 @@ def test_plan_three_cores_for_the_ecp5(planned):
 def test_multipliers_of_the_products(planned):
     from mpc_cores.target import parts
 
-    acc, plain, units = planned[0].cores
+    acc, plain, units, _ = planned[0].cores
     # accelerated: the lanes plus the 4 + 2 products of the extrapolation and the restart test, per row unit
     for c in (acc, units):
         d = c.design
@@ -107,15 +110,16 @@ def test_quick_jobs_take_the_tools_from_the_cache_only(tmp_path):
     """QUICK: Yosys and nextpnr results from the cache only; the default designs' placements only with
     --dgp-place-all (they route for hours)"""
     quick = _quick_cores(tmp_path / "a", dgp_place_all=True)
-    acc, plain, units = quick.cores
+    acc, plain, units, shifted = quick.cores
     _cache(acc, "ecp5")
     _cache(acc, "nextpnr")
     _cache(plain, "ecp5")
     jobs = quick.jobs()
     names = [j.name for j in jobs]
-    assert sum("verilator" in n for n in names) == 3                    # every core simulated
+    assert sum("verilator" in n for n in names) == 4                    # every core simulated
     assert f"{acc.tag} ecp5" in names and f"{plain.tag} ecp5" in names  # cached: costs nothing
     assert f"{units.tag} ecp5" not in names and not units.place and "QUICK" in units.pnr_note  # nothing cached
+    assert not shifted.place and "QUICK" in shifted.pnr_note
     assert not any("xc7" in n for n in names)
     assert acc.place and not acc.pnr_note
     assert not plain.place and "place and route" in plain.pnr_note
@@ -126,7 +130,7 @@ def test_quick_jobs_take_the_tools_from_the_cache_only(tmp_path):
     assert f"{acc.tag} ecp5" not in [j.name for j in jobs] and acc.pnr_note.startswith("QUICK")
     # without --dgp-place-all a cached placement of a default design is not reported
     quick = _quick_cores(tmp_path / "b")
-    acc, _, units = quick.cores
+    acc, _, units, _ = quick.cores
     _cache(acc, "ecp5")
     _cache(acc, "nextpnr")
     quick.jobs()
