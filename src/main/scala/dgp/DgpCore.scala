@@ -25,7 +25,7 @@ import shell.{Field, FrameIn, RegMap, Register, SolverRegs}
   * quantised input box on its way out (the iteration's state unclamped), then a status word (iterations run in bits
   * 15:0, test met 16, input saturated 17, datapath overflow 18) with tlast.
   */
-class DgpCore(val p: DgpParams) extends Module {
+class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   override def desiredName = p.moduleName
   import p.{mc, n, nu, nw, rK, rG}
   val P = p.units
@@ -83,15 +83,9 @@ class DgpCore(val p: DgpParams) extends Module {
   val wycU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else Nil
   val szU  = if (acc) Nil else Seq.fill(P)(Reg(Vec(rK, SInt(p.sumW.W))))
   val sgU  = if (acc) Nil else Seq.fill(2, P)(Reg(Vec(rG, SInt(p.sumW.W))))
-  /** flat views: row i is unit i mod P's element i / P */
-  def flat(f: Seq[Vec[SInt]], len: Int): Seq[SInt] = (0 until len).map(i => f(i % P)(i / P))
   val z     = flat(zU, n)
   /** the operand dual of pass K, flat */
   val wyOp: Seq[Seq[SInt]] = wyEU.map(flat(_, mc))
-  /** one step of a rotating FIFO: the head leaves, `in` enters at the tail; each group of rowGroup rows where its
-    * enable (`en`, one per group) is high */
-  def rotate(q: Vec[SInt], in: SInt, en: Seq[Bool]): Unit =
-    for (i <- 0 until q.length) when(en(i / rowGroup)) { q(i) := (if (i + 1 < q.length) q(i + 1) else in) }
   val tThr = Reg(SInt(p.sumW.W))
   val kAcc = RegInit(0.U(8.W))
   val betaRom = VecInit(p.beta.map(x => x.S(p.betaW.W)))
@@ -129,19 +123,12 @@ class DgpCore(val p: DgpParams) extends Module {
   // ends its pass, registers loaded with addr. The next two slots' bits wait in registers (nx1, nx2), nx2 loaded from
   // a table of the slot three ahead (the jumps load constants), so that neither the operand select, the round's
   // count, the sequencer nor the lanes' copies wait on the table
-  private val chunkW = log2Ceil(Seq(p.cF, p.cK, p.cG).max + 1)
-  /** the slots that end a pass: the last of the first pass, of pass K and of pass G */
-  private val passEnds = Set(p.baseK - 1, p.baseG - 1, p.matRows - 1)
-  private val slotBits = p.slots.zipWithIndex.map { case ((c, f, l), a) => (c, f, l, passEnds(a)) }
+  private val layout = new DgpLayout(p)
+  import layout.{bitsOf, chunkW, slotBits}
   val chunk   = RegInit(slotBits.head._1.U(chunkW.W))
   val firstC  = RegInit(true.B)
   val lastC   = RegInit(slotBits.head._3.B)
   val endC    = RegInit(slotBits.head._4.B)
-  /** a slot's bits (past the last: a lone chunk 0 that ends its pass) */
-  private def bitsOf(a: Int): UInt = {
-    val (c, f, l, e) = slotBits.lift(a).getOrElse((0, true, true, true))
-    Cat(c.U(chunkW.W), f.B, l.B, e.B)
-  }
   private val slotAhead = VecInit((0 to p.matRows).map(a => bitsOf(a + 3)))
   val nx1 = RegInit(bitsOf(1))
   val nx2 = RegInit(bitsOf(2))
@@ -173,8 +160,6 @@ class DgpCore(val p: DgpParams) extends Module {
   val gapEnd  = RegInit(false.B)
   val cycles  = RegInit(0.U(32.W))
 
-  /** per unit, `d` registered: a kept copy each when split, else one register for all */
-  def unitRegs[T <: Data](d: T): Seq[T] = KeepReg.copies(d, P, split)
 
   // the take decided a cycle ahead, a flip-flop (it loads w, the sequencer and the frame buffer)
   val take = RegInit(false.B)
@@ -188,13 +173,6 @@ class DgpCore(val p: DgpParams) extends Module {
   // earliest, and pass K's first operand select comes at least two cycles after the take
   val startU = unitRegs(take)
   val warmU  = unitRegs(warmNow)
-  /** rows per group of a FIFO that takes its enables from copies of its own */
-  val rowGroup = 8
-  def groups(len: Int): Int = (len + rowGroup - 1) / rowGroup
-  /** per unit and group of rows of a FIFO of `len`, `x` (a unit's register) registered once more: kept copies per
-    * group (FPGA targets), so that no register drives a whole vector */
-  def groupRegs(x: Seq[Bool], len: Int): Seq[Seq[Bool]] =
-    x.map(r => if (fpga) Seq.fill(groups(len))(KeepReg(r)) else Seq.fill(groups(len))(RegNext(r, false.B)))
   val startG = groupRegs(startU, rG)
   /** the start's clear of the duals (a cold start), a flip-flop per group of rows: their resets need no gate */
   val clearG = groupRegs(startU.zip(warmU).map { case (s, w) => s && !w }, rG)
@@ -208,18 +186,6 @@ class DgpCore(val p: DgpParams) extends Module {
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
     zSolve := zeroNow; zTable := zeroNow
   }
-  /** the shifted warm start's word of half h, unit u, element k (row k P + u): the previous final dual's word at
-    * its shift source, clipped to the row's dual box where the source's box is wider (else it lies in it already),
-    * or zero */
-  def shifted(h: Int, u: Int, k: Int): SInt = {
-    val i = h * mc + k * P + u
-    val src = if (k * P + u < mc) p.shiftSrc(i) else -1
-    if (src < 0) 0.S(W.W)
-    else {
-      val x = yU(src / mc)(src % mc % P)(src % mc / P)
-      if (p.ud(i) < p.ud(src)) Mux(x > p.ud(i).S(W.W), p.ud(i).S(W.W), x) else x
-    }
-  }
   /** the shifted warm start: per unit, the solve's first iteration (from the start to the first decision), whose
     * element stage takes y = wy (the start makes them equal), so that the start shifts the operand dual only */
   val firstU = if (p.shift) Seq.fill(P)(RegInit(false.B)) else Nil
@@ -230,7 +196,7 @@ class DgpCore(val p: DgpParams) extends Module {
       when(startG(u)(k / rowGroup)) {
         // the warm start: the operand dual from the dual kept, shifted a stage with p.shift (y itself is left as it
         // is: the first iteration's dy takes the operand dual, which a start makes equal to y, firstU)
-        if (acc) wyEU(h)(u)(k) := (if (p.shift) shifted(h, u, k) else yU(h)(u)(k))
+        if (acc) wyEU(h)(u)(k) := (if (p.shift) layout.shifted(yU, h, u, k) else yU(h)(u)(k))
         if (!acc) sgU(h)(u)(k) := 0.S
       }
       when(clearG(u)(k / rowGroup)) {
@@ -355,17 +321,13 @@ class DgpCore(val p: DgpParams) extends Module {
   // ------------------------------------------------------------------ per unit: row results and the element stage
   // the bounds' constant parts by the first pass's round (rounds rK.. are the bounds' rows), the dual box by pass
   // G's round and (a zero start's element stage) by the first pass's
-  val lo0U = (0 until P).map(u => VecInit((0 until rK + rG).map(k => p.ofUnit(p.lo0, u, k - rK).S(W.W))))
-  val hi0U = (0 until P).map(u => VecInit((0 until rK + rG).map(k => p.ofUnit(p.hi0, u, k - rK).S(W.W))))
-  private def udHalf(h: Int) = p.ud.slice(h * mc, (h + 1) * mc)
-  val udU  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rG).map(k => p.ofUnit(udHalf(h), u, k).S(W.W))))
-  val udZ  = Seq.tabulate(2, P)((h, u) => VecInit((0 until rK + rG).map(k => p.ofUnit(udHalf(h), u, k - rK).S(W.W))))
-  /** the shifted warm start: per half and unit, whether a row's word is live (p.shiftLive) by pass G's round and (a
-    * zero start's element stage) by the first pass's */
-  private def liveOf(h: Int, u: Int, k: Int): Bool = (k >= 0 && k * P + u < mc && p.shiftLive(h * mc + k * P + u)).B
-  val liveU = if (p.shift) Seq.tabulate(2, P)((h, u) => VecInit((0 until rG).map(k => liveOf(h, u, k)))) else Nil
-  val liveZ = if (p.shift) Seq.tabulate(2, P)((h, u) => VecInit((0 until rK + rG).map(k => liveOf(h, u, k - rK))))
-    else Nil
+  val lo0U = layout.lo0U
+  val hi0U = layout.hi0U
+  val udU  = layout.udU
+  val udZ  = layout.udZ
+  /** the shifted warm start: per half and unit, whether a row's word is live, by pass G's round and by the first's */
+  val liveU = layout.liveU
+  val liveZ = layout.liveZ
   /** a row's new dual words are nonzero where they count for the next start's zero test (E3): with the shifted warm
     * start, only the live words (`live`, the row's bits carried along the element stage) */
   def nonzero(yN: Vec[SInt], live: Option[Vec[Bool]]): Bool = live match {
@@ -565,8 +527,6 @@ class DgpCore(val p: DgpParams) extends Module {
 
   // ------------------------------------------------------------------ decision
   // the units' flags and sums added in registered levels (unitDepth), then the test's flags registered
-  def reduce[T <: Data](xs: Seq[T], f: (T, T) => T): T =
-    if (xs.length == 1) xs.head else reduce(xs.grouped(2).map(g => RegNext(if (g.length == 2) f(g(0), g(1)) else g(0))).toSeq, f)
   val violAll = reduce[Bool](violU, _ || _)
   val gapSum  = reduce[SInt](gapU, _ + _)
   val rstSum  = reduce[SInt](rstU, _ + _)
