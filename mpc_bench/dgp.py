@@ -4,7 +4,7 @@ The dual gradient projection core (iteration (35) of 003, fixed point) on exampl
 two-sided rows: the input box and the position limits at stages 1..N, 160 one-sided) for the ECP5 (TARGET=ecp5,
 every product on MULT18X18D partial products), in both forms: accelerated (the spec's default) and plain; and the
 accelerated form on P = 2 row units of 20 lanes at 15 fraction bits (ROLE_OPTIONS), the core that fits the device
-with room to spare.
+with room to spare, without and with the shifted warm start (roles units and shifted).
 
   cycles      per iteration and the solve overhead of core.json, measured in Verilator (cocotb test `cycle_contract`
               of verif.dgp.tb, which asserts the answer's cycle overhead + I x cycles_per_iteration);
