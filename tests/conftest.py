@@ -114,15 +114,17 @@ def _certified_masses(tol: float):
 
 # RTL cases of the example problems at full size beyond masses_p1_b16: `make test-slow` (their blocks run in the
 # small cases of make test: K = 1 in rand_n4_p4_b10, round to nearest in rand_n7_p2_b14_nearest_x7, K_p = 3 in
-# rand_n4_p1_b12_k3, the ecp5 target in afm_p2_b16_ecp5; soft pairs and round to nearest in the random ADMM cases)
-SLOW_CASES = {"masses_p40_b14_l23", "masses_p3_b12_nearest", "masses_p3_b14_k3_ecp5", "masses_soft_p4_b18"}
+# rand_n4_p1_b12_k3, the ecp5 target in afm_p2_b16_ecp5; soft pairs and round to nearest in the random ADMM cases;
+# ADMM's K_p = 2 on ECP5 in rand_soft_n19_p3_k2_vucondat's K_p = 2 and rand_rate_n19_p2_ecp5_ama's target)
+SLOW_CASES = {"masses_p40_b14_l23", "masses_p3_b12_nearest", "masses_p3_b14_k3_ecp5", "masses_soft_p4_b18",
+              "rand_rate_n19_p2_k2_ecp5"}
 
 
-def built_cases(cases: dict, config) -> list:
-    """The ids of `cases` a run needs: the SLOW_CASES only when slow tests are selected (make test's `-m "not slow"`
-    deselects them, so their cores are not generated)."""
+def built_cases(cases, config, slow=SLOW_CASES) -> list:
+    """The ids of `cases` a run needs: those in `slow` (by default SLOW_CASES) only when slow tests are selected
+    (make test's `-m "not slow"` deselects them, so their cores are not generated)."""
     skip = "not slow" in (config.getoption("markexpr") or "")
-    return [c for c in cases if not (skip and c in SLOW_CASES)]
+    return [c for c in cases if not (skip and c in slow)]
 
 
 def case_params(ids, slow=SLOW_CASES):
@@ -190,7 +192,7 @@ ADMM_CASES = {
     # time-multiplexed lanes: 5 multipliers take each row of 19 columns in 4 chunks (accumulated, then saturated),
     # soft pairs (the previous row's values held across the chunks' cycles), deeper pipeline, ECP5 target
     "rand_soft_n19_c4_l24_ecp5": (lambda: random_problem("rc19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
-                                  dict(frac_bits=16, lanes=5, lat_add=2, lat_mul=4, target="ecp5"), 20),
+                                  dict(frac_bits=16, lanes=5, lat_add=2, lat_mul=4, target="ecp5"), 10),
     # fast ADMM on 10 lanes (2 chunks) with a one-stage pipeline
     "rand_soft_n19_c2_admm_acc": (lambda: random_problem("rca19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
                                   dict(frac_bits=16, lanes=10, accelerated=True, iterations=30, lat_add=0,

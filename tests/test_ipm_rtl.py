@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import random_problem, small_case
+from conftest import built_cases, case_params, random_problem, small_case
 from mpc_cores.flow import REPO, generate
 from mpc_cores.ipm.design import design_ipm
 from mpc_cores.ipm.timing import simulate
@@ -37,9 +37,14 @@ RTL_CASES = {
 }
 
 
+# make test-slow: P = 2 with two inputs and no state box (P = 2 and two inputs run in the e8m17 and multiplexed cases)
+SLOW = {"n2_m2_t2_p2"}
+
+
 @pytest.fixture(scope="session")
-def ipm_cores():
-    designs = {cid: design_ipm(f(), **ov) for cid, (f, ov, _) in RTL_CASES.items()}
+def ipm_cores(request):
+    designs = {cid: design_ipm(RTL_CASES[cid][0](), **RTL_CASES[cid][1])
+               for cid in built_cases(RTL_CASES, request.config, SLOW)}
     cores = generate("ipm", [(d, BUILD / cid) for cid, d in designs.items()])
     return {cid: (BUILD / cid, c) for cid, c in zip(designs, cores)}
 
@@ -63,7 +68,7 @@ def test_masses_core_json(tmp_path_factory):
         assert (out / f).exists()
 
 
-@pytest.mark.parametrize("cid", list(RTL_CASES))
+@pytest.mark.parametrize("cid", case_params(RTL_CASES, SLOW))
 def test_rtl_matches_golden_model(cid, ipm_cores):
     out, core = ipm_cores[cid]
     measure = out / "measured.jsonl"

@@ -1,7 +1,7 @@
 """The Stage 1 engine of the interior-point core (src/main/scala/ipm/) in Verilator against the interpreter of its
 instruction set (mpc_cores/ipm/machine.py): random programs on random data, the interior-point programs of a small
 problem and of the oscillating masses on two slots with stream stalls, and the cycle count of every program
-(verif/ipm/stage1_tb.py). One generator run elaborates both engines."""
+(verif/ipm/stage1_tb.py; the masses' engine under the slow marker). One generator run elaborates the engines."""
 from __future__ import annotations
 
 import dataclasses
@@ -11,6 +11,7 @@ import random
 import numpy as np
 import pytest
 
+from conftest import built_cases, case_params
 from mpc_cores.flow import REPO, GeneratorError, run_generator
 from mpc_cores.ipm import isa
 from mpc_cores.ipm import stage1_config as sc
@@ -77,11 +78,13 @@ def masses_engine():
 
 
 ENGINES = {"small": small_engine, "masses": masses_engine}
+# make test-slow: the masses' engine (every op and the interior-point programs run in the small one)
+SLOW = {"masses"}
 
 
 @pytest.fixture(scope="module")
-def engines():
-    built = {k: f() for k, f in ENGINES.items()}
+def engines(request):
+    built = {k: ENGINES[k]() for k in built_cases(ENGINES, request.config, SLOW)}
     hws = sc.generate([(cfg, BUILD / k) for k, (cfg, _) in built.items()])
     for k, (cfg, tb) in built.items():
         (BUILD / k / "tb.json").write_text(json.dumps(tb))
@@ -131,7 +134,7 @@ def test_generator_refusals(tmp_path):
     assert "acc_short.json: requirement failed: instruction 0: ACC needs more than lat_add=4 terms" in msg
 
 
-@pytest.mark.parametrize("eid", list(ENGINES))
+@pytest.mark.parametrize("eid", case_params(ENGINES, SLOW))
 def test_engine_matches_interpreter(eid, engines):
     out, cfg, hw = engines[eid]
     measure = out / "measured.jsonl"
