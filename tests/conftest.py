@@ -115,9 +115,10 @@ def _certified_masses(tol: float):
 # RTL cases of the example problems at full size beyond masses_p1_b16: `make test-slow` (their blocks run in the
 # small cases of make test: K = 1 in rand_n4_p4_b10, round to nearest in rand_n7_p2_b14_nearest_x7, K_p = 3 in
 # rand_n4_p1_b12_k3, the ecp5 target in afm_p2_b16_ecp5; soft pairs and round to nearest in the random ADMM cases;
-# ADMM's K_p = 2 on ECP5 in rand_soft_n19_p3_k2_vucondat's K_p = 2 and rand_rate_n19_p2_ecp5_ama's target)
+# ADMM's K_p = 2 on ECP5 in rand_soft_n19_p3_k2_vucondat's K_p = 2 and rand_rate_n19_p2_ecp5_ama's target; fast ADMM
+# with a one-stage pipeline in rand_soft_n19_c2_admm_acc)
 SLOW_CASES = {"masses_p40_b14_l23", "masses_p3_b12_nearest", "masses_p3_b14_k3_ecp5", "masses_soft_p4_b18",
-              "rand_rate_n19_p2_k2_ecp5"}
+              "rand_rate_n19_p2_k2_ecp5", "rand_soft_n19_p3_admm_acc"}
 
 
 def built_cases(cases, config, slow=SLOW_CASES) -> list:

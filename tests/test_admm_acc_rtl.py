@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import ADMM_CASES
+from conftest import ADMM_CASES, case_params
 from test_admm_rtl import test_rtl_matches_golden_model as _check
 
 ACC = [c for c in ADMM_CASES if c.endswith("_acc")]
 
 
-@pytest.mark.parametrize("cid", ACC)
+@pytest.mark.parametrize("cid", case_params(ACC))
 def test_accelerated_rtl_matches_golden_model(cid, admm_cores, request):
     import json
 
