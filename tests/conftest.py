@@ -193,7 +193,7 @@ ADMM_CASES = {
     # time-multiplexed lanes: 5 multipliers take each row of 19 columns in 4 chunks (accumulated, then saturated),
     # soft pairs (the previous row's values held across the chunks' cycles), deeper pipeline, ECP5 target
     "rand_soft_n19_c4_l24_ecp5": (lambda: random_problem("rc19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
-                                  dict(frac_bits=16, lanes=5, lat_add=2, lat_mul=4, target="ecp5"), 10),
+                                  dict(frac_bits=16, lanes=5, lat_add=2, lat_mul=4, target="ecp5"), 20),
     # fast ADMM on 10 lanes (2 chunks) with a one-stage pipeline
     "rand_soft_n19_c2_admm_acc": (lambda: random_problem("rca19", 2, 1, 3, 1, 5, input_rate=RATE, soft_states=SOFT1),
                                   dict(frac_bits=16, lanes=10, accelerated=True, iterations=30, lat_add=0,
