@@ -4,7 +4,8 @@ solved to optimality (mpc_cores.mpc_qp: every constraint section, OSQP with poli
 - Sampled states: `check.samples` states x (and references r, previous inputs u_prev) drawn uniformly from the
   boxes the core accepts; per sample the golden model's first input u0 from a cold start, and its suboptimality
   (V(u0) - V*) / V*, V(u0) the optimal horizon cost with u_0 fixed to u0 (infinite when no plan meets the hard
-  constraints after u0), V* the optimum.
+  constraints after u0), V* the optimum. An answer with a word that is not finite (NaN or infinite, a float
+  core's iterate run off) counts as an infinite suboptimality and fails the check.
 - The closed-loop scenario of the spec's `check:` section: x0, `steps` samples, a reference drawn every `hold`
   samples (mpc_cores.closedloop.reference_schedule); the golden model in the loop (warm-started as the core is)
   beside the optimal controller. It reports the cost gap, the worst violation of each constraint class (input box,
@@ -65,6 +66,7 @@ class CheckResult:
     subopt: list = field(default_factory=list)   # sampled suboptimality, percent (inf: u0 leaves the feasible set)
     sample_violations: dict = field(default_factory=dict)  # the sampled u0's input box and rate, as `violations`
     infeasible_samples: int = 0      # sampled states from which no plan meets the hard constraints
+    nonfinite_samples: int = 0       # sampled states whose u0 has a word that is not finite (NaN or infinite)
     steps: int = 0
     outside: int = 0                 # loop steps whose state or reference lay outside the box the core accepts
     target: float | None = None
@@ -93,6 +95,9 @@ class CheckResult:
                     out.append(f"{where}{c} violated by {a:.3g} ({100 * r:.2g} % of its range > "
                                f"{100 * self.tol:.2g} %)")
         out += [f"{what} in {k} of {self.steps} solves" for what, k in self.flagged.items() if k]
+        if self.nonfinite_samples:
+            out.append(f"sampled u0 not finite (NaN or infinite) in {self.nonfinite_samples} of {len(self.subopt)} "
+                       f"sampled states")
         if self.target is not None:
             if not abs(self.gap) <= self.target:
                 out.append(f"closed-loop cost {_pct(self.gap)} against the optimal MPC's, beyond the target "
@@ -114,7 +119,8 @@ class CheckResult:
         sv = ", ".join(f"{c} {a:.3g} ({100 * r:.2g} %)" for c, (a, r) in self.sample_violations.items() if a > 0)
         samples = (f"{len(self.subopt)} sampled states: suboptimality median {_pct(self.subopt_median)}, worst "
                    f"{_pct(self.subopt_worst)}" + (f", u0 outside {sv}" if sv else "")
-                   + (f" ({self.infeasible_samples} infeasible states skipped)" if self.infeasible_samples else ""))
+                   + (f" ({self.infeasible_samples} infeasible states skipped)" if self.infeasible_samples else "")
+                   + (f", u0 not finite in {self.nonfinite_samples}" if self.nonfinite_samples else ""))
         loop = (self.scenario_error or f"closed loop ({self.steps} steps): cost {_pct(self.gap)} against the optimum"
                 f"{', DIVERGES' if self.diverged else ''}; worst violation {viol or 'none (input box only)'}{flags}")
         target = f"; target {self.target:g} %" if self.target is not None else ""
@@ -186,11 +192,12 @@ def _golden(kind, d, warm: bool | None = None):
     return g
 
 
-async def _samples(kind, d, qp: MpcQP, rng) -> tuple[list, int, dict]:
-    """(suboptimality per feasible sample, infeasible samples, the u0's worst input-box and rate violations)"""
+async def _samples(kind, d, qp: MpcQP, rng) -> tuple[list, int, dict, int]:
+    """(suboptimality per feasible sample, infeasible samples, the u0's worst input-box and rate violations, the
+    samples whose u0 is not finite)"""
     p = qp.p
     g = _golden(kind, d, warm=False)
-    subopt, infeasible, U, dU = [], 0, [], []
+    subopt, infeasible, nonfinite, U, dU = [], 0, 0, [], []
     for _ in range(p.check.samples):
         x = rng.uniform(p.xmin, p.xmax)
         r = rng.uniform(p.rmin, p.rmax) if p.ny else np.zeros(0)
@@ -203,6 +210,10 @@ async def _samples(kind, d, qp: MpcQP, rng) -> tuple[list, int, dict]:
         if hasattr(g, "u_prev"):
             g.u_prev = up.copy()
         u0 = np.asarray(await g.step(x, r), dtype=float)
+        if not np.all(np.isfinite(u0)):
+            nonfinite += 1
+            subopt.append(float("inf"))
+            continue
         U.append(u0)
         dU.append(u0 - up)
         try:
@@ -213,7 +224,7 @@ async def _samples(kind, d, qp: MpcQP, rng) -> tuple[list, int, dict]:
     viol = {"input box": worst(np.array(U), p.umin, p.umax)} if U else {}
     if U and p.input_rate is not None:
         viol["input rate"] = worst(np.array(dU), p.input_rate.dumin, p.input_rate.dumax)
-    return subopt, infeasible, viol
+    return subopt, infeasible, viol, nonfinite
 
 
 def check_design(kind, d, target: float | None = None) -> CheckResult:
@@ -241,7 +252,7 @@ def check_design(kind, d, target: float | None = None) -> CheckResult:
         res.gap = 100.0 * (traj.cost - opt.cost) / max(opt.cost, 1e-12)
     res.flagged = {"a saturated datapath word": int(getattr(g, "overflow_steps", 0)),
                    "an answer flagged not converged": int(getattr(g, "not_converged", 0))}
-    res.subopt, res.infeasible_samples, res.sample_violations = asyncio.run(
+    res.subopt, res.infeasible_samples, res.sample_violations, res.nonfinite_samples = asyncio.run(
         _samples(kind, d, qp, np.random.default_rng(c.seed + 1)))
     return res
 

@@ -173,3 +173,39 @@ def test_violations_and_divergence_are_measured():
     assert not _diverged(p, X)
     X[3, 0] = 10 * 0.35 + 0.01
     assert _diverged(p, X)
+
+
+def test_an_answer_that_is_not_finite_fails_the_check_in_one_line(monkeypatch):
+    """A float core whose iterate runs off answers NaN: the sampled states count it (suboptimality inf), the check
+    fails naming the count, and nothing raises (the fixed-u0 QP is never asked to evaluate a NaN)."""
+    from mpc_cores import check
+
+    kind = registry.get("fgm")
+    p = load_spec(EX / "masses.yaml")
+    d = kind.design(p, iterations=20)
+    golden = check._golden
+
+    class NanEveryThird:
+        def __init__(self, g):
+            self.g, self.calls = g, 0
+
+        def __getattr__(self, name):
+            return getattr(self.g, name)
+
+        async def step(self, x, r):
+            u = np.asarray(await self.g.step(x, r), dtype=float)
+            self.calls += 1
+            return u * np.nan if self.calls % 3 == 0 else u
+
+    def patched(kind_, d_, warm=None):
+        g = golden(kind_, d_, warm)
+        return NanEveryThird(g) if warm is False else g
+
+    monkeypatch.setattr(check, "_golden", patched)
+    res = check_design(kind, d, target=1.0)
+    n = p.check.samples
+    assert res.nonfinite_samples == n // 3
+    assert len(res.subopt) == n and sum(np.isinf(res.subopt)) == n // 3
+    assert f"sampled u0 not finite (NaN or infinite) in {n // 3} of {n} sampled states" in res.failures()
+    assert not res.ok
+    assert f"u0 not finite in {n // 3}" in res.line()
