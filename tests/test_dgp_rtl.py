@@ -59,6 +59,12 @@ CASES = {
     # lanes (each unit's operands and tokens from kept copies of its own), with the shifted warm start
     "masses_state_ecp5": (lambda: load_spec(REPO / "examples/masses_state.yaml"),
                           dict(target="ecp5", P=4, lanes=16, warm_shift=True), 3),
+    # the dual and the bounds in block RAM (ram_state): two units, restarts and warm starts from nonzero duals; one
+    # unit with the shifted warm start on the ECP5 target (the memories' primitives; their behavioural model here)
+    "small_accel_p2_ram": (lambda: _small(7, inputs={"min": -0.15, "max": 0.1}),
+                           dict(P=2, lanes=2, iterations=60, ram_state=True), 6),
+    "small_accel_shift_ram_ecp5": (lambda: _small(7, inputs={"min": -0.1, "max": 0.05}),
+                                   dict(lanes=2, iterations=60, warm_shift=True, ram_state=True, target="ecp5"), 4),
 }
 
 

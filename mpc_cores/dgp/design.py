@@ -68,6 +68,7 @@ class DgpDesign(FixedPointDesign):
     out_lo: np.ndarray = None    # words, n: the quantised input box the output words are clamped to (z's format)
     out_hi: np.ndarray = None
     warm_shift: bool = False     # a warm start takes the previous dual shifted a stage (shift_sources)
+    ram_state: bool = False      # the dual and the bounds in block RAM (DgpParams.ramState; accelerated form)
     bits36: int = 0              # p from (36)
     bits37: int = 0              # r from (37)
     analysis: dict = field(default_factory=dict)
@@ -87,14 +88,14 @@ class DgpDesign(FixedPointDesign):
 
     @property
     def module_name(self) -> str:
-        acc = ("a" if self.accelerated else "p") + ("s" if self.warm_shift else "")
+        acc = ("a" if self.accelerated else "p") + ("s" if self.warm_shift else "") + ("r" if self.ram_state else "")
         units = f"u{self.P}" if self.P > 1 else ""
         return (f"DgpCore_{self.name}_n{self.n}_m{self.m}_l{self.lanes}{units}_b{self.b}{acc}"
                 f"{module_suffix(self.target)}")
 
     def label(self) -> str:
         return (f"p = {self.b}, Imax = {self.iterations}, {'accelerated' if self.accelerated else 'plain'}"
-                + (", shifted warm start" if self.warm_shift else ""))
+                + (", shifted warm start" if self.warm_shift else "") + (", dual in block RAM" if self.ram_state else ""))
 
     # ---- cycle contract (mirrors DgpParams.scala; the tests check both against simulation)
     @property
@@ -202,9 +203,12 @@ class DgpDesign(FixedPointDesign):
 
     def memories(self) -> list[tuple]:
         """(words, lanes, bits per lane, built from primitives): per row unit its matrix memory, its rows of Fe,
-        Lb, K and G chunk by chunk (DgpCore; inferred by synthesis)"""
-        return [(self.issue_cycles["F"] + self.issue_cycles["K"] + self.issue_cycles["G"], self.lanes,
-                 self.widths["coef"], False)] * self.P
+        Lb, K and G chunk by chunk (DgpCore; inferred by synthesis); with ram_state also, per unit, the memories of
+        y, of the extrapolated dual's candidate and of the bounds (a row per element of the unit, two data words)"""
+        mat = [(self.issue_cycles["F"] + self.issue_cycles["K"] + self.issue_cycles["G"], self.lanes,
+                self.widths["coef"], False)] * self.P
+        state = [(self.rounds["G"], 2, self.widths["data"], self.target == "ecp5")] * (3 * self.P)
+        return mat + (state if self.ram_state else [])
 
     def products(self) -> list[tuple[int, int]]:
         """(a, b) bit widths of the multipliers: the row unit (coefficient x operand word), and the accelerated
@@ -226,6 +230,7 @@ class DgpDesign(FixedPointDesign):
             "restart_shift": restart_shifts(self.widths),
             "out_lo": self.out_lo.tolist(), "out_hi": self.out_hi.tolist(),
             "shift_src": shift_sources(self.qp, self.problem).tolist() if self.warm_shift else [],
+            **({"ram_state": True} if self.ram_state else {}),
         }
 
 
@@ -353,7 +358,7 @@ def bits_36(n: int, m: int, D: float, LV: float, eps: float) -> float:
 def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     """Build the DGP core description. Keyword overrides take precedence over the spec's `solver:` section:
     frac_bits, int_bits, eps_g, eps_V, tol (both eps), accelerated, lanes, iterations, warm_start, warm_shift,
-    output_all, target, lat_add, lat_mul, dual_margin."""
+    output_all, target, lat_add, lat_mul, dual_margin, ram_state."""
     opt = lambda k, dflt: solver_opt(problem, overrides, k, dflt)  # noqa: E731
     for k in ("input_rate", "soft_states"):
         if getattr(problem, k, None) is not None:
@@ -374,6 +379,9 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     if warm_shift and not accelerated:
         raise DesignError("warm_shift needs the accelerated form: the plain form's bound on V (Corollary 1 of 003) "
                           "holds from a cold start only")
+    ram_state = bool(opt("ram_state", False))
+    if ram_state and not accelerated:
+        raise DesignError("ram_state needs the accelerated form (the plain form keeps its sums in registers)")
     if solver_opt(problem, overrides, "warm_start", None) is None:
         warm_start = accelerated           # the plain form's V guarantee needs a cold start (Corollary 1 of 003)
     lanes_opt = opt("lanes", 8)
@@ -392,6 +400,11 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
         raise DesignError(f"lanes must be in [1, {max(n, mc, nw)}] (the longest row): got lanes={lanes}")
     if not 1 <= P <= max(n, mc):
         raise DesignError(f"P (row units) must be in [1, {max(n, mc)}] (the most rows of a pass): got P={P}")
+    if ram_state and warm_shift:
+        per = sorted({blk[2] for blk in _stage_blocks(qp, problem)})
+        if any(k % P for k in per):
+            raise DesignError(f"ram_state with warm_shift needs the rows per stage to be a multiple of P (a row's "
+                              f"shift source in the same row unit's memory): rows per stage {per}, P={P}")
 
     d = np.maximum(margin * sample_duals(qp, problem), 1.0)
     if warm_shift:
@@ -438,7 +451,7 @@ def design_dgp(problem: MpcProblem, **overrides) -> DgpDesign:
     beta = np.array([int(round(k / (k + 3) * one)) for k in range(BETA_TABLE)], dtype=np.int64)
     dsn = DgpDesign(problem=problem, qp=qp, b=b, P=P, lat_add=lat_add, lat_mul=lat_mul, rounding=rounding,
                     iterations=iterations, warm_start=warm_start, target=target, output_all=output_all,
-                    accelerated=accelerated, warm_shift=warm_shift, lanes=lanes, eps_g=eps_g, eps_V=eps_V,
+                    accelerated=accelerated, warm_shift=warm_shift, ram_state=ram_state, lanes=lanes, eps_g=eps_g, eps_V=eps_V,
                     margin=margin, d=d,
                     K=quantize(K, b), G=quantize(qp.G, b), Fe=quantize(Fe, b), Lb=quantize(Lb, b),
                     lo0=quantize(qp.lo0, b, "ceil"), hi0=quantize(qp.hi0, b, "floor"),

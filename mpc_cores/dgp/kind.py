@@ -8,7 +8,7 @@ KIND = CoreKind(
     constraints=("hard_states",),
     model_fn="mpc_cores.dgp.model:DgpFixed",
     spec_section=("P", "frac_bits", "int_bits", "iterations", "lat_add", "lat_mul", "warm_start", "warm_shift",
-                  "output_all", "target", "eps_g", "eps_V", "tol", "accelerated", "lanes", "dual_margin"),
+                  "output_all", "target", "eps_g", "eps_V", "tol", "accelerated", "lanes", "dual_margin", "ram_state"),
     overrides=("P", "frac_bits", "lat_add", "lat_mul", "iterations", "target", "tol", "accelerated", "lanes"),
     controllers_fn="mpc_cores.dgp.control:controllers",
     c_fn="mpc_cores.dgp.c:write_c",
@@ -20,6 +20,7 @@ KIND = CoreKind(
         "eps_V": Num(0),
         "dual_margin": Num(1, strict=False, why=" (d_i >= max(y*_i, 1), (14) of 003)"),
         "warm_shift": Bool(),
+        "ram_state": Bool(),
     },
 )
 

@@ -24,6 +24,10 @@ def draw(rng) -> Config:
     design["P"] = min(int(rng.integers(1, 5)), N * nu)
     # the shifted warm start (accelerated form) last, for the same reason
     design["warm_shift"] = bool(rng.random() < 0.5) and accelerated
+    # the dual in block RAM (accelerated form) last; with the shifted warm start only where each stage's rows are a
+    # multiple of P (a row's shift source in the same unit), the rule design_dgp enforces
+    ram = bool(rng.random() < 0.5) and accelerated
+    design["ram_state"] = ram and (not design["warm_shift"] or all(k % design["P"] == 0 for k in (nu, hard) if k))
     return Config(spec, design)
 
 
@@ -45,7 +49,8 @@ SOAK = SoakSpace(
            "design flow); 0 to min(nx, nu) tracked states",
            "design: accelerated (60 %, Imax in [10, 60]) or plain (Imax in [40, 300]); eps_g = eps_V in {1e-2, "
            "3e-3, 1e-3} (the bits of (36)/(37)); lanes in [1, 6]; P in [1, 4] row units (at most n); lat_add in [0, 3]; target generic (50 %, lat_mul "
-           "in [0, 3]), ecp5 or xilinx7; warm start (80 %), shifted a stage (accelerated, 50 %); full output (30 %)",
+           "in [0, 3]), ecp5 or xilinx7; warm start (80 %), shifted a stage (accelerated, 50 %); the dual and the bounds in block RAM (accelerated, 50 %, "
+           "with the shift where the rows per stage are a multiple of P); full output (30 %)",
            "solves (verif/dgp/tb.py bitexact_random): random parameters, 10 % of words outside the box, random warm "
            "or cold start and IMAX, random idle and backpressure on both streams; words, status word and latency "
            "checked"),

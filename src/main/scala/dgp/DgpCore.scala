@@ -70,17 +70,24 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   // flat: row i of unit u's FIFOs is element i of them.
   val wReg = Reg(Vec(nw, SInt(p.xW.W)))
   val eU   = Seq.fill(P)(Reg(Vec(rK, SInt(W.W))))
-  val loU  = Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
-  val hiU  = Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
+  /** the accelerated form's dual and bounds in block RAM (DgpParams.ramState): the FIFOs of y, the extrapolated
+    * dual, its candidate, lo and hi give way to per-unit memories (below) and to two flat FIFOs of wy+ - wy- */
+  val ram = acc && p.ramState
+  val loU  = if (ram) Nil else Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
+  val hiU  = if (ram) Nil else Seq.fill(P)(Reg(Vec(rG, SInt(W.W))))
   /** z, per unit (row k P + u is unit u's element k after pass K), and its flat view */
   val zU   = Seq.fill(P)(Reg(Vec(rK, SInt(W.W))))
   /** the dual y = (y+, y-), upper and lower rows; it survives a solve (the warm start) */
-  val yU   = Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W))))
+  val yU   = if (ram) Nil else Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W))))
   /** accelerated: the extrapolated dual, per unit; plain: y itself. The element stage rotates it once round in
     * pass G, so in pass K, which reads it as the operand, unit u's element k is row k P + u */
-  val wyEU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else yU
+  val wyEU = if (ram) Nil else if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else yU
   /** accelerated: the extrapolated dual's candidate, per unit, entering row by row at the tail */
-  val wycU = if (acc) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else Nil
+  val wycU = if (acc && !ram) Seq.fill(2, P)(Reg(Vec(rG, SInt(W.W)))) else Nil
+  /** ram: per unit, pass K's operand v = wy+ - wy- of y (vY) and of the candidate (vC), entering at the tail as y
+    * and the candidate do (so that between passes unit u's element k is row k P + u) */
+  val vYU  = if (ram) Seq.fill(P)(Reg(Vec(rG, SInt(p.opW.W)))) else Nil
+  val vCU  = if (ram) Seq.fill(P)(Reg(Vec(rG, SInt(p.opW.W)))) else Nil
   val szU  = if (acc) Nil else Seq.fill(P)(Reg(Vec(rK, SInt(p.sumW.W))))
   val sgU  = if (acc) Nil else Seq.fill(2, P)(Reg(Vec(rG, SInt(p.sumW.W))))
   val z     = flat(zU, n)
@@ -142,6 +149,12 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val passD = Cat(pGD, pKD)
   chunk := chunkD
   pK := pKD; pG := pGD
+  /** ram: pass K's operand dual (DgpParams.ramState): the shifted y (the shifted warm start's first iteration), y (a
+    * start; after a restart) or the candidate; set through their next values, from which each lane keeps copies */
+  val opShift = RegInit(false.B)
+  val opY     = RegInit(true.B)
+  val (opShiftD, opYD) = (WireDefault(opShift), WireDefault(opY))
+  opShift := opShiftD; opY := opYD
   // The chunk of a jump's slot is loaded ahead, not by the jump (whose condition comes late in its cycle): the
   // first slot's while idle (a take jumps there), pass K's first slot's in the gap before the decision and in the
   // decision (the next iteration jumps there); outside the issue and these, chunk holds
@@ -172,10 +185,10 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   // read none of them, a zero start's element stage reads the duals rowLat + 3 cycles after its first issue at the
   // earliest, and pass K's first operand select comes at least two cycles after the take
   val startU = unitRegs(take)
-  val warmU  = unitRegs(warmNow)
-  val startG = groupRegs(startU, rG)
+  val warmU  = if (ram) Nil else unitRegs(warmNow)
+  val startG = if (ram) Nil else groupRegs(startU, rG)
   /** the start's clear of the duals (a cold start), a flip-flop per group of rows: their resets need no gate */
-  val clearG = groupRegs(startU.zip(warmU).map { case (s, w) => s && !w }, rG)
+  val clearG = if (ram) Nil else groupRegs(startU.zip(warmU).map { case (s, w) => s && !w }, rG)
   val startGK = if (acc) Nil else groupRegs(startU, rK)
   val zsU    = if (acc) Nil else unitRegs(zSolve)
   when(take) {
@@ -185,6 +198,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
     zSolve := zeroNow; zTable := zeroNow
+    opShiftD := p.shift.B; opYD := true.B
   }
   /** the shifted warm start: per unit, the solve's first iteration (from the start to the first decision), whose
     * element stage takes y = wy (the start makes them equal), so that the start shifts the operand dual only */
@@ -192,7 +206,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   for (u <- 0 until P) {
     when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
     firstU.lift(u).foreach(f => when(startU(u)) { f := true.B })
-    for (k <- 0 until rG; h <- 0 until 2) {
+    if (!ram) for (k <- 0 until rG; h <- 0 until 2) {
       when(startG(u)(k / rowGroup)) {
         // the warm start: the operand dual from the dual kept, shifted a stage with p.shift (y itself is left as it
         // is: the first iteration's dy takes the operand dual, which a start makes equal to y, firstU)
@@ -293,13 +307,22 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
     VecInit((0 until cs).map(j => x.lift(j * p.lanes + l).getOrElse(0.S).pad(p.opW)))(chunkL(l))
   val zwR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(z, p.cG, l))))
   val ewR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(flat(eU, n), p.cG, l))))
-  val ypR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(0), p.cK, l))))
-  val ymR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
+  val ypR = if (ram) null else RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(0), p.cK, l))))
+  val ymR = if (ram) null else RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
+  /** ram: pass K's operand word of each lane, wy+ - wy- selected from the flat differences in cycle 1 */
+  val vR = if (!ram) null else {
+    val opSelL = laneCopies(Cat(opShiftD, opYD), Cat(opShift, opY))
+    val (vY, vC) = (flat(vYU, mc), flat(vCU, mc))
+    val vS = (0 until mc).map(r => if (p.shift && p.shiftSrc(r) >= 0) vY(p.shiftSrc(r)) else 0.S(p.opW.W))
+    RegNext(VecInit((0 until p.lanes).map { l =>
+      Mux(opSelL(l)(1), laneWord(vS, p.cK, l), Mux(opSelL(l)(0), laneWord(vY, p.cK, l), laneWord(vC, p.cK, l)))
+    }))
+  }
   val wwR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wReg, p.cF, l))))
   val opR = RegNext(VecInit((0 until p.lanes).map { l =>
     val pl = RegNext(passL(l))
-    Mux(pl === 2.U, (zwR(l) -& ewR(l))(p.opW - 1, 0).asSInt, Mux(pl === 1.U, (ypR(l) -& ymR(l))(p.opW - 1, 0).asSInt,
-      wwR(l)))
+    Mux(pl === 2.U, (zwR(l) -& ewR(l))(p.opW - 1, 0).asSInt, Mux(pl === 1.U,
+      if (ram) vR(l) else (ypR(l) -& ymR(l))(p.opW - 1, 0).asSInt, wwR(l)))
   }))
   val opU  = KeepReg.copies(opR, P, split)
   val tokTU = unitTok(4 + p.treeLat)
@@ -370,8 +393,24 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val enE = rowEnables(rowL, rK, isE)
   val enK = rowEnables(rowL, rK, isK)
   val enZ = rowEnables(rowL + 1, rK, isK)
-  val enB = rowEnables(rowL + 1, rG, isB)
-  val enG = rowEnables(rowL, rG, isG)
+  val enB = rowEnables(rowL + 1, if (ram) 1 else rG, isB)
+  val enG = if (ram) Nil else rowEnables(rowL, rG, isG)
+  /** ram: a memory of unit u with a row per element (rG), two words (the halves, or lo and hi) per row: read latency
+    * 2 (block RAM with its output register on the ECP5) */
+  def unitRam(what: String, u: Int): InitRam = {
+    val r = Module(new InitRam(s"${p.moduleName}_$what$u", rG, 2, W, Nil, outReg = true,
+      ecp5 = p.target == Target.Ecp5 && rG <= 1024))
+    r.io.clock := clock
+    r.io.wmask := 3.U
+    r
+  }
+  def ramAddr(r: InitRam, x: UInt): UInt = x.pad(r.addrW)(r.addrW - 1, 0)
+  def ramWords(r: InitRam): Vec[SInt] = r.io.rdata.asTypeOf(Vec(2, SInt(W.W)))
+  /** ram: the element stage's first iteration of a zero start, per unit: its rows (the first pass's bound rows) take
+    * y = wy = 0 */
+  val zfU = if (ram) Seq.fill(P)(RegInit(false.B)) else Nil
+  /** ram: per unit, pass K's operand dual is y (else the candidate), as the element stage reads it */
+  val opYU = if (ram) unitRegs(opY) else Nil
   for (u <- 0 until P) {
     val tokR  = tokRU(u)
     val a     = accR(u)
@@ -403,7 +442,17 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
     val (loNew, ofL) = sat(loS)
     val (hiNew, ofH) = sat(hiS)
     ovfFlags(u) += bNext && (ofL || ofH)
-    rotate(loU(u), loNew, enB(u)); rotate(hiU(u), hiNew, enB(u))
+    // ram: the bounds' memory, written by the first pass's bound rows (element round - rK) and read for pass G's rows:
+    // the address of the token two stages ahead, so that the words come with the row's sum
+    val lhRam = if (ram) Some(unitRam("lh", u)) else None
+    lhRam match {
+      case Some(r) =>
+        r.io.wen   := bNext
+        r.io.waddr := ramAddr(r, RegNext(tokR.round - rK.U))
+        r.io.wdata := Cat(hiNew.asUInt, loNew.asUInt)
+        r.io.raddr := ramAddr(r, RegNext(tokAt(p.rowLat - 3).round))
+      case None => rotate(loU(u), loNew, enB(u)); rotate(hiU(u), hiNew, enB(u))
+    }
     rotate(zU(u), zNew, enZ(u))
     ovfFlags(u) += rowZKU(u) && ofZ
     rotate(eU(u), eU(u)(0), enK(u))
@@ -414,15 +463,18 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
     val (sNow, ofS) = sat(a)
     val rowG = rowGU(u)
     val rowZ = rowZU(u)
-    rotate(loU(u), loU(u)(0), enG(u)); rotate(hiU(u), hiU(u)(0), enG(u))
+    if (!ram) { rotate(loU(u), loU(u)(0), enG(u)); rotate(hiU(u), hiU(u)(0), enG(u)) }
     ovfFlags(u) += rowG && ofS
     val e0  = RegNext(rowG || rowZ, false.B)
     val s0  = Reg(SInt(W.W))
     s0 := Mux(rowZ, 0.S, sNow)
     val (lo0, hi0) = (Reg(SInt(W.W)), Reg(SInt(W.W)))  // typed: RegNext leaves the width to inference
-    lo0 := Mux(rowZ, loNew, loU(u)(0))
-    hi0 := Mux(rowZ, hiNew, hiU(u)(0))
     val tokZ = tokZU(u)
+    val (loHead, hiHead) = lhRam.map(r => (ramWords(r)(0), ramWords(r)(1))).getOrElse((loU(u)(0), hiU(u)(0)))
+    lo0 := Mux(rowZ, loNew, loHead)
+    hi0 := Mux(rowZ, hiNew, hiHead)
+    /** ram: the row's element index along the element stage (a zero start's bound rows by the first pass's round) */
+    val k0 = RegNext(Mux(rowZ, tokZ.round - rK.U, tokR.round))
     val u0  = RegNext(VecInit((0 until 2).map(h => Mux(rowZ, udZ(h)(u)(tokZ.round), udU(h)(u)(tokR.round)))))
     val live0 = if (p.shift)
       Some(RegNext(VecInit((0 until 2).map(h => Mux(rowZ, liveZ(h)(u)(tokZ.round), liveU(h)(u)(tokR.round))))))
@@ -442,16 +494,31 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
     val gmu = RegNext(VecInit((0 until 2).map(h => g1(h) -& u1(h) - 1.S)))
     // E2: y_new = clip(wy + g, 0, ud) (plain: y rotates here, and Sg with the test's sum; accelerated: the two
     // sums registered, y_new selected by their signs in E3)
-    val wy2 = wyEU.map(_(u)(0))
+    // ram: y and the candidate read by the row's element index (the shifted warm start's first iteration: y at the
+    // row's shift source, zero where it has none), the address a stage after the row's sum, the words at E1b
+    val firstNow = firstU.lift(u).getOrElse(false.B)
+    val (yRam, cRam) = if (ram) (Some(unitRam("y", u)), Some(unitRam("c", u))) else (None, None)
+    val yD = yRam.map(ramWords)
+    val wy2: Seq[SInt] = (yRam, cRam) match {
+      case (Some(yr), Some(cr)) =>
+        val src  = VecInit((0 until rG).map(k => math.max(if (p.shift) p.shiftElem(u, k) else k, 0).U(yr.addrW.W)))
+        val dead = VecInit((0 until rG).map(k => (p.shift && p.shiftElem(u, k) < 0).B))
+        yr.io.raddr := RegNext(Mux(firstNow, src(tokR.round), ramAddr(yr, tokR.round)))
+        cr.io.raddr := RegNext(ramAddr(cr, tokR.round))
+        val dead1b = ShiftRegister(dead(tokR.round) && firstNow, 3)
+        val cD = ramWords(cr)
+        (0 until 2).map(h => Mux(zfU(u) || dead1b, 0.S(W.W), Mux(opYU(u) || firstNow, yD.get(h), cD(h))))
+      case _ => wyEU.map(_(u)(0))
+    }
     val tSum = (0 until 2).map(h => wy2(h) +& g1b(h))
     val cSum = (0 until 2).map(h => wy2(h) +& gmu(h))
     def clipNew(t: SInt, c: SInt, ud: SInt): SInt = Mux(t < 0.S, 0.S, Mux(c >= 0.S, ud, t))(W - 1, 0).asSInt
     val yNew = (0 until 2).map(h => clipNew(tSum(h), cSum(h), u1b(h)))
     // the rotate enables of the element stage's FIFOs, per group: y_new (E2: plain y; accelerated, the
     // extrapolated dual), y (accelerated: E3), the extrapolated dual's candidate (accelerated: E6)
-    val en2 = elementEnables(rowL + 3, rG)(u)
+    lazy val en2 = elementEnables(rowL + 3, rG)(u)
     if (acc) {
-      for (h <- 0 until 2) rotate(wyEU(h)(u), wyEU(h)(u)(0), en2)
+      if (!ram) for (h <- 0 until 2) rotate(wyEU(h)(u), wyEU(h)(u)(0), en2)
       when(e1b && (g1b(0) > p.eg.S || g1b(1) > p.eg.S)) { violU(u) := true.B }
     } else {
       val nv = (0 until 2).map(h => sgU(h)(u)(0) + g1b(h))
@@ -471,10 +538,21 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
       val u2  = RegNext(u1b)
       val (t2, c2) = (RegNext(VecInit(tSum)), RegNext(VecInit(cSum)))
       val yN2 = (0 until 2).map(h => clipNew(t2(h), c2(h), u2(h)))
-      // E3: y rotates, its old value kept for dy
-      val yOld = yU.map(_(u)(0))
+      // E3: y rotates, its old value kept for dy (ram: y's word written, vY enters)
       val en3 = elementEnables(rowL + 4, rG)(u)
-      for (h <- 0 until 2) rotate(yU(h)(u), yN2(h), en3)
+      val k1 = RegNext(k0)
+      val k2 = RegNext(RegNext(k1))
+      val yOld: Seq[SInt] = yRam match {
+        case Some(r) =>
+          r.io.wen   := e2
+          r.io.waddr := ramAddr(r, k2)
+          r.io.wdata := Cat(yN2(1).asUInt, yN2(0).asUInt)
+          rotate(vYU(u), (yN2(0) -& yN2(1))(p.opW - 1, 0).asSInt, en3)
+          RegNext(VecInit((0 until 2).map(h => Mux(zfU(u), 0.S(W.W), yD.get(h)))))
+        case None =>
+          for (h <- 0 until 2) rotate(yU(h)(u), yN2(h), en3)
+          yU.map(_(u)(0))
+      }
       val e3 = RegNext(e2, false.B)
       val yN3 = RegNext(VecInit(yN2))
       when(e3 && nonzero(yN3, live1b.map(x => RegNext(RegNext(x))))) { nzU(u) := true.B }
@@ -515,7 +593,15 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
       }
       // a row past the unit's last has ud = 0, so its candidate is 0
       val en6 = elementEnables(rowL + 7 + p.latMulE, rG)(u)
-      for (h <- 0 until 2) rotate(wycU(h)(u), clipNew(tExt(h), dExt(h), u6(h)), en6)
+      val cand = (0 until 2).map(h => clipNew(tExt(h), dExt(h), u6(h)))
+      cRam match {
+        case Some(r) =>
+          r.io.wen   := e6
+          r.io.waddr := ramAddr(r, RegNext(ShiftRegister(RegNext(RegNext(k2)), p.latMulE)))
+          r.io.wdata := Cat(cand(1).asUInt, cand(0).asUInt)
+          rotate(vCU(u), (cand(0) -& cand(1))(p.opW - 1, 0).asSInt, en6)
+        case None => for (h <- 0 until 2) rotate(wycU(h)(u), cand(h), en6)
+      }
     }
   }
 
@@ -542,11 +628,12 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val outIdx  = RegInit(0.U(16.W))
   for (u <- 0 until P) when(decideU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
   for ((f, u) <- firstU.zipWithIndex) when(decideU(u)) { f := false.B }
+  for ((f, u) <- zfU.zipWithIndex) { when(startU(u)) { f := zSolve }; when(decideU(u)) { f := false.B } }
   // accelerated: the next extrapolated dual, y on a restart, else the candidate, loaded in the cycle after the
   // decision (pass K's first operand select is a cycle after its issue). The decision and the restart reach each
   // group of 8 of a unit's rows of each half from copies of their own (FPGA targets: kept registers loaded from the
   // unit's), so that no register drives a whole vector
-  if (acc) for (u <- 0 until P) {
+  if (acc && !ram) for (u <- 0 until P) {
     val (decN, rsN) = (RegNext(decideU(u), false.B), RegNext(restartU(u)))
     for (h <- 0 until 2; g <- 0 until rG by 8) {
       val (dec, rs) = if (fpga) (KeepReg(decideU(u)), KeepReg(restartU(u))) else (decN, rsN)
@@ -568,6 +655,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
       kAcc  := Mux(restart, 0.U, kInc)
       betaR := Mux(restart, betaRom(1), betaInc)
     }
+    opShiftD := false.B; opYD := restart
     pKD := true.B; pGD := false.B; jump(p.baseK); iter := iter + 1.U; outIdx := 0.U
     sDecide := false.B; sOut := finish; sIssue := !finish
     when(finish) {

@@ -21,6 +21,11 @@ import fixed.FixedOps
   * @param shiftSrc the shifted warm start (design.shift_sources; empty: none): dual word i (upper rows, then lower
   *               rows) starts a warm solve from word shiftSrc(i) of the previous final dual, clipped to ud(i), or
   *               from zero where shiftSrc(i) < 0
+  * @param ramState the accelerated form's dual and bounds in block RAM (DgpCore): per unit, memories of y, of the
+  *               extrapolated dual's candidate and of the bounds, read and written row by row; pass K's operand from
+  *               the differences wy+ - wy- of y and of the candidate, kept flat (two rotating FIFOs of op words per
+  *               unit). With the shifted warm start, a row's shift source must be the same unit's (the rows per stage
+  *               a multiple of P) and lie in the row's dual box (design.stage_envelope)
   */
 case class DgpParams(
     name: String,
@@ -60,7 +65,8 @@ case class DgpParams(
     xhi: Seq[BigInt],
     outLo: Seq[BigInt],
     outHi: Seq[BigInt],
-    shiftSrc: Seq[Int] = Nil) {
+    shiftSrc: Seq[Int] = Nil,
+    ramState: Boolean = false) {
 
   require(n >= 1 && nw >= 1 && mc >= 1, s"sizes must be >= 1: n=$n nw=$nw mc=$mc")
   require(nu >= 1 && n % nu == 0, s"nu must divide n: got nu=$nu, n=$n")
@@ -87,12 +93,25 @@ case class DgpParams(
   require(shiftSrc.isEmpty || (shiftSrc.length == 2 * mc && shiftSrc.forall(i => i >= -1 && i < 2 * mc)),
     s"shift_src must be empty or have ${2 * mc} entries in [-1, ${2 * mc - 1}]")
   require(shiftSrc.isEmpty || accelerated, "shift_src needs the accelerated form")
+  require(!ramState || accelerated, "ram_state needs the accelerated form")
+  require(!ramState || shiftSrc.isEmpty || shiftSrc.zipWithIndex.forall { case (s, d) =>
+    s < 0 || ((s % mc) % units == (d % mc) % units && s / mc == d / mc && ud(d) >= ud(s) &&
+      shiftSrc((d + mc) % (2 * mc)) == (if (d < mc) s + mc else s - mc)) },
+    "ram_state with shift_src: every source must be a row of the same unit and half, the two halves shifted alike, " +
+      "and the source's dual box within the row's")
 
   /** the shifted warm start */
   val shift: Boolean = shiftSrc.nonEmpty
   /** per dual word: a nonzero final word starts the next warm solve nonzero (it is the shift source of a word whose
     * dual box is not empty), so that the all-zero test of the shifted start looks at these words only */
   val shiftLive: Seq[Boolean] = (0 until 2 * mc).map(i => shiftSrc.zipWithIndex.exists { case (s, d) => s == i && ud(d) > 0 })
+
+  /** ram_state with the shifted warm start: unit u's element k takes its start from the same unit's element
+    * shiftElem(u)(k) of the previous final dual (-1: zero) */
+  def shiftElem(u: Int, k: Int): Int = {
+    val r = k * units + u
+    if (r >= mc || shiftSrc(r) < 0) -1 else shiftSrc(r) / units
+  }
 
   /** chunks per row of each pass: F (rows of Fe and Lb, nw columns), K (mc columns), G (n columns) */
   def chunks(cols: Int): Int = (cols + lanes - 1) / lanes
@@ -185,7 +204,7 @@ case class DgpParams(
   val multipliers: Int = units * (lanes + (if (accelerated) 6 else 0))
 
   val moduleName: String =
-    s"DgpCore_${name}_n${n}_m${2 * mc}_l${lanes}" + (if (units > 1) s"u$units" else "") + s"_b${fracBits}" + (if (accelerated) "a" else "p") + (if (shift) "s" else "") +
+    s"DgpCore_${name}_n${n}_m${2 * mc}_l${lanes}" + (if (units > 1) s"u$units" else "") + s"_b${fracBits}" + (if (accelerated) "a" else "p") + (if (shift) "s" else "") + (if (ramState) "r" else "") +
       (if (target == Target.Generic) "" else s"_${target.name}")
 
   /** byte-address width of the AXI4-Lite port: the registers only (the data are fixed at generation) */
@@ -221,6 +240,7 @@ object DgpParams {
       lo0 = ints(j("lo0")), hi0 = ints(j("hi0")), ud = ints(j("ud")), eg = BigInt(j("eg").num.toLong),
       eV = BigInt(j("eV").num.toLong), beta = ints(j("beta")), xlo = ints(j("xlo")), xhi = ints(j("xhi")),
       outLo = ints(j("out_lo")), outHi = ints(j("out_hi")),
-      shiftSrc = j.obj.get("shift_src").map(a => ints(a).map(_.toInt)).getOrElse(Nil))
+      shiftSrc = j.obj.get("shift_src").map(a => ints(a).map(_.toInt)).getOrElse(Nil),
+      ramState = j.obj.get("ram_state").exists(_.bool))
   }
 }
