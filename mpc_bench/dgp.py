@@ -4,7 +4,8 @@ The dual gradient projection core (iteration (35) of 003, fixed point) on exampl
 two-sided rows: the input box and the position limits at stages 1..N, 160 one-sided) for the ECP5 (TARGET=ecp5,
 every product on MULT18X18D partial products), in both forms: accelerated (the spec's default) and plain; and the
 accelerated form on P = 2 row units of 20 lanes at 15 fraction bits (ROLE_OPTIONS), the core that fits the device
-with room to spare, without and with the shifted warm start (roles units and shifted).
+with room to spare, without and with the shifted warm start (roles units and shifted), and the shifted core with its
+dual and bounds in block RAM (role ram: ram_state, word- and cycle-identical to shifted).
 
   cycles      per iteration and the solve overhead of core.json, measured in Verilator (cocotb test `cycle_contract`
               of verif.dgp.tb, which asserts the answer's cycle overhead + I x cycles_per_iteration);
@@ -57,14 +58,15 @@ SPEC = REPO / "examples/masses_state.yaml"
 TARGET = "ecp5"
 # the roles: the spec's default design in both forms (P = 1, 8 lanes, the fraction bits of (36)), the Fmax core
 # of row units (accelerated, P row units of `lanes` each, 15 fraction bits: the loop meets the same iterations and
-# accuracy as at (36)'s 27 bits, and every product fits two MULT18X18D), and that core with the shifted warm start
-ROLES = ("accelerated", "plain", "units", "shifted")
+# accuracy as at (36)'s 27 bits, and every product fits two MULT18X18D), that core with the shifted warm start, and
+# the shifted core with the dual and the bounds in block RAM (ram_state)
+ROLES = ("accelerated", "plain", "units", "shifted", "ram")
 _UNITS = dict(accelerated=True, P=2, lanes=20, frac_bits=15)
 ROLE_OPTIONS = {"accelerated": dict(accelerated=True), "plain": dict(accelerated=False), "units": _UNITS,
-                "shifted": dict(_UNITS, warm_shift=True)}
+                "shifted": dict(_UNITS, warm_shift=True), "ram": dict(_UNITS, warm_shift=True, ram_state=True)}
 # the roles nextpnr places in a full run (QUICK: from the cache): the spec's default designs at 27 fraction bits
 # fill most of the device's logic and route for hours, so only --dgp-place-all places them
-PLACED = ("units", "shifted")
+PLACED = ("units", "shifted", "ram")
 # The closed loop (mpc_cores.closedloop.reference_schedule: references held `HOLD` steps, their steady-state input
 # inside mpc_cores.dgp.control.HOLDABLE of the input box) and the random states of the cold start.
 STEPS_FULL, STEPS_QUICK, HOLD, SEED = 200, 60, 5, 1

@@ -38,17 +38,19 @@ def planned():
     return full, quick
 
 
-def test_plan_four_cores_for_the_ecp5(planned):
+def test_plan_five_cores_for_the_ecp5(planned):
     full, quick = planned
     assert not full.errors and not quick.errors
     assert [c.role for c in full.cores] == list(dgp.ROLES)
-    acc, plain, units, shifted = full.cores
+    acc, plain, units, shifted, ram = full.cores
     assert acc.design.accelerated and not plain.design.accelerated
     assert units.design.accelerated and (units.design.P, units.design.lanes, units.design.b) == (2, 20, 15)
     assert shifted.design.warm_shift and not units.design.warm_shift
     assert (shifted.design.P, shifted.design.lanes, shifted.design.b) == (2, 20, 15)
-    assert len({c.design.module_name for c in full.cores}) == 4 and "l20u2_b15a_" in units.design.module_name
-    assert "l20u2_b15as_" in shifted.design.module_name
+    assert ram.design.warm_shift and ram.design.ram_state and not shifted.design.ram_state
+    assert (ram.design.P, ram.design.lanes, ram.design.b) == (2, 20, 15)
+    assert len({c.design.module_name for c in full.cores}) == 5 and "l20u2_b15a_" in units.design.module_name
+    assert "l20u2_b15as_" in shifted.design.module_name and "l20u2_b15asr_" in ram.design.module_name
     assert {c.design.target for c in full.cores} == {"ecp5"}
     assert acc.out != plain.out and acc.design.module_name != plain.design.module_name
     # the seeds of the Fmax cores of the other sections

@@ -43,7 +43,8 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val regs = new SolverRegs(s_axil, DgpRegs.map(p),
     coreSources = Map("ITERATIONS.COUNT" -> itersR, "ITERATIONS.MET" -> metR.asUInt,
       "ITERATIONS.ZERO_START" -> zeroR.asUInt))
-  val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi)))
+  val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi),
+    compareBoth = acc && p.ramState))
   frameIn.io.s_axis <> s_axis
   frameIn.io.hold    := regs.frameHold
   frameIn.io.boxWen  := false.B
@@ -149,12 +150,11 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val passD = Cat(pGD, pKD)
   chunk := chunkD
   pK := pKD; pG := pGD
-  /** ram: pass K's operand dual (DgpParams.ramState): the shifted y (the shifted warm start's first iteration), y (a
-    * start; after a restart) or the candidate; set through their next values, from which each lane keeps copies */
-  val opShift = RegInit(false.B)
-  val opY     = RegInit(true.B)
-  val (opShiftD, opYD) = (WireDefault(opShift), WireDefault(opY))
-  opShift := opShiftD; opY := opYD
+  /** ram: pass K's operand dual (DgpParams.ramState) is y (a start; after a restart), else the candidate; set
+    * through its next value, from which each lane keeps copies */
+  val opY  = RegInit(true.B)
+  val opYD = WireDefault(opY)
+  opY := opYD
   // The chunk of a jump's slot is loaded ahead, not by the jump (whose condition comes late in its cycle): the
   // first slot's while idle (a take jumps there), pass K's first slot's in the gap before the decision and in the
   // decision (the next iteration jumps there); outside the issue and these, chunk holds
@@ -189,6 +189,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val startG = if (ram) Nil else groupRegs(startU, rG)
   /** the start's clear of the duals (a cold start), a flip-flop per group of rows: their resets need no gate */
   val clearG = if (ram) Nil else groupRegs(startU.zip(warmU).map { case (s, w) => s && !w }, rG)
+  val shiftG = if (ram && p.shift) groupRegs(startU, rG) else Nil
   val startGK = if (acc) Nil else groupRegs(startU, rK)
   val zsU    = if (acc) Nil else unitRegs(zSolve)
   when(take) {
@@ -198,7 +199,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
     solveOvf := false.B
     tThr := p.eg.S; kAcc := 0.U; betaR := betaRom(1)
     zSolve := zeroNow; zTable := zeroNow
-    opShiftD := p.shift.B; opYD := true.B
+    opYD := true.B
   }
   /** the shifted warm start: per unit, the solve's first iteration (from the start to the first decision), whose
     * element stage takes y = wy (the start makes them equal), so that the start shifts the operand dual only */
@@ -206,6 +207,11 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   for (u <- 0 until P) {
     when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
     firstU.lift(u).foreach(f => when(startU(u)) { f := true.B })
+    // ram, the shifted warm start: vY shifted a stage within the unit (DgpParams.shiftElem) at every start, pass K's
+    // operand of a warm start's first iteration (a zero start skips that pass, and its element stage rewrites vY)
+    if (ram && p.shift) for (k <- 0 until rG) when(shiftG(u)(k / rowGroup)) {
+      vYU(u)(k) := (if (p.shiftElem(u, k) >= 0) vYU(u)(p.shiftElem(u, k)) else 0.S)
+    }
     if (!ram) for (k <- 0 until rG; h <- 0 until 2) {
       when(startG(u)(k / rowGroup)) {
         // the warm start: the operand dual from the dual kept, shifted a stage with p.shift (y itself is left as it
@@ -311,12 +317,9 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val ymR = if (ram) null else RegNext(VecInit((0 until p.lanes).map(l => laneWord(wyOp(1), p.cK, l))))
   /** ram: pass K's operand word of each lane, wy+ - wy- selected from the flat differences in cycle 1 */
   val vR = if (!ram) null else {
-    val opSelL = laneCopies(Cat(opShiftD, opYD), Cat(opShift, opY))
+    val opYL = laneCopies(opYD, opY)
     val (vY, vC) = (flat(vYU, mc), flat(vCU, mc))
-    val vS = (0 until mc).map(r => if (p.shift && p.shiftSrc(r) >= 0) vY(p.shiftSrc(r)) else 0.S(p.opW.W))
-    RegNext(VecInit((0 until p.lanes).map { l =>
-      Mux(opSelL(l)(1), laneWord(vS, p.cK, l), Mux(opSelL(l)(0), laneWord(vY, p.cK, l), laneWord(vC, p.cK, l)))
-    }))
+    RegNext(VecInit((0 until p.lanes).map(l => Mux(opYL(l), laneWord(vY, p.cK, l), laneWord(vC, p.cK, l)))))
   }
   val wwR = RegNext(VecInit((0 until p.lanes).map(l => laneWord(wReg, p.cF, l))))
   val opR = RegNext(VecInit((0 until p.lanes).map { l =>
@@ -655,7 +658,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
       kAcc  := Mux(restart, 0.U, kInc)
       betaR := Mux(restart, betaRom(1), betaInc)
     }
-    opShiftD := false.B; opYD := restart
+    opYD := restart
     pKD := true.B; pGD := false.B; jump(p.baseK); iter := iter + 1.U; outIdx := 0.U
     sDecide := false.B; sOut := finish; sIssue := !finish
     when(finish) {
