@@ -63,7 +63,7 @@ def test_plan_five_cores_for_the_ecp5(planned):
 def test_multipliers_of_the_products(planned):
     from mpc_cores.target import parts
 
-    acc, plain, units, _ = planned[0].cores
+    acc, plain, units, _, ram = planned[0].cores
     # accelerated: the lanes plus the 4 + 2 products of the extrapolation and the restart test, per row unit
     for c in (acc, units):
         d = c.design
@@ -74,6 +74,8 @@ def test_multipliers_of_the_products(planned):
     assert acc.placeable == (acc.mult18 <= ECP5_85F["MULT18X18D"])
     # 15 fraction bits: two MULT18X18D per lane, the row units' 40 lanes and their element stages fit the device
     assert units.mult18 == 2 * 40 + 2 * (4 * 4 + 2 * 2) <= ECP5_85F["MULT18X18D"] and units.placeable
+    # the dual in block RAM: the same products
+    assert ram.mult18 == units.mult18 and ram.placeable
 
 
 def _with_sv(c) -> None:
@@ -112,16 +114,17 @@ def test_quick_jobs_take_the_tools_from_the_cache_only(tmp_path):
     """QUICK: Yosys and nextpnr results from the cache only; the default designs' placements only with
     --dgp-place-all (they route for hours)"""
     quick = _quick_cores(tmp_path / "a", dgp_place_all=True)
-    acc, plain, units, shifted = quick.cores
+    acc, plain, units, shifted, ram = quick.cores
     _cache(acc, "ecp5")
     _cache(acc, "nextpnr")
     _cache(plain, "ecp5")
     jobs = quick.jobs()
     names = [j.name for j in jobs]
-    assert sum("verilator" in n for n in names) == 4                    # every core simulated
+    assert sum("verilator" in n for n in names) == 5                    # every core simulated
     assert f"{acc.tag} ecp5" in names and f"{plain.tag} ecp5" in names  # cached: costs nothing
     assert f"{units.tag} ecp5" not in names and not units.place and "QUICK" in units.pnr_note  # nothing cached
     assert not shifted.place and "QUICK" in shifted.pnr_note
+    assert not ram.place and "QUICK" in ram.pnr_note
     assert not any("xc7" in n for n in names)
     assert acc.place and not acc.pnr_note
     assert not plain.place and "place and route" in plain.pnr_note
@@ -132,7 +135,7 @@ def test_quick_jobs_take_the_tools_from_the_cache_only(tmp_path):
     assert f"{acc.tag} ecp5" not in [j.name for j in jobs] and acc.pnr_note.startswith("QUICK")
     # without --dgp-place-all a cached placement of a default design is not reported
     quick = _quick_cores(tmp_path / "b")
-    acc, _, units, _ = quick.cores
+    acc, _, units, _, _ = quick.cores
     _cache(acc, "ecp5")
     _cache(acc, "nextpnr")
     quick.jobs()

@@ -231,6 +231,15 @@ def test_shifted_warm_start():
     assert np.all(d.ud >= ud0) and np.any(d.ud > ud0)
     with pytest.raises(DesignError, match="warm_shift needs the accelerated form"):
         design_dgp(problem(), accelerated=False, warm_shift=True)
+    # the dual in block RAM: the accelerated form only; with the shift, each row's source in the same unit (4 rows per
+    # stage: P = 2 and 4 pass, 3 is refused in one line naming the rule and the values)
+    with pytest.raises(DesignError, match="ram_state needs the accelerated form"):
+        design_dgp(problem(), accelerated=False, ram_state=True)
+    for P in (2, 4):
+        assert design_dgp(problem(), warm_shift=True, ram_state=True, P=P).config()["ram_state"]
+    with pytest.raises(DesignError, match=r"multiple of P .*: rows per stage \[4\], P=3$"):
+        design_dgp(problem(), warm_shift=True, ram_state=True, P=3)
+    assert design_dgp(problem(), ram_state=True, P=3).ram_state                # no shift: any P
     m = DgpFixed(d)
     y = np.random.default_rng(3).integers(0, 2 * d.ud + 1)           # up to twice the box: the clip shows
     y0 = m.warm_dual(y)
