@@ -120,6 +120,9 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val nzU    = RegInit(VecInit(Seq.fill(P)(false.B)))
   val gapU   = RegInit(VecInit(Seq.fill(P)(0.S(gapW.W))))
   val rstU   = RegInit(VecInit(Seq.fill(P)(0.S(gapW.W))))
+  /** the gap sum's start per unit: ram, unit 0's at eV, so that the test gap >= -eV is the sum's sign (no compare's
+    * carry chain before the decision); else 0 */
+  def gap0(u: Int): SInt = if (ram && u == 0) p.eV.S(gapW.W) else 0.S
 
   // ------------------------------------------------------------------ sequencer
   // one-hot: idle, issue, gap (the pipeline's wait after a pass, or after a zero start's first pass), decide and out
@@ -205,7 +208,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
     * element stage takes y = wy (the start makes them equal), so that the start shifts the operand dual only */
   val firstU = if (p.shift) Seq.fill(P)(RegInit(false.B)) else Nil
   for (u <- 0 until P) {
-    when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
+    when(startU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := gap0(u); rstU(u) := 0.S }
     firstU.lift(u).foreach(f => when(startU(u)) { f := true.B })
     // ram, the shifted warm start: vY shifted a stage within the unit (DgpParams.shiftElem) at every start, pass K's
     // operand of a warm start's first iteration (a zero start skips that pass, and its element stage rewrites vY)
@@ -619,7 +622,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val violAll = reduce[Bool](violU, _ || _)
   val gapSum  = reduce[SInt](gapU, _ + _)
   val rstSum  = reduce[SInt](rstU, _ + _)
-  val stop    = RegNext(!violAll && (if (acc) gapSum >= (-p.eV).S else true.B))
+  val stop    = RegNext(!violAll && (if (ram) !gapSum(gapW - 1) else if (acc) gapSum >= (-p.eV).S else true.B))
   /** y_new is all zero: the next warm start is a zero start */
   val yZeroNext = RegNext(!reduce[Bool](nzU, _ || _))
   // the restart, per unit (it selects every dual word of the unit's rows)
@@ -629,7 +632,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val lastIter = RegNext(iter + 1.U === imax, false.B)
   val finish  = stop || lastIter
   val outIdx  = RegInit(0.U(16.W))
-  for (u <- 0 until P) when(decideU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := 0.S; rstU(u) := 0.S }
+  for (u <- 0 until P) when(decideU(u)) { violU(u) := false.B; nzU(u) := false.B; gapU(u) := gap0(u); rstU(u) := 0.S }
   for ((f, u) <- firstU.zipWithIndex) when(decideU(u)) { f := false.B }
   for ((f, u) <- zfU.zipWithIndex) { when(startU(u)) { f := zSolve }; when(decideU(u)) { f := false.B } }
   // accelerated: the next extrapolated dual, y on a restart, else the candidate, loaded in the cycle after the
