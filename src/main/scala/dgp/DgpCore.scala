@@ -43,8 +43,7 @@ class DgpCore(val p: DgpParams) extends Module with DgpUnitOps {
   val regs = new SolverRegs(s_axil, DgpRegs.map(p),
     coreSources = Map("ITERATIONS.COUNT" -> itersR, "ITERATIONS.MET" -> metR.asUInt,
       "ITERATIONS.ZERO_START" -> zeroR.asUInt))
-  val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi),
-    compareBoth = acc && p.ramState))
+  val frameIn = Module(new FrameIn(p.moduleName + "_x", nw, p.xW, p.streamW, p.xlo.zip(p.xhi)))
   frameIn.io.s_axis <> s_axis
   frameIn.io.hold    := regs.frameHold
   frameIn.io.boxWen  := false.B

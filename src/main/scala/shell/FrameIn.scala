@@ -17,8 +17,8 @@ import mem.InitRam
   * @param ids    problems of an interleaving core (> 1: s_axis has tuser, the frame's problem id, taken from its
   *               first word and saturated to ids - 1, which sets `sat`)
   */
-class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigInt, BigInt)], ids: Int = 1,
-    compareBoth: Boolean = false) extends Module {
+class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigInt, BigInt)], ids: Int = 1)
+    extends Module {
   require(box.length == words, s"FrameIn: ${box.length} boxes for $words words")
   require(ids >= 1, s"FrameIn: ids must be >= 1, got $ids")
   val idW = if (ids > 1) log2Ceil(ids) else 0
@@ -87,10 +87,10 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
     io.s_axis.tvalid && !full && hot(i) && (if (i == 0) !io.hold else true.B))).asUInt, 0.U)
   assert(pendHot === RegNext(Mux(fire, hot, 0.U), 0.U), "FrameIn: word enables out of step with the handshake")
   val pendX   = RegEnable(x(wordW - 1, 0).asSInt, fire) // the word itself is taken only when it is in its box
-  val below   = if (compareBoth) picked._1 else RegEnable(FixedOps.lt(x, lo), fire)
-  val above   = if (compareBoth) picked._2 else RegEnable(FixedOps.lt(hi, x), fire)
-  val pendLo  = if (compareBoth) picked._3 else RegEnable(lo, fire)
-  val pendHi  = if (compareBoth) picked._4 else RegEnable(hi, fire)
+  val below   = RegEnable(FixedOps.lt(x, lo), fire)
+  val above   = RegEnable(FixedOps.lt(hi, x), fire)
+  val pendLo  = RegEnable(lo, fire)
+  val pendHi  = RegEnable(hi, fire)
   val v       = FixedOps.clampSelect(below, above, pendX, pendLo, pendHi)
   // the problem id: the first word's tuser, saturated to the problems there are
   val idReg = RegInit(0.U(idW.W))
@@ -119,17 +119,4 @@ class FrameIn(name: String, words: Int, wordW: Int, streamW: Int, box: Seq[(BigI
   assert(io.fills === (fire && last), "FrameIn: fills out of step with the handshake")
   io.frame   := VecInit(buf.init :+ Mux(pendEnd, v, buf.last))
   io.partial := !atZero
-
-  /** With `compareBoth`: the word compared with both box memories' outputs, and the pair of results (and of bounds)
-    * picked by the handshake of the cycle before, registered at the handshake: the same registers and cycles as the
-    * pick of the bounds before their comparisons, the pick a gate from the registers and the carry chains starting
-    * at the memories' outputs. (Below the rest, so that the assertions' source lines stay where they are.) */
-  private lazy val picked: (Bool, Bool, SInt, SInt) = {
-    val pick = RegNext(fire, false.B)
-    val Seq((lo0, hi0), (lo1, hi1)) =
-      boxRams.map(r => (r.io.rdata(wordW - 1, 0).asSInt, r.io.rdata(2 * wordW - 1, wordW).asSInt))
-    (RegEnable(Mux(pick, FixedOps.lt(x, lo0), FixedOps.lt(x, lo1)), fire),
-      RegEnable(Mux(pick, FixedOps.lt(hi0, x), FixedOps.lt(hi1, x)), fire),
-      RegEnable(Mux(pick, lo0, lo1), fire), RegEnable(Mux(pick, hi0, hi1), fire))
-  }
 }
