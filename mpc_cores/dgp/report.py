@@ -62,6 +62,9 @@ def design_report(d: DgpDesign, core: dict | None = None) -> str:
                             "later, the last stage's from zero), clipped to the dual box" if d.warm_shift
                             else "from the previous final dual") + (" (the default)" if d.warm_start else
                                                                     " (CTRL.WARM; cold by default)"),
+        *([f"  State: the dual and the bounds in block RAM (ram_state): per row unit 3 memories of {d.rounds['G']} rows x 2 "
+            f"data words, pass K's operand from the differences wy+ - wy-; {dp16kd(d.memories())} DP16KD in all with "
+            f"the matrix memories (estimate)"] if d.ram_state else []),
         f"  Scaling: sigma = {a['sigma']:.6g} makes L = lambda_max(A Q^-1 A') = 1 (section VI-A of 003)",
         f"  Dual box (14)-(15): d_i = max({d.margin:g} x largest sampled y*_i, 1), alpha = {ALPHA:g}; ||d||_2 = D = "
         f"{a['D']:.4g}, ||d||_inf = {a['d_max']:.4g}",
